@@ -1,0 +1,132 @@
+"""The loopsolve exception hierarchy.
+
+Every error a user can provoke is a :class:`LoopsolveError`; each also inherits the builtin
+that best describes it (``ValueError`` for bad declarations, ``RuntimeError`` for solver
+failures) and carries structured fields naming what went wrong, so callers can react to it
+without parsing the message.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+__all__ = [
+    "LoopsolveError",
+    "ModelError",
+    "ModelFileError",
+    "TopologyError",
+    "SolveError",
+    "ConvergenceError",
+    "AssemblyError",
+    "SingularPositionError",
+    "BranchError",
+    "MissingDependencyError",
+    "LoopsolveWarning",
+]
+
+
+class LoopsolveError(Exception):
+    """Base class of every error raised by loopsolve."""
+
+    #: process exit status used by the command line for this kind of error
+    exit_code = 2
+
+
+class ModelError(LoopsolveError, ValueError):
+    """A declaration is invalid (unknown name, wrong count, bad value...).
+
+    ``problems`` lists every problem found (one human-readable line each) when a whole
+    declaration was validated at once.
+    """
+
+    def __init__(self, message: str, *, problems: tuple[str, ...] | list[str] = ()):
+        super().__init__(message)
+        self.problems = tuple(problems) if problems else (message,)
+
+
+class ModelFileError(ModelError):
+    """A model file cannot be read; names the file, the key and the offending text."""
+
+    def __init__(
+        self,
+        message: str,
+        *,
+        path: str | None = None,
+        key: str | None = None,
+        problems: tuple[str, ...] | list[str] = (),
+    ):
+        super().__init__(message, problems=problems)
+        self.path = path
+        self.key = key
+
+
+class TopologyError(ModelError):
+    """Links and joints do not form a valid mechanism (disconnected, DOF mismatch...)."""
+
+
+class SolveError(LoopsolveError, RuntimeError):
+    """The numeric solution failed. ``input_value`` is in the model's display unit."""
+
+    exit_code = 3
+
+    def __init__(self, message: str, *, input_value: float | None = None, result: Any = None):
+        super().__init__(message)
+        self.input_value = input_value
+        self.result = result
+
+
+class ConvergenceError(SolveError):
+    """Newton iteration did not converge; ``result`` holds the partial solution."""
+
+
+class AssemblyError(SolveError):
+    """The mechanism cannot be assembled at the requested input value.
+
+    ``residual`` is the smallest loop-closure residual reached; ``nearest`` lists the
+    nearest assemblable input values (display units) when they are known.
+    """
+
+    def __init__(
+        self,
+        message: str,
+        *,
+        input_value: float | None = None,
+        residual: float | None = None,
+        nearest: tuple[float, ...] = (),
+        result: Any = None,
+    ):
+        super().__init__(message, input_value=input_value, result=result)
+        self.residual = residual
+        self.nearest = tuple(nearest)
+
+
+class SingularPositionError(SolveError):
+    """The Jacobian is singular at the solved position (dead centre, toggle, change point).
+
+    ``state`` holds the positions found; rates cannot be computed there.
+    """
+
+    def __init__(
+        self,
+        message: str,
+        *,
+        input_value: float | None = None,
+        cond: float | None = None,
+        result: Any = None,
+    ):
+        super().__init__(message, input_value=input_value, result=result)
+        self.cond = cond
+
+
+class BranchError(SolveError):
+    """Branch tracking failed: step below the minimum, or an ambiguous branch."""
+
+
+class MissingDependencyError(LoopsolveError, ImportError):
+    """An optional dependency (an extra such as ``loopsolve[plot]``) or program is missing."""
+
+    exit_code = 2
+
+
+class LoopsolveWarning(UserWarning):
+    """Warnings issued by loopsolve."""
