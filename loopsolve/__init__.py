@@ -1,0 +1,94 @@
+"""loopsolve: kinematics of planar mechanisms from their vector loops.
+
+Declare a mechanism (a TOML model file or the Python builder), and loopsolve derives the
+loop-closure equations with sympy, compiles them once, solves positions by Newton with branch
+tracking, and gives velocities, accelerations and jerks, sweeps, plots and the LaTeX derivation.
+
+>>> import loopsolve as ls
+>>> mech = ls.load(ls.models_dir() / "thesis_crank_rocker.toml")
+>>> round(mech.solve(90)["theta4"], 2)
+80.72
+"""
+
+__version__ = "0.1.0"
+
+from . import errors, expr, newton, topology, units  # noqa: E402
+from .errors import (  # noqa: E402
+    AssemblyError,
+    BranchError,
+    ConvergenceError,
+    LoopsolveError,
+    LoopsolveWarning,
+    MissingDependencyError,
+    ModelError,
+    ModelFileError,
+    SingularPositionError,
+    SolveError,
+    TopologyError,
+)
+from .factories import fourbar, inverted_slider_crank, slider_crank  # noqa: E402
+from .model import Mechanism, MechanismBuilder, build_mechanism  # noqa: E402
+from .modelfile import dumps, load, loads, models_dir  # noqa: E402
+from .results import Event, EventKind, State, Sweep  # noqa: E402
+
+
+def derive(mech, input=None):
+    """Symbolic derivation: see :func:`loopsolve.symbolic.derive` (imports sympy)."""
+    from .symbolic import derive as _derive
+
+    return _derive(mech, input=input)
+
+
+def compile_mechanism(mech, input=None, *, cache=True):
+    """Compiled kinematics: see :func:`loopsolve.compiled.compile_mechanism`."""
+    from .compiled import compile_mechanism as _compile
+
+    return _compile(mech, input=input, cache=cache)
+
+
+def solve(mech, at=None, **kwargs):
+    """Solve one position: see :func:`loopsolve.solve.solve`."""
+    from .solve import solve as _solve
+
+    return _solve(mech, at, **kwargs)
+
+
+def sweep(mech, start, stop, step, **kwargs):
+    """Sweep the input: see :func:`loopsolve.tracking.sweep`."""
+    from .tracking import sweep as _sweep
+
+    return _sweep(mech, start, stop, step, **kwargs)
+
+
+__all__ = [
+    "__version__",
+    "AssemblyError",
+    "BranchError",
+    "ConvergenceError",
+    "Event",
+    "EventKind",
+    "LoopsolveError",
+    "LoopsolveWarning",
+    "Mechanism",
+    "MechanismBuilder",
+    "MissingDependencyError",
+    "ModelError",
+    "ModelFileError",
+    "SingularPositionError",
+    "SolveError",
+    "State",
+    "Sweep",
+    "TopologyError",
+    "build_mechanism",
+    "compile_mechanism",
+    "derive",
+    "dumps",
+    "fourbar",
+    "inverted_slider_crank",
+    "load",
+    "loads",
+    "models_dir",
+    "slider_crank",
+    "solve",
+    "sweep",
+]

@@ -1,0 +1,381 @@
+"""Compiled numerics: the derivation printed once to Python source, cached on disk.
+
+:func:`compile_mechanism` derives (sympy), eliminates common subexpressions, and prints a
+small Python module with two flavours of every function: scalar (``math``, fastest for one
+Newton step) and vectorized (``numpy``, for batched sweeps). The module is written to the
+cache directory keyed by a hash of the declaration's *structure* (parameter values are passed
+at run time) and the package and sympy versions, so a second command-line call on the same
+model imports it and never touches sympy.
+
+The generated functions take their arguments in declaration order:
+
+``phi(z, p)``
+    Φ, length m (two rows per loop).
+``jac(z, p)``
+    Φ_q, row-major, length m·n (n unknowns in :attr:`CompiledKinematics.unknowns` order).
+``rhs1(z, z1, p)``, ``rhs2(z, z1, z2, p)``, ``rhs3(z, z1, z2, z3, p)``
+    b₁, b₂, b₃ (the unknowns' own rates in ``zk`` are ignored).
+``points0(z, p)`` … ``points3(z, z1, z2, z3, p)``
+    x, y of every point (and their derivatives), interleaved.
+``vectors0(z, p)`` … ``vectors2(z, z1, z2, p)``
+    length, angle of every vector (and derivatives), interleaved.
+
+``z`` holds every joint variable (radians / model length unit), ``z1``–``z3`` their rates and
+``p`` the parameter values (internal units).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import importlib.util
+import os
+import sys
+import tempfile
+import threading
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from types import ModuleType
+
+import numpy as np
+
+from . import __version__
+from .model import Mechanism
+from .topology import Block
+from .units import Kind
+
+__all__ = ["CompiledKinematics", "compile_mechanism", "cache_dir", "generate_source"]
+
+_MEMO: dict[str, ModuleType] = {}
+_LOCK = threading.Lock()
+FORMAT = 3  # bump when the generated module's layout changes
+
+
+def cache_dir() -> Path | None:
+    """Where compiled models are cached: ``$LOOPSOLVE_CACHE_DIR`` or ``$XDG_CACHE_HOME/loopsolve``.
+
+    Set ``LOOPSOLVE_CACHE_DIR`` to an empty string to disable the disk cache.
+    """
+    env = os.environ.get("LOOPSOLVE_CACHE_DIR")
+    if env is not None:
+        return Path(env) if env else None
+    base = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
+    return Path(base) / "loopsolve"
+
+
+def structure_key(mech: Mechanism, inputs: Sequence[str]) -> str:
+    """Hash of everything the generated code depends on (not the parameter values)."""
+    import importlib.metadata as md
+
+    try:
+        sympy_version = md.version("sympy")
+    except md.PackageNotFoundError:  # pragma: no cover
+        sympy_version = "?"
+    parts = (
+        FORMAT,
+        __version__,
+        sympy_version,
+        mech.units,
+        tuple((v.name, v.kind.name) for v in mech.variables),
+        tuple((p.name, p.kind.name) for p in mech.parameters),
+        mech.vectors,
+        tuple((lp.name, lp.terms) for lp in mech.loops),
+        tuple((pt.name, pt.terms) for pt in mech.points),
+        tuple(inputs),
+    )
+    return hashlib.sha256(repr(parts).encode()).hexdigest()[:24]
+
+
+# ----------------------------------------------------------------------------- code generation
+
+
+def _function_source(name: str, args: Sequence[str], unpack: dict[str, Sequence[str]], exprs, printer,
+                     vectorized: bool) -> str:
+    import sympy as sp
+
+    exprs = list(exprs)
+    repl, reduced = sp.cse(exprs, symbols=sp.numbered_symbols("c"), optimizations="basic")
+    used = set()
+    for e in [r for _, r in repl] + reduced:
+        used |= {str(s) for s in sp.sympify(e).free_symbols}
+    lines = [f"def {name}({', '.join(args)}):"]
+    for arg in args:
+        names = unpack.get(arg, ())
+        if names and any(n in used for n in names):
+            lines.append(f"    {', '.join(names)}{',' if len(names) == 1 else ''} = {arg}")
+    for sym, e in repl:
+        lines.append(f"    {sym} = {printer.doprint(e)}")
+    body = ", ".join(printer.doprint(e) for e in reduced)
+    if vectorized:
+        lines.append(f"    return _stack([{body}])")
+    else:
+        lines.append(f"    return [{body}]")
+    return "\n".join(lines)
+
+
+def generate_source(kin) -> tuple[str, dict]:
+    """Python source of the compiled module for a :class:`~loopsolve.symbolic.Kinematics`."""
+    import sympy as sp
+    from sympy.printing.numpy import NumPyPrinter
+    from sympy.printing.pycode import PythonCodePrinter
+
+    from .topology import solve_order
+
+    nv, npar = len(kin.variables), len(kin.params)
+    zs = [f"z_{i}" for i in range(nv)]
+    vs = [f"v_{i}" for i in range(nv)]
+    acs = [f"a_{i}" for i in range(nv)]
+    js = [f"j_{i}" for i in range(nv)]
+    ps = [f"p_{i}" for i in range(npar)]
+    sub = {}
+    for group, names in ((kin.z, zs), (kin.z1, vs), (kin.z2, acs), (kin.z3, js), (kin.params, ps)):
+        for s, n in zip(group, names):
+            sub[s] = sp.Symbol(n, real=True)
+    unpack = {"z": zs, "z1": vs, "z2": acs, "z3": js, "p": ps}
+
+    def x(e):
+        return sp.sympify(e).xreplace(sub)
+
+    phi = [x(e) for e in kin.phi]
+    jac = [x(e) for e in kin.jac]
+    b = [[x(e) for e in m] for m in kin.rhs]
+    pts = [[], [], [], []]
+    for name in kin.points:
+        for order in range(4):
+            m = kin.points[name][order]
+            pts[order].extend([x(m[0]), x(m[1])])
+    vecs = [[], [], []]
+    sliding = []
+    for name, (length, angle) in kin.vectors.items():
+        if angle is None:
+            xy = kin.vector_xy[name]
+            angle = sp.atan2(xy[1], xy[0])
+        d_len, d_ang = kin.time_derivative(length), kin.time_derivative(angle)
+        dd_len, dd_ang = kin.time_derivative(d_len), kin.time_derivative(d_ang)
+        vecs[0].extend([x(length), x(angle)])
+        vecs[1].extend([x(d_len), x(d_ang)])
+        vecs[2].extend([x(dd_len), x(dd_ang)])
+        if length.free_symbols & set(kin.z) and angle.free_symbols & set(kin.z):
+            sliding.append(name)
+
+    specs = [
+        ("phi", ("z", "p"), phi),
+        ("jac", ("z", "p"), jac),
+        ("rhs1", ("z", "z1", "p"), b[0]),
+        ("rhs2", ("z", "z1", "z2", "p"), b[1]),
+        ("rhs3", ("z", "z1", "z2", "z3", "p"), b[2]),
+        ("points0", ("z", "p"), pts[0]),
+        ("points1", ("z", "z1", "p"), pts[1]),
+        ("points2", ("z", "z1", "z2", "p"), pts[2]),
+        ("points3", ("z", "z1", "z2", "z3", "p"), pts[3]),
+        ("vectors0", ("z", "p"), vecs[0]),
+        ("vectors1", ("z", "z1", "p"), vecs[1]),
+        ("vectors2", ("z", "z1", "z2", "p"), vecs[2]),
+    ]
+    m, n = kin.jac.shape
+    incidence = [[kin.jac[i, j] != 0 for j in range(n)] for i in range(m)]
+    blocks = solve_order(incidence, unknown_names=kin.unknowns,
+                         equation_names=[f"{ln}.{c}" for ln in kin.loop_names for c in "xy"])
+    meta = {
+        "VARIABLES": tuple(kin.variables),
+        "KINDS": tuple(k.name for k in kin.kinds),
+        "INPUTS": tuple(kin.inputs),
+        "UNKNOWNS": tuple(kin.unknowns),
+        "PARAMS": tuple(kin.param_names),
+        "LOOPS": tuple(kin.loop_names),
+        "POINTS": tuple(kin.points),
+        "VECTORS": tuple(kin.vectors),
+        "SLIDING": tuple(sliding),
+        "BLOCKS": tuple((b.eqs, b.unknowns) for b in blocks),
+        "N_EQ": m,
+    }
+    out = [
+        f"# Generated by loopsolve {__version__} for {kin.name!r}: compiled kinematics. Do not edit.",
+        "import math",
+        "import numpy",
+        "from loopsolve.compiled import _stack",
+        "",
+    ]
+    for k_, v in meta.items():
+        out.append(f"{k_} = {v!r}")
+    out.append("")
+    scalar, vector = PythonCodePrinter({"fully_qualified_modules": True}), NumPyPrinter()
+    for name, args, exprs in specs:
+        out.append(_function_source(name, args, unpack, exprs, scalar, vectorized=False))
+        out.append("")
+        out.append(_function_source(name + "_v", args, unpack, exprs, vector, vectorized=True))
+        out.append("")
+    return "\n".join(out) + "\n", meta
+
+
+def _stack(values):
+    """Broadcast a list of scalars/arrays to one ``(k, N...)`` float array."""
+    arrays = np.broadcast_arrays(*[np.asarray(v, dtype=float) for v in values])
+    return np.stack(arrays) if arrays else np.zeros((0,))
+
+
+def _load_source(source: str, key: str, path: Path | None) -> ModuleType:
+    modname = f"loopsolve_compiled_{key}"
+    if path is not None and path.exists():
+        spec = importlib.util.spec_from_file_location(modname, path)
+        module = importlib.util.module_from_spec(spec)
+        spec.loader.exec_module(module)  # generated by generate_source, never user text
+        return module
+    module = ModuleType(modname)
+    module.__file__ = f"<loopsolve generated {key}>"
+    code = compile(source, module.__file__, "exec")
+    exec(code, module.__dict__)  # generated by generate_source from validated symbols
+    return module
+
+
+def _cached_module(mech: Mechanism, inputs: tuple[str, ...], cache: bool) -> ModuleType:
+    key = structure_key(mech, inputs)
+    with _LOCK:
+        if key in _MEMO:
+            return _MEMO[key]
+    directory = cache_dir() if cache else None
+    path = directory / f"m_{key}.py" if directory else None
+    module = None
+    if path is not None and path.exists():
+        try:
+            module = _load_source("", key, path)
+        except Exception:  # a corrupt or foreign cache file: regenerate it
+            module = None
+    if module is None:
+        from .symbolic import derive
+
+        kin = derive(mech, input=inputs)
+        source, _ = generate_source(kin)
+        written = False
+        if path is not None:
+            try:
+                path.parent.mkdir(parents=True, exist_ok=True)
+                fd, tmp = tempfile.mkstemp(dir=path.parent, suffix=".tmp")
+                with os.fdopen(fd, "w") as f:
+                    f.write(source)
+                os.replace(tmp, path)
+                written = True
+            except OSError:
+                written = False
+        module = _load_source(source, key, path if written else None)
+    with _LOCK:
+        _MEMO[key] = module
+    return module
+
+
+@dataclass(frozen=True, eq=False)
+class CompiledKinematics:
+    """Numeric kinematics of one mechanism for one choice of inputs.
+
+    Built by :func:`compile_mechanism`; immutable. Index arrays map names to positions in
+    ``z`` (all variables), and the ``*_v`` methods take ``(k, N)`` arrays for N points at once.
+    """
+
+    mechanism: Mechanism
+    module: ModuleType = field(repr=False)
+    variables: tuple[str, ...]
+    kinds: tuple[Kind, ...]
+    inputs: tuple[str, ...]
+    unknowns: tuple[str, ...]
+    input_idx: np.ndarray = field(repr=False)
+    unknown_idx: np.ndarray = field(repr=False)
+    blocks: tuple[Block, ...]
+    points: tuple[str, ...]
+    vectors: tuple[str, ...]
+    sliding: tuple[str, ...]
+    p: np.ndarray = field(repr=False)
+    scale: float
+
+    # scalar evaluations ---------------------------------------------------------------
+    def phi(self, z) -> np.ndarray:
+        return np.array(self.module.phi(z, self.p), dtype=float)
+
+    def jac(self, z) -> np.ndarray:
+        return np.array(self.module.jac(z, self.p), dtype=float).reshape(len(self.unknowns), -1)
+
+    def rhs(self, order: int, *zs) -> np.ndarray:
+        return np.array(getattr(self.module, f"rhs{order}")(*zs, self.p), dtype=float)
+
+    def point_values(self, order: int, *zs) -> np.ndarray:
+        """``(P, 2)`` array of point positions (order 0) or derivatives."""
+        return np.array(getattr(self.module, f"points{order}")(*zs, self.p), dtype=float).reshape(-1, 2)
+
+    def vector_values(self, order: int, *zs) -> np.ndarray:
+        """``(V, 2)`` array of (length, angle) of every vector, or their derivatives."""
+        return np.array(getattr(self.module, f"vectors{order}")(*zs, self.p), dtype=float).reshape(-1, 2)
+
+    # vectorized evaluations: z has shape (nvar, N) ----------------------------------------
+    def phi_v(self, z) -> np.ndarray:
+        return self.module.phi_v(z, self.p)
+
+    def jac_v(self, z) -> np.ndarray:
+        """``(N, m, n)`` stack of Jacobians."""
+        j = self.module.jac_v(z, self.p)
+        n = len(self.unknowns)
+        return np.moveaxis(j.reshape(n, n, -1), -1, 0)
+
+    def rhs_v(self, order: int, *zs) -> np.ndarray:
+        return getattr(self.module, f"rhs{order}_v")(*zs, self.p)
+
+    def point_values_v(self, order: int, *zs) -> np.ndarray:
+        """``(P, 2, N)`` array."""
+        v = getattr(self.module, f"points{order}_v")(*zs, self.p)
+        return v.reshape(-1, 2, v.shape[-1]) if v.ndim > 1 else v.reshape(-1, 2)
+
+    def vector_values_v(self, order: int, *zs) -> np.ndarray:
+        v = getattr(self.module, f"vectors{order}_v")(*zs, self.p)
+        return v.reshape(-1, 2, v.shape[-1]) if v.ndim > 1 else v.reshape(-1, 2)
+
+    def index(self, name: str) -> int:
+        """Position of variable ``name`` in ``z``."""
+        try:
+            return self.variables.index(name)
+        except ValueError:
+            from .errors import ModelError
+
+            raise ModelError(f"unknown variable {name!r}; the variables are {', '.join(self.variables)}") from None
+
+    def signature(self, z) -> str:
+        """Assembly-mode signature: the signs of the determinants of the diagonal blocks of Φ_q."""
+        j = self.jac(z)
+        out = []
+        for b in self.blocks:
+            d = np.linalg.det(j[np.ix_(b.eqs, b.unknowns)])
+            out.append("+" if d > 0 else "-" if d < 0 else "0")
+        return "".join(out)
+
+
+def compile_mechanism(mech: Mechanism, input: str | Sequence[str] | None = None, *,
+                      cache: bool = True) -> CompiledKinematics:
+    """Compile ``mech`` for the given input(s) (derive with sympy only on a cache miss).
+
+    Examples
+    --------
+    >>> ck = ls.fourbar(r1=60, r2=25, r3=70, r4=45).compile()
+    >>> ck.unknowns, len(ck.blocks)
+    (('theta3', 'theta4'), 1)
+    """
+    inputs = mech.resolve_inputs(input)
+    module = _cached_module(mech, inputs, cache)
+    variables = tuple(module.VARIABLES)
+    kinds = tuple(Kind[k] for k in module.KINDS)
+    p = np.array([pp.value for pp in mech.parameters], dtype=float)
+    lengths = [abs(pp.value) for pp in mech.parameters if pp.kind is Kind.LENGTH]
+    lengths += [abs(v.guess) for v in mech.variables if v.kind is Kind.LENGTH and v.guess is not None]
+    scale = max(lengths) if lengths and max(lengths) > 0 else 1.0
+    return CompiledKinematics(
+        mechanism=mech,
+        module=module,
+        variables=variables,
+        kinds=kinds,
+        inputs=tuple(module.INPUTS),
+        unknowns=tuple(module.UNKNOWNS),
+        input_idx=np.array([variables.index(n) for n in module.INPUTS], dtype=int),
+        unknown_idx=np.array([variables.index(n) for n in module.UNKNOWNS], dtype=int),
+        blocks=tuple(Block(tuple(e), tuple(u)) for e, u in module.BLOCKS),
+        points=tuple(module.POINTS),
+        vectors=tuple(module.VECTORS),
+        sliding=tuple(module.SLIDING),
+        p=p,
+        scale=scale,
+    )

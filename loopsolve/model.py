@@ -1,0 +1,797 @@
+"""Declarations: parameters, joint variables, vectors, loops, points and the Mechanism.
+
+A :class:`Mechanism` is a frozen, validated declaration. It is built in one place,
+:func:`build_mechanism`, from a plain ``dict`` shaped like the TOML model file; both front
+doors (the model file, :mod:`loopsolve.modelfile`, and the Python :class:`MechanismBuilder`)
+go through it, so they give identical declarations and identical derivations.
+
+Every problem of a declaration is collected and reported at once, each naming the key
+(``vectors.r3.angle``) and the offending text.
+
+Unit conventions
+----------------
+Inside the library angles are radians and lengths are in the model's length unit. Expressions
+in a model are read like a calculator set to the model's angle unit: angle symbols and the
+arguments of ``sin``/``cos``/``tan`` are in that unit, and an ``angle`` field is in that unit.
+In a degree model ``angle = "theta4 + 30"`` is θ4 + 30°. Because ``pi`` would silently mean
+π degrees there, ``pi`` is rejected in angle context of a degree model.
+"""
+
+from __future__ import annotations
+
+import keyword
+import math
+import re
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+from . import expr as _expr
+from .errors import ModelError, ModelFileError
+from .units import Kind, UnitError, parse_quantity, validate_units
+
+__all__ = [
+    "Units",
+    "Parameter",
+    "Variable",
+    "Vector",
+    "Loop",
+    "Point",
+    "Mechanism",
+    "MechanismBuilder",
+    "build_mechanism",
+]
+
+RESERVED = frozenset({"sin", "cos", "tan", "sqrt", "asin", "acos", "atan", "atan2", "abs", "pi"}
+                     | set(keyword.kwlist))
+_NAME_RE = re.compile(r"^[A-Za-z][A-Za-z0-9_]*$")
+_TERM_RE = re.compile(r"\s*([+-]?)\s*([A-Za-z][A-Za-z0-9_]*)\s*")
+
+#: expression contexts used to infer whether a symbol is an angle or a length
+_ANGLE, _LENGTH, _ANY = "angle", "length", "any"
+
+
+@dataclass(frozen=True, slots=True)
+class Units:
+    """Display units of a model: ``length`` (e.g. ``"mm"``) and ``angle`` (``"deg"``/``"rad"``)."""
+
+    length: str = "mm"
+    angle: str = "deg"
+
+
+@dataclass(frozen=True, slots=True)
+class Parameter:
+    """A named constant. ``value`` is in internal units (radians for angles)."""
+
+    name: str
+    value: float
+    kind: Kind
+    text: str = ""
+
+
+@dataclass(frozen=True, slots=True)
+class Variable:
+    """A joint variable (an angle or a length).
+
+    ``guess``, ``speed``, ``accel`` and ``jerk`` are in internal units (radians, rad/s...)
+    or ``None`` when not given. ``input`` marks the declared input.
+    """
+
+    name: str
+    kind: Kind
+    guess: float | None = None
+    input: bool = False
+    speed: float | None = None
+    accel: float | None = None
+    jerk: float | None = None
+
+
+@dataclass(frozen=True, slots=True)
+class Vector:
+    """A vector of the loops: polar (``length``, ``angle`` [+ ``offset``]) or Cartesian (``x``, ``y``).
+
+    The fields are parsed expressions (:mod:`loopsolve.expr` trees) in model units.
+    """
+
+    name: str
+    length: _expr.Node | None = None
+    angle: _expr.Node | None = None
+    offset: _expr.Node | None = None
+    x: _expr.Node | None = None
+    y: _expr.Node | None = None
+
+    @property
+    def cartesian(self) -> bool:
+        return self.x is not None
+
+
+@dataclass(frozen=True, slots=True)
+class Loop:
+    """A vector loop ``Σ sign·vector = 0`` (left side minus right side of the equation)."""
+
+    name: str
+    terms: tuple[tuple[int, str], ...]
+    text: str
+    lhs: tuple[tuple[int, str], ...] = ()
+    rhs: tuple[tuple[int, str], ...] = ()
+
+
+@dataclass(frozen=True, slots=True)
+class Point:
+    """A point of interest: a signed sum of vectors from the origin."""
+
+    name: str
+    terms: tuple[tuple[int, str], ...]
+    text: str
+
+
+@dataclass(frozen=True)
+class Mechanism:
+    """A validated, immutable mechanism declaration.
+
+    Build one with :func:`loopsolve.load` (model file), :class:`MechanismBuilder` (Python) or
+    the factories of :mod:`loopsolve.classic`. The methods are thin doors to the pipeline
+    stages (derive, compile, solve, sweep, export); nothing is ever written back onto the
+    declaration.
+
+    Examples
+    --------
+    >>> mech = ls.fourbar(r1=60, r2=25, r3=70, r4=45, name="thesis")
+    >>> mech.inputs, mech.unknowns()
+    (('theta2',), ('theta3', 'theta4'))
+    """
+
+    name: str
+    units: Units
+    parameters: tuple[Parameter, ...]
+    variables: tuple[Variable, ...]
+    vectors: tuple[Vector, ...]
+    loops: tuple[Loop, ...]
+    points: tuple[Point, ...] = ()
+    source: str | None = None
+    spec: Mapping[str, Any] = field(default_factory=dict, compare=False, repr=False)
+    mode_aliases: Mapping[str, str] = field(default_factory=dict, compare=False)
+
+    # ----------------------------------------------------------------- lookups
+    @property
+    def inputs(self) -> tuple[str, ...]:
+        """Names of the declared input variables."""
+        return tuple(v.name for v in self.variables if v.input)
+
+    def variable(self, name: str) -> Variable:
+        for v in self.variables:
+            if v.name == name:
+                return v
+        raise ModelError(
+            f"unknown variable {name!r} in {self.name!r}; the variables are "
+            + ", ".join(v.name for v in self.variables)
+        )
+
+    def vector(self, name: str) -> Vector:
+        for v in self.vectors:
+            if v.name == name:
+                return v
+        raise ModelError(f"unknown vector {name!r} in {self.name!r}")
+
+    def resolve_inputs(self, input: str | Sequence[str] | None = None) -> tuple[str, ...]:
+        """The input variables for a solve: ``input`` when given, else the declared ones.
+
+        Raises :class:`ModelError` for an unknown name or a count that does not leave as many
+        unknowns as scalar loop equations.
+        """
+        if input is None:
+            names = self.inputs
+        elif isinstance(input, str):
+            names = (input,)
+            declared = self.inputs
+            if len(declared) > 1:  # keep the other declared inputs held
+                names = (input,) + tuple(n for n in declared[1:] if n != input)
+        else:
+            names = tuple(input)
+        for n in names:
+            self.variable(n)
+        if len(set(names)) != len(names):
+            raise ModelError(f"input {names} names a variable twice")
+        n_eq = 2 * len(self.loops)
+        n_unknown = len(self.variables) - len(names)
+        if not names:
+            raise ModelError(
+                f"{self.name!r} declares no input: mark one variable with `input = true` "
+                "in [variables] or pass --input NAME"
+            )
+        if n_unknown != n_eq:
+            raise ModelError(
+                f"{self.name!r} with input(s) {', '.join(names)} has {n_unknown} unknowns but "
+                f"{n_eq} scalar loop equations ({len(self.loops)} loop(s)); a single-DOF "
+                f"mechanism needs exactly {len(self.variables) - n_eq} input(s)"
+            )
+        return names
+
+    def unknowns(self, input: str | Sequence[str] | None = None) -> tuple[str, ...]:
+        """Names of the unknown variables when ``input`` drives the mechanism."""
+        ins = self.resolve_inputs(input)
+        return tuple(v.name for v in self.variables if v.name not in ins)
+
+    # ----------------------------------------------------------- pipeline doors
+    def derive(self, input: str | Sequence[str] | None = None):
+        """Symbolic derivation (sympy): see :func:`loopsolve.symbolic.derive`."""
+        from .symbolic import derive
+
+        return derive(self, input=input)
+
+    def compile(self, input: str | Sequence[str] | None = None, *, cache: bool = True):
+        """Compiled numeric kinematics: see :func:`loopsolve.compiled.compile_mechanism`."""
+        from .compiled import compile_mechanism
+
+        return compile_mechanism(self, input=input, cache=cache)
+
+    def solve(self, at=None, **kwargs):
+        """Positions and rates at one input value: see :func:`loopsolve.solve.solve`."""
+        from .solve import solve
+
+        return solve(self, at, **kwargs)
+
+    def sweep(self, start, stop, step, **kwargs):
+        """Sweep the input: see :func:`loopsolve.tracking.sweep`."""
+        from .tracking import sweep
+
+        return sweep(self, start, stop, step, **kwargs)
+
+    def modes(self, at=None, **kwargs):
+        """Every real assembly mode at one input: see :func:`loopsolve.modes.assembly_modes`."""
+        from .modes import assembly_modes
+
+        return assembly_modes(self, at, **kwargs)
+
+    def to_latex(self, **kwargs) -> str:
+        """The derivation as a LaTeX document: see :func:`loopsolve.latex.to_latex`."""
+        from .latex import to_latex
+
+        return to_latex(self, **kwargs)
+
+    def info(self, **kwargs) -> dict:
+        """Structure summary (mobility, loops, blocks...): see :func:`loopsolve.info.info`."""
+        from .info import info
+
+        return info(self, **kwargs)
+
+    def draw(self, at=None, **kwargs):
+        """The kinematic diagram at one input: see :func:`loopsolve.plotting.draw`."""
+        from .plotting import draw
+
+        return draw(self, at, **kwargs)
+
+    def with_parameters(self, **values: float) -> "Mechanism":
+        """A copy with some parameter values replaced (numbers in the model's units)."""
+        spec = _deep_copy(self.spec)
+        params = spec.setdefault("parameters", {})
+        for k, v in values.items():
+            if k not in params:
+                raise ModelError(f"unknown parameter {k!r} in {self.name!r}")
+            params[k] = v
+        return build_mechanism(spec, source=self.source)
+
+    def _repr_latex_(self) -> str:
+        from .latex import to_latex
+
+        return "$\\displaystyle " + to_latex(self, snippet=True, inline=True) + "$"
+
+
+def _deep_copy(obj):
+    if isinstance(obj, Mapping):
+        return {k: _deep_copy(v) for k, v in obj.items()}
+    if isinstance(obj, list):
+        return [_deep_copy(v) for v in obj]
+    return obj
+
+
+# =============================================================================
+# building and validation
+# =============================================================================
+
+
+class _Problems:
+    def __init__(self, source: str | None):
+        self.source = source
+        self.items: list[tuple[str, str]] = []
+
+    def add(self, key: str, message: str) -> None:
+        self.items.append((key, message))
+
+    def raise_if_any(self) -> None:
+        if not self.items:
+            return
+        where = self.source or "<python>"
+        lines = [f"{where}: {key}: {msg}" if key else f"{where}: {msg}" for key, msg in self.items]
+        if len(lines) == 1:
+            message = lines[0]
+        else:
+            message = f"{len(lines)} problems in {where}:\n  " + "\n  ".join(lines)
+        if self.source is not None:
+            raise ModelFileError(message, path=self.source, key=self.items[0][0], problems=lines)
+        raise ModelError(message, problems=lines)
+
+
+def _check_name(name: Any, key: str, problems: _Problems) -> bool:
+    if not isinstance(name, str) or not _NAME_RE.match(name):
+        problems.add(key, f"{name!r} is not a valid name (letters, digits and _, starting with a letter)")
+        return False
+    if name in RESERVED or "__" in name:
+        problems.add(key, f"{name!r} is a reserved name; choose another")
+        return False
+    return True
+
+
+def _parse_terms(text: Any, key: str, problems: _Problems) -> tuple[tuple[int, str], ...] | None:
+    """Parse ``a + b - c`` into signed names; ``0`` is the empty sum."""
+    if not isinstance(text, str):
+        problems.add(key, f"expected a string such as \"r2 + r3\", got {text!r}")
+        return None
+    s = text.strip()
+    if s == "0":
+        return ()
+    terms: list[tuple[int, str]] = []
+    pos = 0
+    first = True
+    while pos < len(s):
+        m = _TERM_RE.match(s, pos)
+        if not m or m.end() == pos or (not first and not m.group(1)):
+            problems.add(
+                key,
+                f"cannot read {text!r} at column {pos + 1}: write a sum or difference of vector "
+                "names such as \"r2 + r3 = r1 + r4\"",
+            )
+            return None
+        terms.append((-1 if m.group(1) == "-" else 1, m.group(2)))
+        pos = m.end()
+        first = False
+    if not terms:
+        problems.add(key, f"empty vector sum in {text!r}")
+        return None
+    return tuple(terms)
+
+
+def _parse_expr(value: Any, key: str, problems: _Problems) -> _expr.Node | None:
+    if isinstance(value, bool) or not isinstance(value, (int, float, str)):
+        problems.add(key, f"expected a number or an expression string, got {value!r}")
+        return None
+    if isinstance(value, float) and not math.isfinite(value):
+        problems.add(key, f"{value!r} is not a finite number")
+        return None
+    try:
+        return _expr.parse(value)
+    except ModelError as exc:
+        problems.add(key, str(exc))
+        return None
+
+
+def _collect_kinds(node, ctx: str, key: str, out: dict[str, set], pi_uses: list, angle_unit: str):
+    """Record in ``out[name]`` the contexts (angle/length) in which each name appears."""
+    if isinstance(node, _expr.Name):
+        if ctx != _ANY:
+            out.setdefault(node.id, set()).add((ctx, key))
+    elif isinstance(node, _expr.Const):
+        if ctx == _ANGLE and angle_unit != "rad":
+            pi_uses.append(key)
+    elif isinstance(node, _expr.Unary):
+        _collect_kinds(node.operand, ctx, key, out, pi_uses, angle_unit)
+    elif isinstance(node, _expr.Binary):
+        if node.op == "**":
+            _collect_kinds(node.left, ctx, key, out, pi_uses, angle_unit)
+            _collect_kinds(node.right, _ANY, key, out, pi_uses, angle_unit)
+        else:
+            _collect_kinds(node.left, ctx, key, out, pi_uses, angle_unit)
+            _collect_kinds(node.right, ctx, key, out, pi_uses, angle_unit)
+    elif isinstance(node, _expr.Call):
+        sub = _ANGLE if node.func in ("sin", "cos", "tan") else _ANY
+        for a in node.args:
+            _collect_kinds(a, sub, key, out, pi_uses, angle_unit)
+
+
+def build_mechanism(spec: Mapping[str, Any], *, source: str | None = None) -> Mechanism:
+    """Validate a model ``dict`` (the TOML layout) and return the :class:`Mechanism`.
+
+    Every problem is collected; one :class:`ModelError` (``ModelFileError`` when ``source``
+    names a file) reports them all.
+    """
+    problems = _Problems(source)
+    if not isinstance(spec, Mapping):
+        problems.add("", "a model is a table of keys (name, units, parameters, ...)")
+        problems.raise_if_any()
+
+    known_top = {"name", "units", "parameters", "variables", "vectors", "loops", "points",
+                 "description", "schema", "links", "joints", "input", "version", "modes"}
+    for k in spec:
+        if k not in known_top:
+            problems.add(str(k), f"unknown key {k!r} (expected one of: {', '.join(sorted(known_top))})")
+
+    name = spec.get("name", "mechanism")
+    if not isinstance(name, str) or not name.strip():
+        problems.add("name", f"expected a non-empty string, got {name!r}")
+        name = "mechanism"
+
+    # ---- units
+    units_spec = spec.get("units", {})
+    length_unit, angle_unit = "mm", "deg"
+    if not isinstance(units_spec, Mapping):
+        problems.add("units", f"expected a table like {{ length = \"mm\", angle = \"deg\" }}, got {units_spec!r}")
+    else:
+        for k in units_spec:
+            if k not in ("length", "angle"):
+                problems.add(f"units.{k}", "unknown key (expected `length` and `angle`)")
+        length_unit = units_spec.get("length", "mm")
+        angle_unit = units_spec.get("angle", "deg")
+        try:
+            validate_units(angle_unit, length_unit)
+        except (UnitError, ModelError) as exc:
+            problems.add("units", str(exc))
+            length_unit, angle_unit = "mm", "deg"
+    units = Units(length=length_unit, angle=angle_unit)
+
+    def section(key: str) -> Mapping[str, Any]:
+        val = spec.get(key, {})
+        if not isinstance(val, Mapping):
+            problems.add(key, f"expected a table, got {type(val).__name__} {val!r}")
+            return {}
+        return val
+
+    param_spec = section("parameters")
+    var_spec = section("variables")
+    vec_spec = section("vectors")
+    point_spec = section("points")
+    loops_spec = spec.get("loops", [])
+    if not isinstance(loops_spec, list):
+        problems.add("loops", "expected an array of tables: [[loops]] equation = \"r2 + r3 = r1 + r4\"")
+        loops_spec = []
+
+    for pname in param_spec:
+        _check_name(pname, f"parameters.{pname}", problems)
+    for vname in var_spec:
+        _check_name(vname, f"variables.{vname}", problems)
+        if vname in param_spec:
+            problems.add(f"variables.{vname}", f"{vname!r} is declared both as a parameter and as a variable")
+    for vname in vec_spec:
+        _check_name(vname, f"vectors.{vname}", problems)
+    if not var_spec:
+        problems.add("variables", "no joint variables declared")
+    if not vec_spec:
+        problems.add("vectors", "no vectors declared")
+    if not loops_spec:
+        problems.add("loops", "no vector loops declared: add [[loops]] equation = \"...\"")
+
+    # ---- vectors (parse expressions)
+    vectors: list[Vector] = []
+    vec_keys_polar = {"length", "angle", "offset", "link"}
+    vec_keys_cart = {"x", "y", "link"}
+    for vname, vdef in vec_spec.items():
+        key = f"vectors.{vname}"
+        if not isinstance(vdef, Mapping):
+            problems.add(key, f"expected {{ length = ..., angle = ... }} or {{ x = ..., y = ... }}, got {vdef!r}")
+            continue
+        keys = set(vdef)
+        if "x" in keys or "y" in keys:
+            extra = keys - vec_keys_cart
+            if extra or not {"x", "y"} <= keys:
+                problems.add(key, "a Cartesian vector needs exactly `x` and `y` "
+                             f"(got keys {sorted(keys)})")
+                continue
+            x = _parse_expr(vdef["x"], f"{key}.x", problems)
+            y = _parse_expr(vdef["y"], f"{key}.y", problems)
+            vectors.append(Vector(vname, x=x, y=y))
+        else:
+            extra = keys - vec_keys_polar
+            missing = {"length", "angle"} - keys
+            if extra:
+                problems.add(key, f"unknown key(s) {sorted(extra)} (allowed: length, angle, offset, or x, y)")
+            if missing:
+                problems.add(key, f"missing key(s) {sorted(missing)}")
+            if extra or missing:
+                continue
+            ln = _parse_expr(vdef["length"], f"{key}.length", problems)
+            an = _parse_expr(vdef["angle"], f"{key}.angle", problems)
+            off = _parse_expr(vdef["offset"], f"{key}.offset", problems) if "offset" in vdef else None
+            vectors.append(Vector(vname, length=ln, angle=an, offset=off))
+
+    # ---- infer kinds from the contexts the names appear in
+    seen: dict[str, set] = {}
+    pi_uses: list[str] = []
+    for v in vectors:
+        key = f"vectors.{v.name}"
+        if v.cartesian:
+            for f_, n in (("x", v.x), ("y", v.y)):
+                if n is not None:
+                    _collect_kinds(n, _LENGTH, f"{key}.{f_}", seen, pi_uses, angle_unit)
+        else:
+            if v.length is not None:
+                _collect_kinds(v.length, _LENGTH, f"{key}.length", seen, pi_uses, angle_unit)
+            if v.angle is not None:
+                _collect_kinds(v.angle, _ANGLE, f"{key}.angle", seen, pi_uses, angle_unit)
+            if v.offset is not None:
+                _collect_kinds(v.offset, _ANGLE, f"{key}.offset", seen, pi_uses, angle_unit)
+    for key in pi_uses:
+        problems.add(key, "`pi` in an angle of a model whose angles are in degrees would mean "
+                          "pi degrees: write the angle in degrees (180 for pi), or set "
+                          "units.angle = \"rad\"")
+    for nm, uses in seen.items():
+        if nm not in param_spec and nm not in var_spec:
+            where = sorted(k for _, k in uses)[0]
+            problems.add(where, f"unknown name {nm!r} (not a parameter or variable); declared: "
+                         + ", ".join(list(param_spec) + list(var_spec)))
+
+    def kind_of(nm: str) -> Kind | None:
+        ctxs = {c for c, _ in seen.get(nm, ())}
+        if ctxs == {_ANGLE}:
+            return Kind.ANGLE
+        if ctxs == {_LENGTH}:
+            return Kind.LENGTH
+        if not ctxs:
+            return None
+        keys = sorted(k for _, k in seen[nm])
+        problems.add(keys[0], f"{nm!r} is used both as an angle and as a length (in {', '.join(keys)})")
+        return None
+
+    # ---- parameters
+    parameters: list[Parameter] = []
+    for pname, pval in param_spec.items():
+        key = f"parameters.{pname}"
+        kind = kind_of(pname)
+        if isinstance(pval, bool) or not isinstance(pval, (int, float, str)):
+            problems.add(key, f"a parameter is a number (optionally with a unit, \"30deg\"), got {pval!r}")
+            continue
+        if isinstance(pval, str):
+            unit_kind = _unit_kind_of_text(pval)
+            if unit_kind is None:
+                problems.add(key, f"{pval!r} is not a number; a parameter is a number, optionally "
+                             "with a unit such as \"30deg\" or \"25mm\"")
+                continue
+            if kind is None:
+                kind = unit_kind
+            elif unit_kind not in (kind, Kind.DIMENSIONLESS):
+                problems.add(key, f"{pval!r} has a {unit_kind.name.lower()} unit but {pname!r} is used as "
+                             f"{'an' if kind is Kind.ANGLE else 'a'} {kind.name.lower()}")
+                continue
+        qkind = kind if kind in (Kind.ANGLE, Kind.LENGTH) else None
+        try:
+            if qkind is None:
+                value = float(pval) if not isinstance(pval, str) else float(pval.strip())
+            else:
+                value = parse_quantity(pval, qkind, angle_unit=angle_unit, length_unit=length_unit, where=key)
+        except (ValueError, ModelError) as exc:
+            problems.add(key, str(exc))
+            continue
+        if not math.isfinite(value):
+            problems.add(key, f"{pval!r} is not a finite number")
+            continue
+        parameters.append(Parameter(pname, value, kind or Kind.DIMENSIONLESS, str(pval)))
+
+    # ---- variables
+    variables: list[Variable] = []
+    var_keys = {"input", "guess", "speed", "accel", "jerk", "kind"}
+    for vname, vdef in var_spec.items():
+        key = f"variables.{vname}"
+        if not isinstance(vdef, Mapping):
+            problems.add(key, f"expected a table like {{ guess = 20 }}, got {vdef!r}")
+            continue
+        extra = set(vdef) - var_keys
+        if extra:
+            problems.add(key, f"unknown key(s) {sorted(extra)} (allowed: {', '.join(sorted(var_keys))})")
+        kind = kind_of(vname)
+        declared_kind = vdef.get("kind")
+        if declared_kind is not None:
+            dk = {"angle": Kind.ANGLE, "length": Kind.LENGTH}.get(declared_kind)
+            if dk is None:
+                problems.add(f"{key}.kind", f"{declared_kind!r}: expected \"angle\" or \"length\"")
+            elif kind is not None and dk is not kind:
+                problems.add(f"{key}.kind", f"declared {declared_kind} but used as a {kind.name.lower()}")
+            kind = dk or kind
+        if kind is None:
+            if vname not in seen:
+                problems.add(key, f"variable {vname!r} is not used by any vector")
+            continue
+        inp = vdef.get("input", False)
+        if not isinstance(inp, bool):
+            problems.add(f"{key}.input", f"expected true or false, got {inp!r}")
+            inp = False
+        rate_kinds = (
+            (Kind.ANGULAR_RATE, Kind.ANGULAR_ACCEL, Kind.ANGULAR_JERK)
+            if kind is Kind.ANGLE
+            else (Kind.LENGTH_RATE, Kind.LENGTH_ACCEL, Kind.LENGTH_JERK)
+        )
+        vals: dict[str, float | None] = {}
+        for fname, fkind in (("guess", kind), ("speed", rate_kinds[0]), ("accel", rate_kinds[1]),
+                             ("jerk", rate_kinds[2])):
+            raw = vdef.get(fname)
+            if raw is None:
+                vals[fname] = None
+                continue
+            try:
+                vals[fname] = parse_quantity(raw, fkind, angle_unit=angle_unit, length_unit=length_unit,
+                                             where=f"{key}.{fname}")
+            except (ModelError, ValueError, TypeError) as exc:
+                problems.add(f"{key}.{fname}", str(exc))
+                vals[fname] = None
+        if not inp and any(vals[f] is not None for f in ("speed", "accel", "jerk")):
+            problems.add(key, "speed/accel/jerk are given only for the input variable")
+        variables.append(Variable(vname, kind, vals["guess"], inp, vals["speed"], vals["accel"], vals["jerk"]))
+
+    n_inputs = sum(v.input for v in variables)
+    if variables and n_inputs == 0:
+        problems.add("variables", "no input: mark the driven variable with `input = true`")
+
+    # ---- loops
+    vec_names = set(vec_spec)
+    loops: list[Loop] = []
+    for i, ldef in enumerate(loops_spec):
+        key = f"loops[{i}]"
+        if isinstance(ldef, str):
+            ldef = {"equation": ldef}
+        if not isinstance(ldef, Mapping) or "equation" not in ldef:
+            problems.add(key, "expected a table with `equation = \"r2 + r3 = r1 + r4\"`")
+            continue
+        extra = set(ldef) - {"equation", "name"}
+        if extra:
+            problems.add(key, f"unknown key(s) {sorted(extra)} (allowed: equation, name)")
+        text = ldef["equation"]
+        lname = ldef.get("name", f"loop{i + 1}")
+        if not isinstance(text, str):
+            problems.add(f"{key}.equation", f"expected a string, got {text!r}")
+            continue
+        sides = text.split("=")
+        if len(sides) > 2:
+            problems.add(f"{key}.equation", f"more than one '=' in {text!r}")
+            continue
+        lhs = _parse_terms(sides[0], f"{key}.equation", problems)
+        rhs = _parse_terms(sides[1], f"{key}.equation", problems) if len(sides) == 2 else ()
+        if lhs is None or rhs is None:
+            continue
+        bad = [n for _, n in lhs + rhs if n not in vec_names]
+        for n in bad:
+            problems.add(f"{key}.equation", f"{text!r} names the undeclared vector {n!r}; declared "
+                         "vectors: " + ", ".join(vec_spec))
+        if bad:
+            continue
+        terms = lhs + tuple((-s, n) for s, n in rhs)
+        loops.append(Loop(str(lname), terms, text, lhs, rhs))
+
+    # ---- points
+    points: list[Point] = []
+    for pname, pdef in point_spec.items():
+        key = f"points.{pname}"
+        _check_name(pname, key, problems)
+        terms = _parse_terms(pdef, key, problems)
+        if terms is None:
+            continue
+        bad = [n for _, n in terms if n not in vec_names]
+        for n in bad:
+            problems.add(key, f"{pdef!r} names the undeclared vector {n!r}")
+        if not bad:
+            points.append(Point(pname, terms, pdef))
+
+    # ---- counts (only meaningful once the parts parsed)
+    if variables and loops and not problems.items and n_inputs > 0:
+        n_eq = 2 * len(loops)
+        n_unknown = len(variables) - n_inputs
+        if n_unknown != n_eq:
+            problems.add(
+                "variables",
+                f"{n_unknown} unknown variable(s) ({', '.join(v.name for v in variables if not v.input)}) "
+                f"but {n_eq} scalar loop equations from {len(loops)} loop(s): each loop gives two "
+                "equations (x and y), so the unknowns must number twice the loops",
+            )
+    # ---- assembly-mode aliases: name -> signature ("open" = "-" for a four-bar)
+    modes_spec = spec.get("modes", {})
+    mode_aliases: dict[str, str] = {}
+    if not isinstance(modes_spec, Mapping):
+        problems.add("modes", "expected a table of alias = \"signature\" (e.g. open = \"-\")")
+    else:
+        for alias, sig in modes_spec.items():
+            if not isinstance(sig, str) or not sig or set(sig) - {"+", "-"}:
+                problems.add(f"modes.{alias}", f"a mode signature is a string of + and - signs, got {sig!r}")
+            else:
+                mode_aliases[str(alias)] = sig
+    problems.raise_if_any()
+    return Mechanism(
+        name=name.strip(),
+        units=units,
+        parameters=tuple(parameters),
+        variables=tuple(variables),
+        vectors=tuple(vectors),
+        loops=tuple(loops),
+        points=tuple(points),
+        source=source,
+        spec=_deep_copy(spec),
+        mode_aliases=mode_aliases,
+    )
+
+
+def _unit_kind_of_text(text: str) -> Kind | None:
+    """Kind of the unit a quantity string carries (DIMENSIONLESS for a bare number), None if not a quantity."""
+    s = text.strip()
+    try:
+        float(s)
+        return Kind.DIMENSIONLESS
+    except ValueError:
+        pass
+    for kind in (Kind.ANGLE, Kind.LENGTH):
+        try:
+            parse_quantity(s, kind, angle_unit="rad", length_unit="mm")
+            return kind
+        except (ModelError, ValueError):
+            continue
+    return None
+
+
+class MechanismBuilder:
+    """Declare a mechanism from Python; :meth:`build` gives the same :class:`Mechanism` as a file.
+
+    Examples
+    --------
+    >>> b = ls.MechanismBuilder("Four-bar", length_unit="mm", angle_unit="deg")
+    >>> for n, v in dict(r1=60, r2=25, r3=70, r4=45).items():
+    ...     b = b.parameter(n, v)
+    >>> b = b.variable("theta2", input=True, guess=90).variable("theta3", guess=20)
+    >>> b = b.variable("theta4", guess=80)
+    >>> b = b.vector("r1", length="r1", angle=0).vector("r2", length="r2", angle="theta2")
+    >>> b = b.vector("r3", length="r3", angle="theta3").vector("r4", length="r4", angle="theta4")
+    >>> mech = b.loop("r2 + r3 = r1 + r4").point("C", "r2 + r3").build()
+    >>> round(mech.solve(90)["theta4"], 2)
+    80.72
+    """
+
+    def __init__(self, name: str = "mechanism", *, length_unit: str = "mm", angle_unit: str = "deg"):
+        self._spec: dict[str, Any] = {
+            "name": name,
+            "units": {"length": length_unit, "angle": angle_unit},
+            "parameters": {},
+            "variables": {},
+            "vectors": {},
+            "loops": [],
+            "points": {},
+        }
+
+    def _put(self, section: str, name: str, value: Any) -> "MechanismBuilder":
+        if name in self._spec[section]:
+            raise ModelError(f"{section}.{name}: {name!r} is declared twice")
+        self._spec[section][name] = value
+        return self
+
+    def parameter(self, name: str, value: float | str) -> "MechanismBuilder":
+        """Add a named constant (a number in model units, or a quantity string like ``"30deg"``)."""
+        return self._put("parameters", name, value)
+
+    def variable(self, name: str, *, input: bool = False, guess=None, speed=None, accel=None,
+                 jerk=None, kind: str | None = None) -> "MechanismBuilder":
+        """Add a joint variable; ``guess`` (model units) picks the assembly mode."""
+        d: dict[str, Any] = {}
+        for k, v in (("input", input if input else None), ("guess", guess), ("speed", speed),
+                     ("accel", accel), ("jerk", jerk), ("kind", kind)):
+            if v is not None:
+                d[k] = v
+        return self._put("variables", name, d)
+
+    def vector(self, name: str, *, length=None, angle=None, offset=None, x=None, y=None) -> "MechanismBuilder":
+        """Add a vector: polar (``length``, ``angle`` [, ``offset``]) or Cartesian (``x``, ``y``)."""
+        d = {k: v for k, v in (("length", length), ("angle", angle), ("offset", offset), ("x", x), ("y", y))
+             if v is not None}
+        return self._put("vectors", name, d)
+
+    def loop(self, equation: str, *, name: str | None = None) -> "MechanismBuilder":
+        """Add a vector loop such as ``"r2 + r3 = r1 + r4"``."""
+        d: dict[str, Any] = {"equation": equation}
+        if name is not None:
+            d["name"] = name
+        self._spec["loops"].append(d)
+        return self
+
+    def mode(self, alias: str, signature: str) -> "MechanismBuilder":
+        """Name an assembly mode (e.g. ``mode("open", "-")``)."""
+        self._spec.setdefault("modes", {})[alias] = signature
+        return self
+
+    def point(self, name: str, terms: str) -> "MechanismBuilder":
+        """Add a point of interest: a sum/difference of vectors from the origin."""
+        return self._put("points", name, terms)
+
+    def build(self) -> Mechanism:
+        """Validate and return the :class:`Mechanism` (all problems reported at once)."""
+        return build_mechanism(self._spec, source=None)

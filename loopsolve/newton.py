@@ -1,0 +1,123 @@
+"""Damped Newton iteration for square systems, with a status that says what happened.
+
+The step is the Newton step when the Jacobian is well conditioned and a Levenberg–Marquardt
+step otherwise; a backtracking line search on ‖f‖² makes it globally convergent to a
+solution *or* to a local minimum of the residual. The two are told apart at the end: a
+minimum with a residual well above the tolerance means the equations have no real solution
+near the start (a mechanism that cannot be assembled there).
+
+References: J. E. Dennis and R. B. Schnabel, *Numerical Methods for Unconstrained
+Optimization and Nonlinear Equations*, SIAM 1996, ch. 6.
+"""
+
+from __future__ import annotations
+
+import enum
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+
+__all__ = ["Newton", "NewtonStatus", "NewtonResult", "newton"]
+
+
+class NewtonStatus(enum.Enum):
+    """Outcome of :func:`newton`; each value says what it means and what to do."""
+
+    CONVERGED = "converged"
+    STALLED = ("stalled at a nonzero minimum of the residual: the equations have no real solution "
+               "near the starting point (the mechanism cannot be assembled there)")
+    MAX_ITER = "iteration limit reached while the residual was still decreasing: raise max_iter or improve the guess"
+    NOT_FINITE = "the residual became NaN or infinite: check the parameters (zero lengths?)"
+
+
+@dataclass(frozen=True, slots=True)
+class Newton:
+    """Settings of :func:`newton`.
+
+    ``atol`` is relative to the system's length scale (the residual of a loop is a length);
+    ``rtol`` bounds the final step relative to ``1 + |x|``.
+    """
+
+    atol: float = 1e-12
+    rtol: float = 1e-12
+    max_iter: int = 60
+    stall_tol: float = 1e-9
+
+
+@dataclass(frozen=True, slots=True)
+class NewtonResult:
+    """``x`` reached, its residual norm (∞-norm), iterations, status."""
+
+    x: np.ndarray
+    residual: float
+    n_iter: int
+    status: NewtonStatus
+
+    @property
+    def success(self) -> bool:
+        return self.status is NewtonStatus.CONVERGED
+
+
+def newton(fun: Callable[[np.ndarray], np.ndarray], jac: Callable[[np.ndarray], np.ndarray],
+           x0: np.ndarray, *, scale: float = 1.0, settings: Newton = Newton()) -> NewtonResult:
+    """Solve ``fun(x) = 0`` from ``x0``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> r = ls.newton.newton(lambda x: np.array([x[0]**2 - 2]), lambda x: np.array([[2*x[0]]]),
+    ...                      np.array([1.0]))
+    >>> r.status.name, round(float(r.x[0]), 12)
+    ('CONVERGED', 1.414213562373)
+    """
+    x = np.array(x0, dtype=float)
+    f = fun(x)
+    fn = float(np.max(np.abs(f))) if f.size else 0.0
+    tol = settings.atol * scale
+    polished = False
+    for it in range(1, settings.max_iter + 1):
+        if not np.isfinite(fn):
+            return NewtonResult(x, fn, it, NewtonStatus.NOT_FINITE)
+        J = jac(x)
+        dx = _step(J, f)
+        if not np.all(np.isfinite(dx)):
+            return NewtonResult(x, fn, it, NewtonStatus.NOT_FINITE)
+        # backtracking line search on the 2-norm of f
+        f2 = float(f @ f)
+        t = 1.0
+        while True:
+            x_new = x + t * dx
+            f_new = fun(x_new)
+            f2_new = float(f_new @ f_new)
+            if np.isfinite(f2_new) and (f2_new <= (1 - 1e-4 * t) * f2 or f2 <= (tol * 1e-3) ** 2):
+                break
+            t *= 0.5
+            if t < 1e-10:
+                # no descent possible along the (regularized) Newton direction
+                if fn <= settings.stall_tol * scale:
+                    return NewtonResult(x, fn, it, NewtonStatus.CONVERGED)
+                return NewtonResult(x, fn, it, NewtonStatus.STALLED)
+        step = float(np.max(np.abs(t * dx))) if dx.size else 0.0
+        x, f = x_new, f_new
+        fn = float(np.max(np.abs(f))) if f.size else 0.0
+        if fn <= tol:
+            if polished or step <= settings.rtol * (1.0 + float(np.max(np.abs(x)))):
+                return NewtonResult(x, fn, it, NewtonStatus.CONVERGED)
+            polished = True  # one more step: quadratic convergence reaches machine precision
+    if fn <= tol:
+        return NewtonResult(x, fn, settings.max_iter, NewtonStatus.CONVERGED)
+    return NewtonResult(x, fn, settings.max_iter, NewtonStatus.MAX_ITER)
+
+
+def _step(J: np.ndarray, f: np.ndarray) -> np.ndarray:
+    """Newton step, or a Levenberg–Marquardt step when ``J`` is (nearly) singular."""
+    try:
+        cond = np.linalg.cond(J)
+    except np.linalg.LinAlgError:
+        cond = np.inf
+    if np.isfinite(cond) and cond < 1e10:
+        return np.linalg.solve(J, -f)
+    g = J.T @ f
+    mu = 1e-6 * max(float(np.max(np.abs(J.T @ J))), 1e-300)
+    return np.linalg.solve(J.T @ J + mu * np.eye(J.shape[1]), -g)

@@ -1,0 +1,244 @@
+"""Solve one position: Newton block by block, then the velocity, acceleration and jerk.
+
+:func:`solve` is the one-input-value entry point behind ``Mechanism.solve`` and
+``loopsolve solve``; :func:`solve_position` and :func:`solve_rates` are the two halves,
+reused by the sweep tracker.
+"""
+
+from __future__ import annotations
+
+import math
+import warnings
+from collections.abc import Sequence
+
+import numpy as np
+
+from .compiled import CompiledKinematics
+from .errors import AssemblyError, ConvergenceError, LoopsolveWarning, ModelError, SingularPositionError
+from .model import Mechanism
+from .newton import Newton, NewtonStatus, newton
+from .results import State
+from .units import Kind, parse_quantity, to_display
+
+__all__ = ["solve", "solve_position", "solve_rates", "initial_z", "input_value", "input_rates",
+           "SINGULAR_COND"]
+
+#: a Jacobian block whose condition number exceeds this is treated as singular
+SINGULAR_COND = 1e10
+
+
+def input_value(ck: CompiledKinematics, value, name: str | None = None) -> float:
+    """Convert a user input value (number in display units, or a string with a unit) to internal units."""
+    name = name or ck.inputs[0]
+    kind = ck.kinds[ck.index(name)]
+    u = ck.mechanism.units
+    return parse_quantity(value, kind, angle_unit=u.angle, length_unit=u.length, where=f"input {name}")
+
+
+def display_value(ck: CompiledKinematics, internal: float, name: str | None = None) -> float:
+    """Internal value of an input (radians...) in display units (degrees...)."""
+    name = name or ck.inputs[0]
+    kind = ck.kinds[ck.index(name)]
+    u = ck.mechanism.units
+    return float(to_display(internal, kind, u.angle, u.length))
+
+
+def initial_z(ck: CompiledKinematics, *, guess: dict | None = None, warn: bool = True) -> np.ndarray:
+    """All variables at their declared guesses (internal units); ``guess`` overrides by name."""
+    mech = ck.mechanism
+    z = np.zeros(len(ck.variables))
+    missing = []
+    for v in mech.variables:
+        i = ck.index(v.name)
+        if guess and v.name in guess:
+            z[i] = guess[v.name]
+        elif v.guess is not None:
+            z[i] = v.guess
+        elif v.name not in ck.inputs:
+            missing.append(v.name)
+            z[i] = ck.scale if v.kind is Kind.LENGTH else 0.0
+        elif v.kind is Kind.LENGTH:
+            z[i] = ck.scale
+    if missing and warn:
+        warnings.warn(
+            f"{mech.name}: no guess for {', '.join(missing)}; starting from 0 (angles) or "
+            f"{ck.scale:g} (lengths). Guesses pick the assembly mode: give them in [variables] "
+            "or choose a mode with --mode",
+            LoopsolveWarning,
+            stacklevel=3,
+        )
+    return z
+
+
+def input_rates(ck: CompiledKinematics, speed=None, accel=None, jerk=None) -> tuple[float, float, float]:
+    """Rates of the driving input (internal units): arguments, else the model's, else 1, 0, 0."""
+    name = ck.inputs[0]
+    var = ck.mechanism.variable(name)
+    u = ck.mechanism.units
+    kinds = ((Kind.ANGULAR_RATE, Kind.ANGULAR_ACCEL, Kind.ANGULAR_JERK) if var.kind is Kind.ANGLE
+             else (Kind.LENGTH_RATE, Kind.LENGTH_ACCEL, Kind.LENGTH_JERK))
+    out = []
+    for given, declared, kind, default, label in ((speed, var.speed, kinds[0], 1.0, "speed"),
+                                                  (accel, var.accel, kinds[1], 0.0, "accel"),
+                                                  (jerk, var.jerk, kinds[2], 0.0, "jerk")):
+        if given is not None:
+            out.append(parse_quantity(given, kind, angle_unit=u.angle, length_unit=u.length, where=f"--{label}"))
+        elif declared is not None:
+            out.append(declared)
+        else:
+            out.append(default)
+    return out[0], out[1], out[2]
+
+
+def solve_position(ck: CompiledKinematics, z0: np.ndarray, *, settings: Newton = Newton(),
+                   display_input: float | None = None):
+    """Newton on each block in solve order, from ``z0`` (inputs already set).
+
+    Returns ``(z, residual, n_iter)``; raises :class:`AssemblyError` or
+    :class:`ConvergenceError` naming the input value.
+    """
+    z = np.array(z0, dtype=float)
+    total_iter = 0
+    worst = 0.0
+    for b in ck.blocks:
+        eqs = np.array(b.eqs)
+        cols = np.array(b.unknowns)
+        zi = ck.unknown_idx[cols]
+
+        def fun(u, zi=zi, eqs=eqs):
+            z[zi] = u
+            return ck.phi(z)[eqs]
+
+        def jac(u, zi=zi, eqs=eqs, cols=cols):
+            z[zi] = u
+            return ck.jac(z)[np.ix_(eqs, cols)]
+
+        res = newton(fun, jac, z[zi].copy(), scale=ck.scale, settings=settings)
+        z[zi] = res.x
+        total_iter += res.n_iter
+        worst = max(worst, res.residual)
+        if res.status is not NewtonStatus.CONVERGED:
+            _raise_failure(ck, res, z, b, display_input)
+    return z, worst, total_iter
+
+
+def _raise_failure(ck, res, z, block, display_input):
+    name = ck.inputs[0]
+    unit = _input_unit(ck)
+    where = ck.mechanism.source or ck.mechanism.name
+    unknowns = ", ".join(ck.unknowns[c] for c in block.unknowns)
+    at = f"{name} = {display_input:g}{unit}" if display_input is not None else "the requested input"
+    if res.status is NewtonStatus.STALLED:
+        raise AssemblyError(
+            f"{where}: cannot be assembled at {at}: the loop equations for {unknowns} have no real "
+            f"solution there (closest approach leaves a residual of {res.residual:.3g} "
+            f"{ck.mechanism.units.length}); choose an input inside the assemblable range "
+            "(see `loopsolve info`) or check the link lengths",
+            input_value=display_input, residual=res.residual, result=z.copy(),
+        )
+    raise ConvergenceError(
+        f"{where}: Newton did not converge at {at} for {unknowns} ({res.status.value}; residual "
+        f"{res.residual:.3g} after {res.n_iter} iterations); improve the guesses",
+        input_value=display_input, result=z.copy(),
+    )
+
+
+def _input_unit(ck) -> str:
+    kind = ck.kinds[ck.index(ck.inputs[0])]
+    if kind is Kind.ANGLE:
+        return " deg" if ck.mechanism.units.angle == "deg" else " rad"
+    return " " + ck.mechanism.units.length
+
+
+def solve_rates(ck: CompiledKinematics, z: np.ndarray, rates: Sequence[float], *,
+                display_input: float | None = None, mode: str = ""):
+    """Velocities, accelerations and jerks of every variable at position ``z``.
+
+    ``rates`` = (speed, accel, jerk) of the driving input; other inputs are held (zero rates).
+    Raises :class:`SingularPositionError` when Φ_q is singular there.
+    """
+    J = ck.jac(z)
+    cond = float(np.linalg.cond(J)) if J.size else 1.0
+    if not math.isfinite(cond) or cond > SINGULAR_COND:
+        name = ck.inputs[0]
+        at = f"{name} = {display_input:g}{_input_unit(ck)}" if display_input is not None else "this input"
+        pos = ", ".join(
+            f"{n} = {display_value(ck, z[ck.index(n)], n):.6g}" for n in ck.unknowns
+        )
+        raise SingularPositionError(
+            f"{ck.mechanism.source or ck.mechanism.name}: singular position at {at} ({pos}): the "
+            f"coefficient matrix Φ_q is singular (condition number {cond:.3g}), so the rates are "
+            "undefined there (dead centre, toggle or change point); move the input away from it",
+            input_value=display_input, cond=cond, result=z.copy(),
+        )
+    zs = [z]
+    n = len(ck.variables)
+    for order in (1, 2, 3):
+        zk = np.zeros(n)
+        zk[ck.input_idx[0]] = rates[order - 1]
+        b = ck.rhs(order, *zs, zk)
+        zk[ck.unknown_idx] = np.linalg.solve(J, b)
+        zs.append(zk)
+    pts = np.stack([ck.point_values(k, *zs[: k + 1]) for k in range(4)]) if ck.points else np.zeros((4, 0, 2))
+    return zs[1], zs[2], zs[3], pts, cond
+
+
+def solve(mech: Mechanism, at=None, *, speed=None, accel=None, jerk=None, input: str | None = None,
+          guess: dict | None = None, mode: str | None = None, compiled: CompiledKinematics | None = None,
+          settings: Newton = Newton()) -> State:
+    """Positions, velocities, accelerations and jerks at one input value.
+
+    Parameters
+    ----------
+    mech : Mechanism
+    at : float or str, optional
+        Input value in the model's unit (degrees for an angle by default) or with a unit
+        (``"1.2rad"``). Default: the input's declared guess.
+    speed, accel, jerk : float or str, optional
+        Input rates (``"10rpm"``, ``10.5`` = rad/s). Default: the model's, else 1, 0, 0 (the
+        rates are then the kinematic coefficients dq/dx, d²q/dx², d³q/dx³).
+    input : str, optional
+        Drive another variable (e.g. the slider position) without editing the model.
+    guess : dict, optional
+        Override guesses (internal units) by variable name.
+    mode : str, optional
+        Assembly-mode signature (``"+"``, ``"-+"``...) or alias (``"open"``/``"crossed"``) to
+        solve in, whatever the guesses say.
+
+    Returns
+    -------
+    State
+
+    Raises
+    ------
+    AssemblyError, ConvergenceError, SingularPositionError, ModelError
+
+    Examples
+    --------
+    >>> mech = ls.load(ls.models_dir() / "thesis_crank_rocker.toml")
+    >>> s = mech.solve(90)
+    >>> round(s["theta3"], 2), round(s["theta4"], 2), round(s["theta4_vel"], 3)
+    (16.1, 80.72, 0.593)
+    """
+    ck = compiled if compiled is not None else mech.compile(input)
+    name = ck.inputs[0]
+    if at is None:
+        declared = mech.variable(name).guess
+        if declared is None:
+            raise ModelError(f"{mech.source or mech.name}: no input value: pass --at (or `at=`) or give "
+                             f"{name} a guess in [variables]")
+        x = declared
+    else:
+        x = input_value(ck, at, name)
+    disp = display_value(ck, x, name)
+    if mode is not None:
+        from .modes import select_mode
+
+        z0 = select_mode(mech, x, mode, compiled=ck)
+    else:
+        z0 = initial_z(ck, guess=guess)
+        z0[ck.input_idx[0]] = x
+    z, residual, n_iter = solve_position(ck, z0, settings=settings, display_input=disp)
+    sig = ck.signature(z)
+    z1, z2, z3, pts, cond = solve_rates(ck, z, input_rates(ck, speed, accel, jerk), display_input=disp)
+    return State(ck, z, z1, z2, z3, pts, sig, residual, n_iter, cond)
