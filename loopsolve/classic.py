@@ -638,21 +638,30 @@ def is_grashof(r1, r2, r3, r4):
 
 
 # ---------------------------------------------------------- input range, toggles
-def _cos_limits(r1, r2, r3, r4):
-    """``cos theta2`` bounds: BD <= r3 + r4  <=>  cos theta2 >= c_out;
-    BD >= |r3 - r4|  <=>  cos theta2 <= c_in. Values within 1e-12 of +-1 snap to +-1."""
+def _limit_angle(r1, r2, ell):
+    """Crank angle in ``[0, pi]`` where the diagonal ``BD`` equals ``ell``.
+
+    ``BD`` grows from ``|r1 - r2|`` at ``theta2 = 0`` to ``r1 + r2`` at ``pi``; from
+    ``cos theta2 = (r1^2 + r2^2 - ell^2) / (2 r1 r2)`` in the half-angle form
+    ``tan^2(theta2/2) = (ell^2 - (r1 - r2)^2) / ((r1 + r2)^2 - ell^2)`` (factored, so
+    accurate near 0 and pi). Returns ``"below"`` if ``BD > ell`` at every angle,
+    ``"above"`` if ``BD < ell`` at every angle; gaps within rounding snap to 0 or pi.
+    """
+    lo, hi = abs(r1 - r2), r1 + r2
+    tol = _ASSEMBLY_TOL * (r1 + r2 + ell)
+    g0, gpi = ell - lo, hi - ell
+    g0 = 0.0 if abs(g0) <= tol else g0
+    gpi = 0.0 if abs(gpi) <= tol else gpi
+    if g0 < 0:
+        return "below"
+    if gpi < 0:
+        return "above"
+    return 2.0 * math.atan2(math.sqrt(g0 * (ell + lo)), math.sqrt(gpi * (hi + ell)))
+
+
+def _limits(r1, r2, r3, r4):
     r1, r2, r3, r4 = (float(_positive(n, v)) for n, v in zip(("r1", "r2", "r3", "r4"), (r1, r2, r3, r4)))
-    c_out = (r1**2 + r2**2 - (r3 + r4) ** 2) / (2 * r1 * r2)
-    c_in = (r1**2 + r2**2 - (r3 - r4) ** 2) / (2 * r1 * r2)
-
-    def snap(c):
-        if abs(c - 1) <= 1e-12:
-            return 1.0
-        if abs(c + 1) <= 1e-12:
-            return -1.0
-        return c
-
-    return snap(c_out), snap(c_in)
+    return _limit_angle(r1, r2, r3 + r4), _limit_angle(r1, r2, abs(r3 - r4))
 
 
 def fourbar_input_range(r1, r2, r3, r4):
@@ -682,11 +691,11 @@ def fourbar_input_range(r1, r2, r3, r4):
     >>> [tuple(round(x, 4) for x in iv) for iv in fourbar_input_range(4, 3, 3.5, 5)]
     [(0.3242, 5.959)]
     """
-    c_out, c_in = _cos_limits(r1, r2, r3, r4)
-    if c_out > 1 or c_in < -1:
+    out, inn = _limits(r1, r2, r3, r4)
+    if out == "below" or inn == "above":  # BD > r3 + r4 or BD < |r3 - r4| everywhere
         return []
-    a_in = math.acos(min(c_in, 1.0))  # |theta2| >= a_in
-    a_out = math.acos(max(c_out, -1.0))  # |theta2| <= a_out
+    a_out = math.pi if out == "above" else out  # |theta2| <= a_out
+    a_in = 0.0 if inn == "below" else inn  # |theta2| >= a_in
     if a_in == 0.0 and a_out == math.pi:
         return [(-math.pi, math.pi)]
     if a_in == 0.0:
@@ -719,9 +728,8 @@ def fourbar_toggle_angles(r1, r2, r3, r4):
     [-0.3242, 0.3242]
     """
     angles = set()
-    for c in _cos_limits(r1, r2, r3, r4):
-        if -1.0 <= c <= 1.0:
-            a = math.acos(c)
+    for a in _limits(r1, r2, r3, r4):
+        if isinstance(a, float):
             angles.add(a)
             angles.add(math.pi if a == math.pi else -a)
     return np.array(sorted(angles), dtype=float)
@@ -767,7 +775,7 @@ def transmission_angle_range(r1, r2, r3, r4):
     r1, r2, r3, r4 = (float(_positive(n, v)) for n, v in zip(("r1", "r2", "r3", "r4"), (r1, r2, r3, r4)))
     bd_lo = max(abs(r1 - r2), abs(r3 - r4))
     bd_hi = min(r1 + r2, r3 + r4)
-    if bd_lo > bd_hi * (1 + 1e-12):
+    if bd_lo > bd_hi + _ASSEMBLY_TOL * (r1 + r2 + r3 + r4):
         return (math.nan, math.nan)
 
     def mu(bd):

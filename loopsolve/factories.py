@@ -49,8 +49,8 @@ def fourbar(r1: float, r2: float, r3: float, r4: float, *, theta2: float = 90.0,
         b.parameter(n, v)
     t2 = math.radians(theta2)
     bx, by = r2 * math.cos(t2), r2 * math.sin(t2)
-    # open: C to the left of B->O4 ... chosen so that sin(theta4 - theta3) > 0
-    c = _circle_guess(bx, by, r3, r1, 0.0, r4, -1 if mode == "open" else 1)
+    # open: C on the left of B->O4, so that sin(theta4 - theta3) > 0
+    c = _circle_guess(bx, by, r3, r1, 0.0, r4, 1 if mode == "open" else -1)
     if c is None:
         raise ModelError(f"{name}: cannot be assembled at theta2 = {theta2:g} deg; pass another theta2=")
     t3 = math.degrees(math.atan2(c[1] - by, c[0] - bx))
