@@ -155,8 +155,8 @@ def fourbar_position(r1, r2, r3, r4, theta2, mode=+1, theta1=0.0):
         Crank angle.
     mode : {+1, -1} or array_like
         Assembly mode. ``+1`` is the configuration with ``sin(theta4 - theta3) > 0``
-        (coupler-to-output turn counter-clockwise; the "open" circuit of a crank-rocker
-        drawn with O4 to the right of O2 above the frame line), ``-1`` the mirror image
+        (the output turns counter-clockwise from the coupler; the thesis' "open"
+        crank-rocker 60/25/70/45 with O4 to the right), ``-1`` the mirror image
         about the diagonal BD (``sin(theta4 - theta3) < 0``, "crossed"). This is the
         ``-`` sign of ``tan(theta4/2) = (-B -+ sqrt(B^2 - 4AC)) / (2A)`` in the notes.
     theta1 : array_like, optional
@@ -628,6 +628,15 @@ def is_grashof(r1, r2, r3, r4):
 
     Change-point linkages count as Grashof.
 
+    Parameters
+    ----------
+    r1, r2, r3, r4 : float
+        Frame, crank, coupler and output lengths (positive).
+
+    Returns
+    -------
+    bool
+
     Examples
     --------
     >>> is_grashof(60, 25, 70, 45), is_grashof(4, 3, 3.5, 5)
@@ -738,6 +747,16 @@ def fourbar_toggle_angles(r1, r2, r3, r4):
 # ------------------------------------------------------------ transmission angle
 def transmission_angle(theta3, theta4):
     """Angle between coupler and output, ``|theta4 - theta3|`` folded into ``[0, pi]``.
+
+    Parameters
+    ----------
+    theta3, theta4 : array_like
+        Coupler and output angles.
+
+    Returns
+    -------
+    ndarray
+        The transmission angle ``mu`` in ``[0, pi]``.
 
     Examples
     --------
