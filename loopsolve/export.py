@@ -18,6 +18,12 @@ from .units import Kind, unit_label
 __all__ = ["to_json", "to_csv", "to_table", "state_table", "sweep_table"]
 
 
+def mode_label(mech, signature: str) -> str:
+    """``"-"`` or ``"- (open)"`` when the model names that mode."""
+    names = [k for k, v in getattr(mech, "mode_aliases", {}).items() if v == signature]
+    return f"{signature} ({', '.join(names)})" if names else signature
+
+
 def _items(obj) -> tuple[list[dict], list, object]:
     if isinstance(obj, State):
         return [obj.row()], [], obj.compiled
@@ -79,7 +85,7 @@ def state_table(state: State) -> str:
             f"{unit_label(ck.kinds[ck.index(ck.inputs[0])], u.angle, u.length)}, "
             f"input speed {row[ck.inputs[0] + '_vel']:g} {column_units(ck)[ck.inputs[0] + '_vel']}, "
             f"accel {row[ck.inputs[0] + '_acc']:g} {column_units(ck)[ck.inputs[0] + '_acc']}  "
-            f"(mode {state.mode}, residual {state.residual:.1e})")
+            f"(mode {mode_label(ck.mechanism, state.mode)}, residual {state.residual:.1e})")
     sections = [head]
     order = list(ck.inputs) + [n for n in ck.variables if n not in ck.inputs]
     for kind in (Kind.ANGLE, Kind.LENGTH):
@@ -124,7 +130,7 @@ def sweep_table(sweep: Sweep, *, columns: list[str] | None = None) -> str:
         columns = [ck.inputs[0]] + [n + s for n in ck.unknowns for s in ("", "_vel", "_acc")]
     headers = [f"{c} [{units[c]}]" for c in columns]
     rows = [[_fmt(r[c]).strip() for c in columns] for r in sweep.rows]
-    out = f"{ck.mechanism.name}: sweep of {ck.inputs[0]} ({len(rows)} rows, mode {sweep.mode})\n" + _grid(headers, rows)
+    out = f"{ck.mechanism.name}: sweep of {ck.inputs[0]} ({len(rows)} rows, mode {mode_label(ck.mechanism, sweep.mode)})\n" + _grid(headers, rows)
     for e in sweep.events:
         out += f"\n{e.kind.value} at {ck.inputs[0]} = {e.input:.10g}: {e.message}"
     return out + "\n"

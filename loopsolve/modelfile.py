@@ -31,8 +31,10 @@ def models_dir() -> Path:
     >>> sorted(p.name for p in ls.models_dir().glob("*.toml"))[:1]
     ['example1_slider_crank.toml']
     """
+    import sys
+
     here = Path(__file__).resolve().parent
-    for cand in (here.parent / "models", here / "models"):
+    for cand in (here.parent / "models", Path(sys.prefix) / "share" / "loopsolve" / "models"):
         if cand.is_dir():
             return cand
     return here.parent / "models"
