@@ -188,18 +188,71 @@ class State:
         return AccelerationComponents(vector, r * thdd * et, -r * thd**2 * er, rdd * er, 2 * rd * thd * et)
 
 
-@dataclass(frozen=True, eq=False)
 class Sweep:
-    """Results of a sweep: one :class:`State` per output point, the events and the mode.
+    """Results of a sweep: arrays per variable and output point, the events and the mode.
 
-    ``columns`` maps every column name of the output contract to an array (display units);
-    ``states`` keeps the full states; ``events`` lists limits, singular points, mode changes.
+    Immutable. ``z``, ``z1``, ``z2``, ``z3`` are ``(N, nvar)`` arrays (internal units, one row
+    per output point in the order traversed); ``modes`` the signature at every point,
+    ``residual``/``n_iter``/``cond`` the solver's figures. ``columns`` maps every column name
+    of the output contract to an array (display units); ``states`` gives one :class:`State`
+    per point (built on first use); ``events`` lists limits, singular points, mode changes;
+    ``mode`` is the starting mode and ``method`` how the points were solved.
+
+    ``Sweep(compiled, states, events, mode)`` builds one from states;
+    :meth:`from_arrays` from arrays (what the sweeps do).
     """
 
-    compiled: object = field(repr=False)
-    states: tuple[State, ...]
-    events: tuple[Event, ...] = ()
-    mode: str = ""
+    __slots__ = ("compiled", "events", "mode", "method", "z", "z1", "z2", "z3", "modes", "residual", "n_iter",
+                 "cond", "_cache")
+
+    def __init__(self, compiled, states=(), events=(), mode: str = "", *, method: str = "tracked"):
+        states = tuple(states)
+        nv = len(compiled.variables)
+        if states:
+            arrs = [np.array([getattr(s, a) for s in states], dtype=float) for a in ("z", "z1", "z2", "z3")]
+        else:
+            arrs = [np.zeros((0, nv)) for _ in range(4)]
+        self._init(compiled, *arrs, tuple(s.mode for s in states),
+                   np.array([s.residual for s in states], dtype=float),
+                   np.array([s.n_iter for s in states], dtype=int),
+                   np.array([s.cond for s in states], dtype=float), tuple(events), mode, method)
+        if states:
+            self._cache["states"] = states
+            self._cache["points"] = np.array([s.points for s in states], dtype=float)
+
+    def _init(self, compiled, z, z1, z2, z3, modes, residual, n_iter, cond, events, mode, method):
+        put = object.__setattr__
+        put(self, "compiled", compiled)
+        for name, a in (("z", z), ("z1", z1), ("z2", z2), ("z3", z3), ("residual", residual),
+                        ("n_iter", n_iter), ("cond", cond)):
+            a = np.array(a, copy=True)
+            a.setflags(write=False)
+            put(self, name, a)
+        put(self, "modes", tuple(modes))
+        put(self, "events", tuple(events))
+        put(self, "mode", mode)
+        put(self, "method", method)
+        put(self, "_cache", {})
+
+    @classmethod
+    def from_arrays(cls, compiled, z, z1, z2, z3, *, modes, residual=None, n_iter=None, cond=None, events=(),
+                    mode: str = "", method: str = "tracked") -> "Sweep":
+        """A sweep from ``(N, nvar)`` arrays of positions and rates (internal units)."""
+        self = cls.__new__(cls)
+        z = np.asarray(z, dtype=float).reshape(-1, len(compiled.variables))
+        n = z.shape[0]
+        self._init(compiled, z, z1, z2, z3, modes,
+                   np.zeros(n) if residual is None else residual,
+                   np.zeros(n, dtype=int) if n_iter is None else n_iter,
+                   np.ones(n) if cond is None else cond, events, mode, method)
+        return self
+
+    def __setattr__(self, key, value):
+        raise AttributeError(f"Sweep is immutable (cannot set {key!r})")
+
+    def __repr__(self) -> str:
+        return (f"Sweep({self.compiled.mechanism.name!r}, {len(self)} points, mode={self.mode!r}, "
+                f"events={[e.kind.value for e in self.events]}, method={self.method!r})")
 
     @property
     def mechanism(self):
@@ -210,14 +263,61 @@ class Sweep:
         return self.compiled.inputs[0]
 
     @property
-    def rows(self) -> list[dict[str, float]]:
-        return [s.row() for s in self.states]
+    def points(self) -> np.ndarray:
+        """``(N, 4, P, 2)``: position, velocity, acceleration, jerk of every point (computed on first use)."""
+        if "points" not in self._cache:
+            ck = self.compiled
+            n = len(self)
+            if not ck.points or n == 0:
+                pts = np.zeros((n, 4, len(ck.points), 2))
+            else:
+                zs = [self.z.T, self.z1.T, self.z2.T, self.z3.T]
+                pts = np.stack([np.broadcast_to(ck.point_values_v(k, *zs[: k + 1]).reshape(len(ck.points), 2, -1),
+                                                (len(ck.points), 2, n)) for k in range(4)])
+                pts = np.ascontiguousarray(np.moveaxis(pts, -1, 0))
+            pts.setflags(write=False)
+            self._cache["points"] = pts
+        return self._cache["points"]
+
+    @property
+    def states(self) -> tuple[State, ...]:
+        if "states" not in self._cache:
+            pts = self.points
+            self._cache["states"] = tuple(
+                State(self.compiled, self.z[i].copy(), self.z1[i].copy(), self.z2[i].copy(), self.z3[i].copy(),
+                      pts[i].copy(), self.modes[i], float(self.residual[i]), int(self.n_iter[i]), float(self.cond[i]))
+                for i in range(len(self)))
+        return self._cache["states"]
 
     @property
     def columns(self) -> Mapping[str, np.ndarray]:
-        rows = self.rows
-        keys = list(rows[0]) if rows else list(column_units(self.compiled))
-        return {k: np.array([np.nan if r[k] is None else r[k] for r in rows], dtype=float) for k in keys}
+        """Column name → array of values in display units (NaN where undefined)."""
+        if "columns" not in self._cache:
+            ck = self.compiled
+            out: dict[str, np.ndarray] = {}
+            inputs = set(ck.inputs)
+            order = list(ck.inputs) + [n for n in ck.variables if n not in inputs]
+            for name in order:
+                i = ck.index(name)
+                for k, (suffix, arr) in enumerate(zip(_SUFFIX, (self.z, self.z1, self.z2, self.z3))):
+                    v = np.asarray(_display(ck, name, k, arr[:, i], wrap=name not in inputs), dtype=float)
+                    out[name + suffix] = v + 0.0
+            pts = self.points
+            for j, p in enumerate(ck.points):
+                for c, axis in (("x", 0), ("y", 1)):
+                    for k, suffix in enumerate(_SUFFIX):
+                        out[f"{p}_{c}{suffix}"] = pts[:, k, j, axis] + 0.0
+            for v in out.values():
+                v.setflags(write=False)
+            self._cache["columns"] = out
+        return self._cache["columns"]
+
+    @property
+    def rows(self) -> list[dict[str, float]]:
+        cols = self.columns
+        keys = list(cols)
+        lists = [cols[k].tolist() for k in keys]
+        return [{k: _clean(v) for k, v in zip(keys, vals)} for vals in zip(*lists)]
 
     def __getitem__(self, key: str) -> np.ndarray:
         cols = self.columns
@@ -227,7 +327,7 @@ class Sweep:
             raise ModelError(f"no column {key!r}; the columns are {', '.join(cols)}") from None
 
     def __len__(self) -> int:
-        return len(self.states)
+        return int(self.z.shape[0])
 
     def __iter__(self) -> Iterator[State]:
         return iter(self.states)

@@ -1,78 +1,983 @@
-"""Sweeps of the input with branch tracking.
+"""Sweeps of the input with branch tracking, limit positions and singular points.
 
-From the solved start, every output point is reached by internal steps: a tangent predictor
-(the kinematic coefficients dq/dx from the velocity solution), a Newton corrector, and a check
-that the assembly-mode signature did not change. A failed or mode-changing step is halved;
-when the step cannot shrink further the sweep stops and records why (a limit position where
-the input cannot go further, or a singular position). The output grid is not the internal
-step, so a coarse grid never loses the branch.
+The solution set of Φ(q; x) = 0 is a curve in (q, x) space; a sweep follows it from the
+solved start through the assembly mode the start picked, and reports the output grid of the
+input. The output grid is *not* the internal step: whatever the output step (1° or 45°), the
+curve is followed in steps bounded by :class:`StepControl` (2° of scaled arc length by
+default), so a coarse grid cannot jump from one mode to the other.
+
+Algorithm (Allgower and Georg, *Introduction to Numerical Continuation Methods*, ch. 2 and 9):
+
+* **Natural steps** in the input while the curve is transversal to it (``|dx/ds| ≥ 0.3`` in
+  scaled coordinates: radians and lengths divided by the model's length scale): a predictor
+  from the kinematic coefficients dq/dx (the velocity solution with a unit input rate, plus a
+  second-order term from the previous node), a Newton corrector at fixed input solved block by
+  block, landing on the output grid when it is within the step.
+* **Pseudo-arclength steps** near folds: predictor along the unit tangent, corrector on
+  Φ = 0 plus the hyperplane through the predictor normal to the tangent (the bordered
+  Jacobian stays regular at a fold, where Φ_q does not).
+* Every accepted step is checked: the corrector converged in few iterations, it moved
+  little from the predictor, the tangent turned by less than ``max_turn``, and the
+  **mode signature** (signs of the determinants of the diagonal blocks of Φ_q) is unchanged.
+  A rejected step is halved.
+* A signature change that survives those checks means a zero of a block determinant
+  between the two nodes. It is located along the chord of the step by the Illinois
+  (regula falsi) method to ~1e-11 in scaled arc length, which puts a fold's input value
+  within ~1e-20 of the true limit (x is stationary there). If the input reversed, the point
+  is a **limit** (toggle/fold): the sweep stops there with a ``limit`` event, or with
+  ``through_limits`` goes on around the fold onto the other mode (``mode-change`` event),
+  back over the same output grid, until the circuit closes or the input leaves the range.
+  Otherwise the branches touch (a **change point**): a ``singular`` event, and the sweep
+  continues on the smooth branch.
+
+Rows are the output grid values crossed, in the order traversed. Rates at every row are
+computed in one vectorized pass (:func:`loopsolve.batch.rates_v`). ``method="batched"``
+traces the curve once at the internal step and solves all output points at once
+(:mod:`loopsolve.batch`); ``"auto"`` picks it for dense grids.
 """
 
 from __future__ import annotations
 
 import math
 import sys
-from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
-from .errors import AssemblyError, ModelError, SolveError
-from .newton import Newton, NewtonStatus, newton
-from .results import Event, EventKind, State, Sweep
-from .solve import (SINGULAR_COND, display_value, initial_z, input_rates, input_value, solve, solve_position,
-                    solve_rates)
+from .errors import AssemblyError, ConvergenceError, ModelError, SingularPositionError, SolveError
+from .newton import Newton
+from .results import Event, EventKind, Sweep
 from .units import Kind
 
-__all__ = ["StepControl", "sweep", "grid"]
+__all__ = ["StepControl", "sweep", "grid", "reachable_ranges", "nearest_assemblable", "AUTO_BATCH"]
+
+#: ``method="auto"`` uses the batched path from this many output points on
+AUTO_BATCH = 720
+
+#: nodes whose Jacobian blocks have a Hadamard ratio below this are not accepted: the step
+#: is retried so that it straddles the singular position, which is then located exactly
+_NEAR_SINGULAR = 1e-7
 
 
 @dataclass(frozen=True, slots=True)
 class StepControl:
-    """Internal step control of the tracker (input units: radians or length unit).
+    """Internal step control of the tracker.
 
-    ``max_step`` bounds one internal step; ``min_step`` is where halving gives up;
-    ``max_angle`` bounds the change of the unknowns in one step (radians / fraction of scale).
+    Steps are measured in scaled arc length: angles in radians, lengths divided by the
+    model's characteristic length (``CompiledKinematics.scale``).
+
+    Attributes
+    ----------
+    max_step : float
+        Longest internal step (default 2° = 0.0349).
+    min_step : float
+        Halving gives up below this step (the sweep then stops with an event).
+    max_iter : int
+        Corrector iterations allowed in one step.
+    max_turn : float
+        Largest angle between the tangents at the two ends of a step (radians).
+    natural_min, natural_back : float
+        Switch to pseudo-arclength steps when ``|dx/ds|`` falls below ``natural_min``, back to
+        natural steps above ``natural_back``.
+    max_nodes : int
+        Upper bound on the internal steps of one sweep.
     """
 
     max_step: float = math.radians(2.0)
     min_step: float = 1e-10
-    max_change: float = 0.1
+    max_iter: int = 7
+    max_turn: float = math.radians(12.0)
+    natural_min: float = 0.3
+    natural_back: float = 0.5
+    max_nodes: int = 5_000_000
 
 
 def grid(start: float, stop: float, step: float) -> np.ndarray:
-    """Output grid from ``start`` to ``stop`` (inclusive when it falls on the grid)."""
+    """Output grid from ``start`` towards ``stop`` by ``|step|`` (``stop`` included when on the grid).
+
+    Examples
+    --------
+    >>> grid(0, 10, 4).tolist(), grid(10, 0, 4).tolist()
+    ([0.0, 4.0, 8.0], [10.0, 6.0, 2.0])
+    """
     if step == 0 or not math.isfinite(step):
         raise ModelError("--step must be a nonzero number")
-    if (stop - start) * step < 0:
-        step = -step
+    step = math.copysign(abs(step), stop - start) if stop != start else abs(step)
     n = int(math.floor((stop - start) / step + 1e-9))
-    g = start + step * np.arange(n + 1)
-    if abs(g[-1] - stop) > 1e-9 * max(1.0, abs(stop)) and n >= 0 and abs(stop - g[-1]) > 1e-12:
-        pass  # the range does not end on the grid: stop at the last grid point
-    return g
+    return start + step * np.arange(max(n, 0) + 1)
+
+
+# ============================================================================= scalar kernel
+
+
+class _Kernel:
+    """Fast scalar evaluation of the compiled functions on Python lists, with block solves."""
+
+    def __init__(self, ck):
+        m = ck.module
+        self.ck = ck
+        self.phi_f, self.jac_f = m.phi, m.jac
+        self.rhs1_f = m.rhs1
+        self.p = [float(v) for v in ck.p]
+        self.nv = len(ck.variables)
+        self.n = len(ck.unknowns)
+        self.iu = [int(i) for i in ck.unknown_idx]
+        self.ix = int(ck.input_idx[0])
+        self.blocks = [(tuple(b.eqs), tuple(b.unknowns)) for b in ck.blocks]
+        self.single2 = len(self.blocks) == 1 and self.n == 2 and self.blocks[0] == ((0, 1), (0, 1))
+        sc = float(ck.scale)
+        self.scale = sc
+        self.angle_u = [ck.kinds[i] is Kind.ANGLE for i in self.iu]
+        self.wu = [1.0 if a else 1.0 / sc for a in self.angle_u]
+        self.angle_x = ck.kinds[self.ix] is Kind.ANGLE
+        self.wx = 1.0 if self.angle_x else 1.0 / sc
+        self.w = self.wu + [self.wx]
+        self.tol = 1e-11 * sc
+        self.x_tol = 1e-9 if self.angle_x else 1e-9 * sc
+        ex = [0.0] * self.nv
+        ex[self.ix] = 1.0
+        self.ex = ex
+
+    # ---- linear algebra on the block-triangular Jacobian (flat, row-major)
+    def solve(self, J, b):
+        n = self.n
+        try:
+            if self.single2:
+                a, bb, c, d = J
+                det = a * d - bb * c
+                return [(d * b[0] - bb * b[1]) / det, (a * b[1] - c * b[0]) / det]
+            x = [0.0] * n
+            for eqs, cols in self.blocks:
+                r = [b[e] - sum(J[e * n + c] * x[c] for c in range(n)) for e in eqs]
+                k = len(cols)
+                if k == 1:
+                    x[cols[0]] = r[0] / J[eqs[0] * n + cols[0]]
+                elif k == 2:
+                    e0, e1 = eqs
+                    c0, c1 = cols
+                    a, bb, c, d = J[e0 * n + c0], J[e0 * n + c1], J[e1 * n + c0], J[e1 * n + c1]
+                    det = a * d - bb * c
+                    x[c0] = (d * r[0] - bb * r[1]) / det
+                    x[c1] = (a * r[1] - c * r[0]) / det
+                else:
+                    M = np.array([[J[e * n + c] for c in cols] for e in eqs])
+                    sol = np.linalg.solve(M, np.array(r))
+                    for c, v in zip(cols, sol):
+                        x[c] = float(v)
+            return x
+        except (ZeroDivisionError, np.linalg.LinAlgError):
+            return None
+
+    def dets(self, J):
+        """Determinant and regularity |det| / (‖B‖_F² / k)^(k/2) (≈ 2/cond for 2×2; 0 = singular) per block."""
+        n = self.n
+        out, had = [], []
+        for eqs, cols in self.blocks:
+            k = len(cols)
+            if k == 1:
+                d = J[eqs[0] * n + cols[0]]
+                out.append(d)
+                had.append(1.0 if d != 0 else 0.0)
+                continue
+            if k == 2:
+                e0, e1 = eqs
+                c0, c1 = cols
+                a, bb, c, dd = J[e0 * n + c0], J[e0 * n + c1], J[e1 * n + c0], J[e1 * n + c1]
+                d = a * dd - bb * c
+                nr = 0.5 * (a * a + bb * bb + c * c + dd * dd)
+            else:
+                M = np.array([[J[e * n + c] for c in cols] for e in eqs])
+                d = float(np.linalg.det(M))
+                nr = float(np.sum(M * M) / k) ** (k / 2)
+            out.append(d)
+            had.append(abs(d) / nr if nr > 0 else 0.0)
+        return out, had
+
+    @staticmethod
+    def sig(dets) -> str:
+        return "".join("+" if d > 0 else "-" if d < 0 else "0" for d in dets)
+
+    # ---- Newton at fixed input, block-triangular solves
+    def newton(self, z, max_iter):
+        phi, jac, p, iu, wu = self.phi_f, self.jac_f, self.p, self.iu, self.wu
+        prev = None
+        first = None
+        for it in range(1, max_iter + 1):
+            f = phi(z, p)
+            dx = self.solve(jac(z, p), [-v for v in f])
+            if dx is None:
+                return z, it, False, first
+            st = max(abs(d) * w for d, w in zip(dx, wu))
+            if not st < math.inf:
+                return z, it, False, first
+            for k, i in enumerate(iu):
+                z[i] += dx[k]
+            if first is None:
+                first = st
+            if st <= 1e-15 or (prev is not None and st * (st / prev) ** 2 <= 1e-17):
+                return z, it, True, first
+            prev = st
+        return z, max_iter, False, first
+
+    def residual(self, z) -> float:
+        return max(abs(v) for v in self.phi_f(z, self.p)) if self.n else 0.0
+
+    def jx(self, z):
+        """∂Φ/∂x of the driving input (the velocity right-hand side with unit input rate, negated)."""
+        return [-v for v in self.rhs1_f(z, self.ex, self.p)]
+
+    def dudx(self, z, J):
+        return self.solve(J, self.rhs1_f(z, self.ex, self.p))
+
+    # ---- scaled coordinates y = (u, x)
+    def yhat(self, z):
+        return [w * z[i] for w, i in zip(self.wu, self.iu)] + [self.wx * z[self.ix]]
+
+    def set_yhat(self, z, y):
+        for k, i in enumerate(self.iu):
+            z[i] = y[k] / self.wu[k]
+        z[self.ix] = y[-1] / self.wx
+
+    def natural_tangent(self, dudx, d):
+        t = [w * v * d for w, v in zip(self.wu, dudx)] + [self.wx * d]
+        nrm = math.sqrt(sum(v * v for v in t))
+        return [v / nrm for v in t]
+
+    def _bordered(self, z, J, row):
+        n = self.n
+        A = np.empty((n + 1, n + 1))
+        A[:n, :n] = np.asarray(J, dtype=float).reshape(n, n)
+        A[:n, n] = self.jx(z)
+        A[n, :n] = np.asarray(row[:n]) * np.asarray(self.wu)
+        A[n, n] = row[n] * self.wx
+        return A
+
+    def aug_newton(self, z, row, target, max_iter):
+        """Solve Φ = 0 together with ``row · ŷ = target`` (ŷ scaled (u, x)) from ``z`` (modified)."""
+        n, iu, ix, w = self.n, self.iu, self.ix, self.w
+        prev = None
+        first = None
+        for it in range(1, max_iter + 1):
+            f = self.phi_f(z, self.p)
+            J = self.jac_f(z, self.p)
+            y = self.yhat(z)
+            g = np.array(list(f) + [sum(r * v for r, v in zip(row, y)) - target])
+            try:
+                dy = np.linalg.solve(self._bordered(z, J, row), -g)
+            except np.linalg.LinAlgError:
+                return z, it, False, first
+            st = float(np.max(np.abs(dy * np.asarray(w))))
+            if not st < math.inf:
+                return z, it, False, first
+            for k, i in enumerate(iu):
+                z[i] += float(dy[k])
+            z[ix] += float(dy[n])
+            if first is None:
+                first = st
+            if st <= 1e-15 or (prev is not None and st * (st / prev) ** 2 <= 1e-17):
+                return z, it, True, first
+            prev = st
+        return z, max_iter, False, first
+
+    def aug_tangent(self, z, J, row):
+        """Unit tangent (scaled) of the solution curve at ``z``, oriented so that ``row · t > 0``."""
+        n = self.n
+        rhs = np.zeros(n + 1)
+        rhs[n] = 1.0
+        try:
+            tau = np.linalg.solve(self._bordered(z, J, row), rhs)
+        except np.linalg.LinAlgError:
+            return None
+        t = tau * np.asarray(self.w)
+        nrm = float(np.linalg.norm(t))
+        if not nrm > 0 or not math.isfinite(nrm):
+            return None
+        return [float(v) / nrm for v in t]
+
+
+# ============================================================================= path
+
+
+@dataclass(slots=True)
+class _Node:
+    z: list
+    t: list  # unit tangent in scaled (u, x), oriented along the path
+    sig: str
+    kind: str = "regular"  # regular | fold | singular | end
+    grid: int | None = None
+    residual: float = 0.0
+    n_iter: int = 0
+    J: list | None = None
+
+
+@dataclass(slots=True)
+class _Path:
+    nodes: list
+    seg_sig: list  # signature of segment i (between nodes i and i+1)
+    events: list = field(default_factory=list)
+
+
+class _Grid:
+    """Output grid values ``start + k·step`` for k in [kmin, kmax], and the input bounds."""
+
+    def __init__(self, start, step, kmin, kmax, lo, hi):
+        self.start, self.step, self.kmin, self.kmax, self.lo, self.hi = start, step, kmin, kmax, lo, hi
+
+    def value(self, k: int) -> float:
+        return self.start + self.step * k
+
+    def crossed(self, xa: float, xb: float) -> list[int]:
+        """Grid indices strictly after ``xa`` up to ``xb`` inclusive, in the order from xa to xb."""
+        if xb == xa:
+            return []
+        fa = (xa - self.start) / self.step
+        fb = (xb - self.start) / self.step
+        if fb > fa:
+            k0, k1 = math.floor(fa + 1e-9) + 1, math.floor(fb + 1e-9)
+            ks = range(max(k0, self.kmin), min(k1, self.kmax) + 1)
+        else:
+            k0, k1 = math.ceil(fa - 1e-9) - 1, math.ceil(fb - 1e-9)
+            ks = range(min(k0, self.kmax), max(k1, self.kmin) - 1, -1)
+        return list(ks)
+
+    def next_after(self, x: float, d: float) -> int | None:
+        """First grid index beyond ``x`` in input direction ``d`` (None past the ends)."""
+        f = (x - self.start) / self.step
+        if d * self.step > 0:
+            k = math.floor(f + 1e-9) + 1
+        else:
+            k = math.ceil(f - 1e-9) - 1
+        return k if self.kmin <= k <= self.kmax else None
+
+
+def _hermite(ya, ta, yb, tb, s):
+    L = math.sqrt(sum((b - a) ** 2 for a, b in zip(ya, yb)))
+    s2, s3 = s * s, s * s * s
+    h00, h10, h01, h11 = 2 * s3 - 3 * s2 + 1, s3 - 2 * s2 + s, -2 * s3 + 3 * s2, s3 - s2
+    return [h00 * a + h10 * L * p + h01 * b + h11 * L * q for a, p, b, q in zip(ya, ta, yb, tb)]
+
+
+class _Tracer:
+    def __init__(self, kern: _Kernel, gridspec: _Grid, control: StepControl, *, land: bool,
+                 through_limits: bool, x_start: float, bar=None):
+        self.k = kern
+        self.g = gridspec
+        self.c = control
+        self.land = land
+        self.through = through_limits
+        self.x_start = x_start
+        self.bar = bar
+        self.cos_turn = math.cos(control.max_turn)
+
+    # ------------------------------------------------------------------ helpers
+    def _display(self, x):
+        from .solve import display_value
+
+        return display_value(self.k.ck, x, self.k.ck.inputs[0])
+
+    def _unit(self):
+        from .solve import _input_unit
+
+        return _input_unit(self.k.ck)
+
+    def _label(self, sig):
+        names = [a for a, s in self.k.ck.mechanism.mode_aliases.items() if s == sig]
+        return f"{sig} ({', '.join(names)})" if names else sig
+
+    def _finish_node(self, z, it, res, t_prev, natural_d=None, row=None):
+        """Jacobian, dets, signature and tangent at a converged ``z``; None if singular."""
+        k = self.k
+        J = k.jac_f(z, k.p)
+        dets, had = k.dets(J)
+        if min(had, default=1.0) < _NEAR_SINGULAR:
+            return None, dets, had  # too close to a singular position to take its mode or tangent
+        if natural_d is not None:
+            du = k.dudx(z, J)
+            if du is None:
+                return None, dets, had
+            t = k.natural_tangent(du, natural_d)
+        else:
+            t = k.aug_tangent(z, J, row if row is not None else t_prev)
+            if t is None:
+                return None, dets, had
+        if t_prev is not None and sum(a * b for a, b in zip(t, t_prev)) < 0:
+            t = [-v for v in t]
+        return _Node(z, t, k.sig(dets), residual=res, n_iter=it, J=J), dets, had
+
+    # ------------------------------------------------------------------ steps
+    def _natural_step(self, a: _Node, a_prev: _Node | None, h: float, land: bool = True):
+        k = self.k
+        n = k.n
+        d = 1.0 if a.t[n] > 0 else -1.0
+        xa = a.z[k.ix]
+        dx = h * abs(a.t[n]) / k.wx
+        target = xa + d * dx
+        gidx = None
+        if self.land and land:
+            kn = self.g.next_after(xa, d)
+            if kn is not None:
+                gx = self.g.value(kn)
+                if d * (gx - target) <= 1e-12 * (1 + abs(gx)):
+                    target, gidx = gx, kn
+        bound = self.g.hi if d > 0 else self.g.lo
+        at_bound = False
+        if d * (target - bound) >= 0:
+            target, at_bound = bound, True
+            kb = round((bound - self.g.start) / self.g.step)
+            gidx = kb if abs(self.g.value(kb) - bound) <= 1e-12 * (1 + abs(bound)) else None
+            if gidx is not None:
+                target = self.g.value(gidx)
+        delta = target - xa
+        if delta == 0:
+            return None, at_bound
+        # predictor: tangent + second-order term from the previous natural node
+        du = [(a.t[i] / k.wu[i]) / (a.t[n] / k.wx) for i in range(n)]
+        z = list(a.z)
+        z[k.ix] = target
+        curv = None
+        if a_prev is not None and a_prev.sig == a.sig and abs(a_prev.t[n]) > 0.1:
+            xp = a_prev.z[k.ix]
+            if (xa - xp) * d > 0:
+                dup = [(a_prev.t[i] / k.wu[i]) / (a_prev.t[n] / k.wx) for i in range(n)]
+                curv = [(u1 - u0) / (xa - xp) for u0, u1 in zip(dup, du)]
+        for i, idx in enumerate(k.iu):
+            z[idx] = a.z[idx] + delta * du[i] + (0.5 * delta * delta * curv[i] if curv else 0.0)
+        pred = k.yhat(z)
+        z, it, ok, _ = k.newton(z, self.c.max_iter)
+        if not ok:
+            return None, at_bound
+        res = k.residual(z)
+        if not res <= k.tol:
+            return None, at_bound
+        node, _, _ = self._finish_node(z, it, res, a.t, natural_d=d)
+        if node is None:
+            return None, at_bound
+        node.grid = gidx
+        y = k.yhat(z)
+        step_len = math.sqrt(sum((p - q) ** 2 for p, q in zip(k.yhat(a.z), y)))
+        corr = max(abs(p - q) for p, q in zip(pred, y))
+        if corr > 0.25 * step_len + 1e-12:
+            return None, at_bound
+        return node, at_bound
+
+    def _arc_step(self, a: _Node, h: float):
+        k = self.k
+        ya = k.yhat(a.z)
+        pred = [y + h * t for y, t in zip(ya, a.t)]
+        z = list(a.z)
+        k.set_yhat(z, pred)
+        target = sum(t * p for t, p in zip(a.t, pred))
+        z, it, ok, _ = k.aug_newton(z, a.t, target, self.c.max_iter)
+        if not ok:
+            return None
+        res = k.residual(z)
+        if not res <= k.tol:
+            return None
+        node, _, _ = self._finish_node(z, it, res, a.t)
+        if node is None:
+            return None
+        y = k.yhat(z)
+        corr = math.sqrt(sum((p - q) ** 2 for p, q in zip(pred, y)))
+        if corr > 0.25 * h + 1e-12:
+            return None
+        return node
+
+    # ------------------------------------------------------------------ points on a segment
+    def _point_on_chord(self, a: _Node, b: _Node, s: float, guess=None):
+        """Solution on the hyperplane normal to the chord a→b at fraction ``s``; None on failure."""
+        k = self.k
+        ya, yb = k.yhat(a.z), k.yhat(b.z)
+        L = math.sqrt(sum((q - p) ** 2 for p, q in zip(ya, yb)))
+        if L == 0:
+            return None
+        c = [(q - p) / L for p, q in zip(ya, yb)]
+        y0 = guess if guess is not None else _hermite(ya, a.t, yb, b.t, s)
+        z = list(a.z)
+        k.set_yhat(z, y0)
+        target = sum(ci * p for ci, p in zip(c, ya)) + s * L
+        z, it, ok, _ = k.aug_newton(z, c, target, 12)
+        if not ok:
+            return None
+        if not k.residual(z) <= k.tol * 10:
+            return None
+        return z
+
+    def _locate(self, a: _Node, b: _Node):
+        """Zero of the first block determinant that changes sign between ``a`` and ``b``."""
+        k = self.k
+        da, _ = k.dets(a.J)
+        db, _ = k.dets(b.J)
+        j = next((i for i, (p, q) in enumerate(zip(da, db)) if (p > 0) != (q > 0) or p == 0 or q == 0), None)
+        if j is None:
+            return None
+        ya, yb = k.yhat(a.z), k.yhat(b.z)
+        L = math.sqrt(sum((q - p) ** 2 for p, q in zip(ya, yb)))
+        lo, hi = (0.0, da[j], a.z), (1.0, db[j], b.z)
+        side = 0
+        z_best = None
+        for _ in range(200):
+            if (hi[0] - lo[0]) * L <= 1e-11 or lo[1] == 0 or hi[1] == 0:
+                break
+            s = (lo[0] * hi[1] - hi[0] * lo[1]) / (hi[1] - lo[1])
+            if not (lo[0] < s < hi[0]) or (hi[0] - lo[0]) > 0.5 and side == 0:
+                s = 0.5 * (lo[0] + hi[0]) if not (lo[0] < s < hi[0]) else s
+            yl, yh = k.yhat(lo[2]), k.yhat(hi[2])
+            fr = (s - lo[0]) / (hi[0] - lo[0])
+            guess = None if (lo[0] == 0.0 and hi[0] == 1.0) else [p + fr * (q - p) for p, q in zip(yl, yh)]
+            z = self._point_on_chord(a, b, s, guess)
+            if z is None:
+                s = 0.5 * (lo[0] + hi[0])
+                guess = [p + 0.5 * (q - p) for p, q in zip(yl, yh)]
+                z = self._point_on_chord(a, b, s, guess)
+                if z is None:
+                    break
+            dj = k.dets(k.jac_f(z, k.p))[0][j]
+            z_best = z
+            if (dj > 0) == (lo[1] > 0) and dj != 0:
+                lo = (s, dj, z)
+                if side == -1:  # Illinois: halve the stale end's value
+                    hi = (hi[0], hi[1] * 0.5, hi[2])
+                side = -1
+            else:
+                hi = (s, dj, z)
+                if side == 1:
+                    lo = (lo[0], lo[1] * 0.5, lo[2])
+                side = 1
+        zs = lo[2] if abs(lo[1]) < abs(hi[1]) else hi[2]
+        if zs is a.z or zs is b.z:
+            zs = z_best
+        if zs is None:
+            return None
+        J = k.jac_f(zs, k.p)
+        dets, had = k.dets(J)
+        if had[j] > 1e-5:  # the determinant jumped instead of passing through zero
+            return None
+        c = [(q - p) / L for p, q in zip(ya, yb)]
+        t = k.aug_tangent(zs, J, c)
+        if t is None:
+            t = c
+        return _Node(list(zs), t, k.sig(dets), residual=k.residual(zs), J=J)
+
+    def solve_at(self, a: _Node, b: _Node, x: float, sig: str, depth: int = 0):
+        """The solution at input ``x`` on the segment a→b (monotone in x), in mode ``sig``."""
+        k = self.k
+        ya, yb = k.yhat(a.z), k.yhat(b.z)
+        xh = k.wx * x
+        # parameter of the Hermite cubic where x is reached (bisection on a monotone cubic)
+        lo, hi = 0.0, 1.0
+        inc = yb[-1] > ya[-1]
+        for _ in range(60):
+            mid = 0.5 * (lo + hi)
+            xm = _hermite(ya, a.t, yb, b.t, mid)[-1]
+            if (xm < xh) == inc:
+                lo = mid
+            else:
+                hi = mid
+        s = 0.5 * (lo + hi)
+        y0 = _hermite(ya, a.t, yb, b.t, s)
+        z = list(a.z)
+        k.set_yhat(z, y0)
+        z[k.ix] = x
+        L = math.sqrt(sum((q - p) ** 2 for p, q in zip(ya, yb)))
+        z, it, ok, _ = k.newton(z, 10)
+        if ok:
+            res = k.residual(z)
+            J = k.jac_f(z, k.p)
+            dets, had = k.dets(J)
+            moved = max(abs(p - q) for p, q in zip(k.yhat(z), y0))
+            if res <= k.tol and k.sig(dets) == sig and moved <= 0.2 * L + 1e-9:
+                return z, res, it
+        if depth >= 12 or L < 1e-12:
+            return None
+        zm = self._point_on_chord(a, b, 0.5)
+        if zm is None:
+            return None
+        J = k.jac_f(zm, k.p)
+        c = [(q - p) / L for p, q in zip(ya, yb)]
+        t = k.aug_tangent(zm, J, c)
+        if t is None:
+            return None
+        m = _Node(zm, t, sig, J=J)
+        xm = zm[k.ix]
+        first = (a, m) if (x - a.z[k.ix]) * (xm - x) >= 0 else (m, b)
+        return self.solve_at(first[0], first[1], x, sig, depth + 1)
+
+    # ------------------------------------------------------------------ main loop
+    def trace(self, first: _Node) -> _Path:
+        k, c = self.k, self.c
+        n = k.n
+        nodes = [first]
+        seg_sig: list[str] = []
+        events: list[Event] = []
+        path = _Path(nodes, seg_sig, events)
+        natural = abs(first.t[n]) >= c.natural_min
+        h = c.max_step
+        prev_natural: _Node | None = None
+        folds = 0
+        start_sig = first.sig
+        name = k.ck.inputs[0]
+        while True:
+            a = nodes[-1]
+            if len(nodes) > c.max_nodes:
+                events.append(Event(EventKind.SINGULAR, self._display(a.z[k.ix]),
+                                    f"stopped after {c.max_nodes} internal steps at {name} = "
+                                    f"{self._display(a.z[k.ix]):.10g}{self._unit()} (StepControl.max_nodes)"))
+                break
+            at_bound = False
+            if natural:
+                b, at_bound = self._natural_step(a, prev_natural, h)
+                if b is None and at_bound and a.z[k.ix] == (self.g.hi if a.t[n] > 0 else self.g.lo):
+                    break  # already at the end of the range
+                if b is None and self.land and not at_bound:
+                    # landing on the grid point failed (it may be a singular position): step past it
+                    b, at_bound = self._natural_step(a, prev_natural, h, land=False)
+            else:
+                b = self._arc_step(a, h)
+            if b is not None and sum(p * q for p, q in zip(a.t, b.t)) < self.cos_turn:
+                b = None
+            if b is None:
+                h *= 0.5
+                if h < c.min_step:
+                    x = self._display(a.z[k.ix])
+                    events.append(Event(EventKind.SINGULAR, x,
+                                        f"branch tracking cannot continue beyond {name} = {x:.10g}{self._unit()} "
+                                        f"on mode {self._label(a.sig)} (no converged step down to the minimum "
+                                        "step); the rows stop here"))
+                    break
+                continue
+            end = at_bound
+            # the input leaves the range inside an arclength step: stop on the bound
+            xa, xb = a.z[k.ix], b.z[k.ix]
+            if not natural:
+                for bound in (self.g.lo, self.g.hi):
+                    if (xa - bound) * (xb - bound) < 0 or (xb == bound and xa != bound):
+                        sol = self.solve_at(a, b, bound, b.sig if b.sig == a.sig else a.sig)
+                        if sol is not None:
+                            zb, res, it = sol
+                            nb, _, _ = self._finish_node(zb, it, res, a.t)
+                            if nb is not None:
+                                kb = round((bound - self.g.start) / self.g.step)
+                                nb.grid = kb if abs(self.g.value(kb) - bound) <= 1e-12 * (1 + abs(bound)) else None
+                                b = nb
+                                end = True
+                        break
+            if b.sig != a.sig:
+                s = self._locate(a, b)
+                if s is None:
+                    h *= 0.5
+                    if h < c.min_step:
+                        x = self._display(a.z[k.ix])
+                        events.append(Event(EventKind.SINGULAR, x, f"singular position near {name} = {x:.10g}"
+                                            f"{self._unit()}: the mode signature changes but no crossing of a "
+                                            "singular configuration could be located; the rows stop here"))
+                        break
+                    continue
+                reversed_ = (a.t[n] > 0) != (b.t[n] > 0)
+                fold = reversed_ and self._is_fold(s)
+                if reversed_ and not fold:
+                    # the corrector jumped onto the other branch of a change point: take a smaller step
+                    h *= 0.5
+                    continue
+                xs = s.z[k.ix]
+                disp = self._display(xs)
+                if fold:
+                    s.kind = "fold"
+                    nodes.append(s)
+                    seg_sig.append(a.sig)
+                    msg = (f"limit position at {name} = {disp:.12g}{self._unit()}: the input cannot go further "
+                           f"on mode {self._label(a.sig)} (toggle/fold)")
+                    if not self.through:
+                        events.append(Event(EventKind.LIMIT, disp, msg + "; the rows stop here (use "
+                                            "--through-limits to continue around it)"))
+                        break
+                    events.append(Event(EventKind.LIMIT, disp, msg))
+                    events.append(Event(EventKind.MODE_CHANGE, disp,
+                                        f"continuing around the limit position at {name} = {disp:.12g}"
+                                        f"{self._unit()} onto mode {self._label(b.sig)}; the input turns back"))
+                    folds += 1
+                else:
+                    s.kind = "singular"
+                    nodes.append(s)
+                    seg_sig.append(a.sig)
+                    events.append(Event(EventKind.SINGULAR, disp,
+                                        f"singular position (change point: the branches touch) at {name} = "
+                                        f"{disp:.12g}{self._unit()}: Φ_q is singular there; continuing on the smooth "
+                                        f"branch, whose signature changes from {self._label(a.sig)} to "
+                                        f"{self._label(b.sig)}"))
+                a = s
+            # the circuit closes when the path comes back to the start in the start mode
+            if self.through and folds and b.sig == start_sig and not end:
+                xa2, xb2 = a.z[k.ix], b.z[k.ix]
+                x0 = self.x_start
+                if (x0 - xa2) * (xb2 - x0) >= 0 and xa2 != x0:
+                    sol = self.solve_at(a, b, x0, b.sig) if xb2 != x0 else (b.z, b.residual, b.n_iter)
+                    if sol is not None and self._same_as_start(sol[0], first.z):
+                        nb, _, _ = self._finish_node(list(sol[0]), sol[2], sol[1], a.t, row=a.t)
+                        if nb is not None:
+                            nb.grid = 0
+                            b = nb
+                            end = True
+            nodes.append(b)
+            seg_sig.append(b.sig)
+            if self.bar is not None:
+                self.bar.update(len(self.g.crossed(a.z[k.ix], b.z[k.ix])))
+            if end:
+                break
+            prev_natural = a if natural else None
+            if natural and abs(b.t[n]) < c.natural_min:
+                natural = False
+                prev_natural = None
+            elif not natural and abs(b.t[n]) > c.natural_back:
+                natural = True
+            if b.n_iter <= 3 and sum(p * q for p, q in zip(a.t, b.t)) > math.cos(c.max_turn / 3):
+                h = min(h * 1.6, c.max_step)
+        return path
+
+    def _is_fold(self, s: _Node) -> bool:
+        """A fold (limit) rather than a branch point: ∂Φ/∂x is not in the range of the singular Φ_q.
+
+        With ψ the left null vector of Φ_q, ψ·Φ_x ≠ 0 at a fold (the input cannot move) and
+        = 0 where branches cross (Allgower and Georg, sec. 8.1).
+        """
+        k = self.k
+        n = k.n
+        J = np.asarray(s.J, dtype=float).reshape(n, n)
+        fx = np.asarray(k.jx(s.z), dtype=float)
+        nf = float(np.linalg.norm(fx))
+        if nf == 0:
+            return False
+        U, sv, _ = np.linalg.svd(J)
+        psi = U[:, -1]
+        return abs(float(psi @ fx)) > 1e-4 * nf
+
+    def _same_as_start(self, z, z0) -> bool:
+        k = self.k
+        for i, idx in enumerate(k.iu):
+            d = z[idx] - z0[idx]
+            if k.angle_u[i]:
+                d = (d + math.pi) % (2 * math.pi) - math.pi
+            if abs(d) * k.wu[i] > 1e-6:
+                return False
+        return True
+
+
+# ============================================================================= rows
+
+
+def _enumerate_rows(kern: _Kernel, path: _Path, g: _Grid):
+    """(grid index, segment index or None, node or None) for every output row, in path order."""
+    ix = kern.ix
+    nodes = path.nodes
+    out = []
+    first = nodes[0]
+    if first.grid is not None:
+        out.append((first.grid, None, first))
+    for i in range(len(nodes) - 1):
+        a, b = nodes[i], nodes[i + 1]
+        xa, xb = a.z[ix], b.z[ix]
+        for kk in g.crossed(xa, xb):
+            x = g.value(kk)
+            if any((nd.kind == "fold" and abs(x - nd.z[ix]) <= kern.x_tol)
+                   or (nd.kind == "singular" and abs(x - nd.z[ix]) <= 1e3 * kern.x_tol) for nd in (a, b)):
+                continue
+            if b.kind == "regular" or b.kind == "end":
+                if b.grid == kk or abs(x - xb) <= 1e-12 * (1 + abs(x)):
+                    out.append((kk, None, b))
+                    continue
+            out.append((kk, i, None))
+    return out
+
+
+def _solve_rows_tracked(tracer: _Tracer, path: _Path, rows, g: _Grid):
+    """Positions of every row: nodes as they are, other crossings by a corrector from the segment."""
+    kern = tracer.k
+    Z, sigs, res, its, ks, events = [], [], [], [], [], []
+    for kk, seg, node in rows:
+        if node is not None:
+            z, s, r, it = node.z, node.sig, node.residual, node.n_iter
+        else:
+            a, b = path.nodes[seg], path.nodes[seg + 1]
+            s = path.seg_sig[seg]
+            sol = tracer.solve_at(a, b, g.value(kk), s)
+            if sol is None:
+                x = tracer._display(g.value(kk))
+                events.append(Event(EventKind.SINGULAR, x, f"no converged solution at {kern.ck.inputs[0]} = "
+                                    f"{x:.10g} on mode {s}; row left out"))
+                continue
+            z, r, it = sol
+        Z.append(z)
+        sigs.append(s)
+        res.append(r)
+        its.append(it)
+        ks.append(kk)
+    return Z, sigs, res, its, ks, events
 
 
 def _progress(total: int, enabled: bool | None):
+    """A tqdm bar on stderr for long sweeps (shown after 0.5 s, only on a terminal)."""
     if enabled is None:
-        enabled = sys.stderr.isatty() and total >= 200
-    if not enabled:
+        enabled = sys.stderr.isatty()
+    if not enabled or total < 2:
         return None
     try:
         from tqdm import tqdm
     except ImportError:
         return None
-    return tqdm(total=total, unit="pt", file=sys.stderr, leave=False)
+    return tqdm(total=total, unit="pt", file=sys.stderr, leave=False, delay=0.5)
+
+
+# ============================================================================= start
+
+
+def start_position(ck, x: float, *, mode=None, guess=None, settings: Newton = Newton()):
+    """Solved position ``z`` at input ``x`` (internal), picked by ``mode`` or the guesses.
+
+    Raises :class:`AssemblyError` naming the nearest assemblable inputs when the mechanism
+    cannot be assembled at ``x``.
+    """
+    from .solve import display_value, initial_z, solve_position
+
+    mech = ck.mechanism
+    disp = display_value(ck, x, ck.inputs[0])
+    if mode is not None:
+        from .modes import select_mode
+
+        z0 = select_mode(mech, x, mode, compiled=ck)
+    else:
+        z0 = initial_z(ck, guess=guess)
+        z0[ck.input_idx[0]] = x
+    try:
+        z, _, _ = solve_position(ck, z0, settings=settings, display_input=disp)
+    except AssemblyError as exc:
+        raise assembly_failure(ck, x, exc) from None
+    return z
+
+
+def assembly_failure(ck, x: float, exc: SolveError) -> SolveError:
+    """Turn a stalled Newton at input ``x`` into the error to raise.
+
+    No real assembly mode at ``x``: :class:`AssemblyError` naming the nearest assemblable
+    input values. Otherwise the guesses were poor: :class:`ConvergenceError` listing the modes.
+    """
+    from .modes import _mode_names, _modes_at, _nearest_text
+    from .solve import display_value
+
+    name = ck.inputs[0]
+    disp = display_value(ck, x, name)
+    where = ck.mechanism.source or ck.mechanism.name
+    modes = _modes_at(ck, x)
+    if modes:
+        return ConvergenceError(
+            f"{where}: Newton from the guesses stalled at {name} = {disp:g}, but the mechanism assembles there "
+            f"in mode(s) {_mode_names(ck.mechanism, modes)}: pass --mode (mode=) or improve the guesses",
+            input_value=disp, result=getattr(exc, "result", None))
+    near = nearest_assemblable(ck, x)
+    return AssemblyError(
+        f"{where}: cannot be assembled at {name} = {disp:g}: the loop equations have no real solution there"
+        + _nearest_text(ck, near),
+        input_value=disp, residual=getattr(exc, "residual", None), nearest=near, result=getattr(exc, "result", None))
+
+
+def _first_node(kern: _Kernel, z, d: float) -> _Node:
+    from .solve import SINGULAR_COND, display_value
+
+    z = [float(v) for v in z]
+    J = kern.jac_f(z, kern.p)
+    dets, had = kern.dets(J)
+    du = kern.dudx(z, J)
+    if du is None or min(had, default=1.0) < 1.0 / SINGULAR_COND:
+        name = kern.ck.inputs[0]
+        disp = display_value(kern.ck, z[kern.ix], name)
+        raise SingularPositionError(
+            f"{kern.ck.mechanism.source or kern.ck.mechanism.name}: the sweep starts at a singular position "
+            f"({name} = {disp:g}: limit, dead centre or change point, where the mode is ambiguous); start the "
+            "sweep slightly away from it", input_value=disp, result=np.array(z))
+    t = kern.natural_tangent(du, d)
+    return _Node(z, t, kern.sig(dets), grid=0, residual=kern.residual(z), J=J)
+
+
+# ============================================================================= public API
+
+
+def _parse_range(ck, start, stop, step):
+    from .solve import input_value
+
+    name = ck.inputs[0]
+    kind = ck.kinds[ck.index(name)]
+    x0, x1 = (input_value(ck, v, name) for v in (start, stop))
+    if isinstance(step, str):
+        h = input_value(ck, step, name)
+    elif kind is Kind.ANGLE:
+        h = math.radians(float(step)) if ck.mechanism.units.angle == "deg" else float(step)
+    else:
+        h = float(step)
+    if h == 0 or not math.isfinite(h):
+        raise ModelError("--step must be a nonzero number")
+    return x0, x1, h, kind
+
+
+def _make_grid(x0, x1, h, kind, through_limits) -> _Grid:
+    h = math.copysign(abs(h), x1 - x0) if x1 != x0 else abs(h)
+    n = max(int(math.floor((x1 - x0) / h + 1e-9)), 0)
+    xn = x0 + h * n
+    lo, hi = min(x0, xn), max(x0, xn)
+    kmin, kmax = 0, n
+    if through_limits and kind is Kind.ANGLE and abs(x1 - x0) >= 2 * math.pi - 1e-9:
+        # a full turn of the input: every angle is in range; the path may go back past the start
+        m = int(math.floor(2 * math.pi / abs(h) + 1e-9))
+        kmin = -m
+        if h > 0:
+            lo = x0 - 2 * math.pi
+        else:
+            hi = x0 + 2 * math.pi
+    return _Grid(x0, h, kmin, kmax, lo, hi)
 
 
 def sweep(mech, start, stop, step, *, speed=None, accel=None, jerk=None, input: str | None = None,
           mode: str | None = None, guess: dict | None = None, compiled=None,
-          through_limits: bool = False, progress: bool | None = None,
+          through_limits: bool = False, progress: bool | None = None, method: str = "auto",
           control: StepControl = StepControl(), settings: Newton = Newton()) -> Sweep:
     """Sweep the input from ``start`` to ``stop`` by ``step`` (display units), tracking the mode.
 
-    Returns a :class:`~loopsolve.results.Sweep`. A sweep that reaches a limit position stops
-    there with a ``limit`` event and the rows computed so far.
+    Parameters
+    ----------
+    mech : Mechanism
+    start, stop, step : float or str
+        Output grid of the input, in the model's units or with a unit (``"1.5rad"``).
+    speed, accel, jerk : float or str, optional
+        Rates of the input (default: the model's, else 1, 0, 0).
+    input : str, optional
+        Drive another variable.
+    mode : str, optional
+        Assembly mode (signature or alias) to start in, whatever the guesses say.
+    guess : dict, optional
+        Override guesses (internal units).
+    through_limits : bool
+        At a limit position continue around the fold onto the other mode (the input turns back
+        over the same output grid) until the circuit closes or the input leaves the range. With
+        a full turn of an angle input (``|stop - start| >= 360°``) every angle is in range.
+    progress : bool, optional
+        Progress bar (tqdm) on stderr; default: on a terminal, shown after half a second.
+    method : {"auto", "tracked", "batched"}
+        ``"tracked"`` solves every output point by continuation; ``"batched"`` traces the curve
+        at the internal step and solves all output points at once with vectorized Newton
+        (see :mod:`loopsolve.batch`); ``"auto"`` is batched from ``AUTO_BATCH`` points on.
+    control : StepControl
+        Internal step control.
+
+    Returns
+    -------
+    Sweep
+        Rows in the order traversed, the events (``limit``, ``singular``, ``mode-change``) and
+        the starting mode. A sweep that reaches a limit without ``through_limits`` stops there
+        with a ``limit`` event and the rows computed so far.
+
+    Raises
+    ------
+    AssemblyError
+        The mechanism cannot be assembled at ``start`` (names the nearest assemblable inputs).
+    SingularPositionError
+        ``start`` is a singular position.
 
     Examples
     --------
@@ -80,98 +985,183 @@ def sweep(mech, start, stop, step, *, speed=None, accel=None, jerk=None, input: 
     >>> sw = mech.sweep(0, 360, 30)
     >>> len(sw), sw.mode, round(float(sw["theta4"][3]), 2)
     (13, '-', 80.72)
+    >>> lim = ls.fourbar(4, 3, 3.5, 5).sweep(300, 360, 10)
+    >>> [e.kind.value for e in lim.events], round(lim.events[0].input, 8), len(lim)
+    (['limit'], 341.42665028, 5)
     """
+    from . import batch
+    from .solve import display_value, input_rates
+
+    if method not in ("auto", "tracked", "batched"):
+        raise ModelError(f"method {method!r}: expected 'auto', 'tracked' or 'batched'")
     ck = compiled if compiled is not None else mech.compile(input)
-    name = ck.inputs[0]
-    xs = [input_value(ck, v, name) for v in (start, stop)]
-    kind = ck.kinds[ck.index(name)]
-    u = ck.mechanism.units
-    step_int = input_value(ck, step, name) if kind is Kind.LENGTH or isinstance(step, str) else \
-        (math.radians(float(step)) if u.angle == "deg" else float(step))
-    g = grid(xs[0], xs[1], step_int)
+    x0, x1, h, kind = _parse_range(ck, start, stop, step)
+    g = _make_grid(x0, x1, h, kind, through_limits)
     rates = input_rates(ck, speed, accel, jerk)
-    first = solve(mech, display_value(ck, g[0], name), speed=rates[0], accel=rates[1], jerk=rates[2],
-                  mode=mode, guess=guess, compiled=ck, settings=settings) if True else None
-    states = [first]
-    events: list[Event] = []
-    sig = first.mode
-    z = first.z.copy()
-    max_step = control.max_step if kind is Kind.ANGLE else control.max_step * ck.scale / 2
-    min_step = control.min_step * (1 if kind is Kind.ANGLE else ck.scale)
-    bar = _progress(len(g), progress)
+    z0 = start_position(ck, x0, mode=mode, guess=guess, settings=settings)
+    kern = _Kernel(ck)
+    d = 1.0 if g.step > 0 else -1.0
+    first = _first_node(kern, z0, d)
+    n_grid = g.kmax - g.kmin + 1
+    use_batch = method == "batched" or (method == "auto" and n_grid >= AUTO_BATCH)
+    bar = _progress(n_grid, progress)
     try:
-        for target in g[1:]:
-            z, stop_event = _advance(ck, z, float(target), sig, max_step, min_step, settings)
-            if stop_event is not None:
-                events.append(stop_event)
-                break
-            disp = display_value(ck, target, name)
-            try:
-                z1, z2, z3, pts, cond = solve_rates(ck, z, rates, display_input=disp)
-            except SolveError as exc:
-                events.append(Event(EventKind.SINGULAR, disp, str(exc)))
-                break
-            states.append(State(ck, z.copy(), z1, z2, z3, pts, sig, float(np.max(np.abs(ck.phi(z)))), 0, cond))
-            if bar is not None:
-                bar.update(1)
+        tracer = _Tracer(kern, g, control, land=not use_batch, through_limits=through_limits, x_start=x0,
+                         bar=None if use_batch else bar)
+        path = tracer.trace(first)
+        rows = _enumerate_rows(kern, path, g)
+        if use_batch:
+            Z, sigs, res, its, ks, extra = batch.solve_rows(tracer, path, rows, g)
+        else:
+            Z, sigs, res, its, ks, extra = _solve_rows_tracked(tracer, path, rows, g)
     finally:
         if bar is not None:
             bar.close()
-    return Sweep(ck, tuple(states), tuple(events), sig)
+    events = list(path.events) + extra
+    Z = np.array(Z, dtype=float).reshape(-1, len(ck.variables)).T
+    if Z.shape[1]:
+        Z[ck.input_idx[0]] = [g.value(k) for k in ks]
+    Z1, Z2, Z3, cond = batch.rates_v(ck, Z, rates)
+    bad = ~(cond <= batch.SINGULAR_COND)
+    if np.any(bad):
+        for i in np.flatnonzero(bad):
+            x = display_value(ck, Z[ck.input_idx[0], i])
+            events.append(Event(EventKind.SINGULAR, x, f"singular position at {ck.inputs[0]} = {x:.10g}: Φ_q is "
+                                "singular (rates undefined); row left out"))
+        keep = ~bad
+        Z, Z1, Z2, Z3, cond = Z[:, keep], Z1[:, keep], Z2[:, keep], Z3[:, keep], cond[keep]
+        sigs = [s for s, k_ in zip(sigs, keep) if k_]
+        res = [r for r, k_ in zip(res, keep) if k_]
+        its = [i for i, k_ in zip(its, keep) if k_]
+    return Sweep.from_arrays(ck, Z.T, Z1.T, Z2.T, Z3.T, modes=tuple(sigs), residual=np.array(res, dtype=float),
+                             n_iter=np.array(its, dtype=int), cond=cond, events=tuple(events), mode=first.sig,
+                             method="batched" if use_batch else "tracked")
 
 
-def _tangent(ck, z) -> np.ndarray:
-    """dz/dx: kinematic coefficients of every variable along the driving input."""
-    J = ck.jac(z)
-    zk = np.zeros(len(ck.variables))
-    zk[ck.input_idx[0]] = 1.0
-    b = ck.rhs(1, z, zk)
-    zk[ck.unknown_idx] = np.linalg.solve(J, b)
-    return zk
+# ============================================================================= reachable ranges
 
 
-def _correct(ck, z_pred, settings) -> tuple[np.ndarray | None, float]:
+def _assemblable_at(ck, x) -> list:
+    from .modes import all_solutions
+    from .solve import initial_z
+
+    z0 = initial_z(ck, warn=False)
+    z0[ck.input_idx[0]] = x
+    return all_solutions(ck, z0)
+
+
+def _limit_towards(ck, kern, z, x_to) -> float | None:
+    """Track from the assemblable ``z`` towards ``x_to``; the limit input found on the way, if any."""
+    x_from = z[kern.ix]
+    lo, hi = min(x_from, x_to), max(x_from, x_to)
+    g = _Grid(x_from, x_to - x_from, 0, 1, lo, hi)
     try:
-        z, residual, _ = solve_position(ck, z_pred, settings=settings)
-    except SolveError:
-        return None, math.inf
-    return z, residual
+        first = _first_node(kern, z, 1.0 if x_to > x_from else -1.0)
+    except SingularPositionError:
+        return x_from
+    tr = _Tracer(kern, g, StepControl(), land=False, through_limits=False, x_start=x_from)
+    path = tr.trace(first)
+    for e in path.events:
+        if e.kind is EventKind.LIMIT:
+            return path.nodes[-1].z[kern.ix]
+    return None
 
 
-def _advance(ck, z, target, sig, max_step, min_step, settings):
-    """Move the input from its value in ``z`` to ``target`` in adaptive steps on the same branch."""
-    i = ck.input_idx[0]
-    x = z[i]
-    h = min(max_step, abs(target - x))
-    direction = 1.0 if target >= x else -1.0
-    name = ck.inputs[0]
-    while abs(target - x) > 1e-15 * max(1.0, abs(target)):
-        h = min(h, abs(target - x))
-        try:
-            t = _tangent(ck, z)
-        except np.linalg.LinAlgError:
-            t = None
-        if t is None or not np.all(np.isfinite(t)):
-            disp = display_value(ck, x, name)
-            return z, Event(EventKind.SINGULAR, disp, f"singular position at {name} = {disp:.10g}")
-        z_pred = z + direction * h * t
-        z_pred[i] = x + direction * h
-        change = float(np.max(np.abs((z_pred - z)[ck.unknown_idx])))
-        if change > 0.3 and h > min_step:
-            h *= 0.5
-            continue
-        z_new, _ = _correct(ck, z_pred, settings)
-        ok = z_new is not None and float(np.max(np.abs((z_new - z_pred)[ck.unknown_idx]))) < 0.2 * max(change, 1e-3) + 1e-6 \
-            and ck.signature(z_new) == sig
-        if ok:
-            z = z_new
-            x = z[i]
-            h = min(h * 1.5, max_step)
-            continue
-        if h <= min_step:
-            disp = display_value(ck, x, name)
-            return z, Event(EventKind.LIMIT, disp,
-                            f"the input cannot go beyond {name} = {disp:.10g} on this assembly mode "
-                            "(limit position: toggle/fold); the rows stop here")
-        h *= 0.5
-    return z, None
+def reachable_ranges(ck, *, samples: int | None = None) -> list[tuple[float, float]]:
+    """Intervals of the driving input (internal units) where the mechanism can be assembled.
+
+    The input is sampled (a full turn for an angle; ±4 length scales around the guess for a
+    length), every assembly mode is found at each sample (:func:`loopsolve.modes.all_solutions`),
+    and each end of a run of assemblable samples is located exactly by tracking towards the
+    next sample until the limit position. Ranges narrower than the sampling step can be
+    missed. A fully rotating angle input gives one interval of length 2π.
+
+    Examples
+    --------
+    >>> ck = ls.fourbar(4, 3, 3.5, 5).compile()
+    >>> [tuple(round(math.degrees(v), 6) for v in r) for r in reachable_ranges(ck)]
+    [(18.57335, 341.42665)]
+    """
+    kern = _Kernel(ck)
+    angle = kern.angle_x
+    g0 = ck.mechanism.variable(ck.inputs[0]).guess
+    g0 = 0.0 if g0 is None else float(g0)
+    if angle:
+        m = samples or 144
+        xs = [-math.pi + 2 * math.pi * i / m for i in range(m)]
+    else:
+        m = samples or 200
+        xs = [g0 - 4 * ck.scale + 8 * ck.scale * i / (m - 1) for i in range(m)]
+    sols = [_assemblable_at(ck, x) for x in xs]
+    ok = [bool(s) for s in sols]
+    if all(ok):
+        if angle:
+            return [(-math.pi, math.pi)]
+        return [(xs[0], xs[-1])]
+    if not any(ok):
+        return []
+    out = []
+    idx = range(m)
+    if angle:  # rotate so that the list starts with a non-assemblable sample
+        r = ok.index(False)
+        idx = [(r + i) % m for i in range(m)]
+    runs = []
+    cur = None
+    for i in idx:
+        if ok[i] and cur is None:
+            cur = [i, i]
+        elif ok[i]:
+            cur[1] = i
+        elif cur is not None:
+            runs.append(cur)
+            cur = None
+    if cur is not None:
+        runs.append(cur)
+    step = xs[1] - xs[0]
+    for i0, i1 in runs:
+        x_lo = xs[i0]
+        x_hi = xs[i1]
+        if angle and x_hi < x_lo:
+            x_hi += 2 * math.pi
+        ends = []
+        for (xi, zs), toward in (((x_lo, sols[i0]), x_lo - step), ((x_hi, sols[i1]), x_hi + step)):
+            best = None
+            for z in zs:
+                z = np.array(z, dtype=float)
+                z[kern.ix] = xi
+                lim = _limit_towards(ck, kern, z, toward)
+                if lim is None:
+                    lim = toward
+                if best is None or abs(lim - xi) > abs(best - xi):
+                    best = lim
+            ends.append(best if best is not None else xi)
+        out.append((ends[0], ends[1]))
+    out.sort()
+    return out
+
+
+def nearest_assemblable(ck, x: float) -> tuple[float, ...]:
+    """The nearest assemblable input values below and above ``x`` (display units).
+
+    Examples
+    --------
+    >>> ck = ls.fourbar(4, 3, 3.5, 5).compile()
+    >>> [round(v, 6) for v in nearest_assemblable(ck, 0.0)]
+    [-18.57335, 18.57335]
+    """
+    from .solve import display_value
+
+    ranges = reachable_ranges(ck)
+    kern = _Kernel(ck)
+    below, above = None, None
+    for lo, hi in ranges:
+        cands = [lo, hi]
+        if kern.angle_x:
+            cands = [v + 2 * math.pi * j for v in (lo, hi) for j in range(-2, 3)]
+        for v in cands:
+            if v <= x and (below is None or v > below):
+                below = v
+            if v >= x and (above is None or v < above):
+                above = v
+    out = [v for v in (below, above) if v is not None]
+    return tuple(display_value(ck, v, ck.inputs[0]) for v in out)
