@@ -1,0 +1,1077 @@
+"""The symbolic derivation as LaTeX (and PDF), in the notation of the textbook notes.
+
+:func:`to_latex` prints the expressions of :func:`loopsolve.symbolic.derive` — the very sympy
+objects the solver compiles, so the document and the numbers cannot disagree — as
+
+* the vector loops, in vector form (``\\vec r_2 + \\vec r_3 = \\vec r_1 + \\vec r_4``) and in
+  complex-exponential form (``r_2 e^{j\\theta_2} + ...``);
+* the scalar x and y loop-closure (position) equations;
+* the velocity, acceleration and jerk equations in matrix form, Φ_q q⁽ᵏ⁾ = b_k, with the
+  coefficient matrix Φ_q written out, and for a 2×2 system the velocity solution by Cramer's rule;
+* the position, velocity and acceleration of the declared points;
+* optionally a table of the numeric solution at one input value.
+
+:class:`LatexPrinter` is the sympy printer behind it: ``theta2`` → θ₂, ``r_AB`` → r_{AB}, rate
+symbols ``theta3__d1``/``__d2``/``__d3`` → θ̇₃, θ̈₃, θ⃛₃, ``\\sin\\theta_2`` without parentheses
+around a single symbol, and in a degree model the angle constants inside sin/cos as degrees
+(``\\cos(\\theta_4 + 30^\\circ)`` rather than ``\\cos(\\theta_4 + \\pi/6)``; the angle symbols
+themselves are the same angles in any unit). sympy folds ``cos(θ − 20°)`` into ``sin(θ + 70°)``;
+the printer writes such terms back in terms of the declared vector angles.
+
+Long sums are broken over lines (``align*``, continuation lines keep their sign), a right-hand
+side too wide for the matrix equation is listed entry by entry, and a coefficient matrix too
+wide for the page is listed by its non-zero entries. Widths are estimated from the LaTeX text.
+
+:func:`write_pdf` compiles a document with ``pdflatex`` (or ``latexmk``). Only packages of
+Debian's ``texlive-latex-base`` are used (amsmath, geometry).
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import re
+import shutil
+import subprocess
+import tempfile
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+import sympy as sp
+from sympy.printing.latex import LatexPrinter as _SympyLatexPrinter
+
+from .errors import LoopsolveError, MissingDependencyError
+from .model import Mechanism
+from .units import Kind
+
+__all__ = ["LatexPrinter", "symbol_latex", "vector_latex", "velocity_solution", "to_latex", "write_pdf"]
+
+# ============================================================================ names
+
+_GREEK = frozenset(
+    "alpha beta gamma delta epsilon varepsilon zeta eta theta vartheta iota kappa mu nu xi pi "
+    "varpi rho varrho sigma varsigma tau upsilon phi varphi chi psi omega".split()
+)
+_GREEK_UPPER = frozenset("Gamma Delta Theta Xi Pi Sigma Upsilon Phi Psi Omega".split())
+# amsmath's \dddot sets the subscript far from its base; three dots over the letter look right
+_ACCENT = {1: r"\dot", 2: r"\ddot", 3: r"\overset{\ldots}"}
+_RATE_RE = re.compile(r"^(?P<base>.+)__d(?P<order>[123])$")
+
+
+def _word(text: str) -> str:
+    """One piece of a name: Greek letters by name, words upright, letters/digits as they are."""
+    if text in _GREEK or text in _GREEK_UPPER:
+        return "\\" + text
+    if re.fullmatch(r"[a-z]{2,}[0-9]*", text):  # a word (crank, link5): upright
+        return r"\mathrm{%s}" % text
+    return text
+
+
+def _split_name(name: str) -> tuple[str, str | None]:
+    """``theta2`` → (``\\theta``, ``2``); ``r_AB`` → (``r``, ``AB``); ``rAB`` → (``r``, ``AB``)."""
+    parts = [p for p in name.split("_") if p]
+    head, subs = parts[0], parts[1:]
+    if head[0].islower():
+        m = re.match(r"[a-z]+", head)
+    else:
+        m = re.match(r"[A-Za-z]+", head)
+        if m and m.end() > 1 and m.group(0) not in _GREEK_UPPER and head[1:m.end()].islower():
+            m = re.match(r"[A-Z]", head)  # "Rab" -> R_{ab}
+    base = m.group(0)
+    tail = head[m.end():]
+    pieces = ([tail] if tail else []) + subs
+    sub = ",".join(_word(p) for p in pieces) if pieces else None
+    return _word(base), sub
+
+
+def symbol_latex(name: str) -> str:
+    """LaTeX for a variable or parameter name, in textbook notation.
+
+    A leading lower-case word is the base (Greek by name, other words upright); what follows
+    it — digits, capitals, or parts after underscores — is the subscript. Rate symbols of
+    :mod:`loopsolve.symbolic` (``name__d1``, ``__d2``, ``__d3``) get one, two or three dots.
+
+    Examples
+    --------
+    >>> from loopsolve.latex import symbol_latex
+    >>> symbol_latex("theta2"), symbol_latex("r_AB"), symbol_latex("phi")
+    ('\\\\theta_{2}', 'r_{AB}', '\\\\phi')
+    >>> symbol_latex("theta3__d2"), symbol_latex("s_1__d1")
+    ('\\\\ddot{\\\\theta}_{3}', '\\\\dot{s}_{1}')
+    >>> symbol_latex("theta_in"), symbol_latex("AB")
+    ('\\\\theta_{\\\\mathrm{in}}', 'AB')
+    """
+    m = _RATE_RE.match(name)
+    order = 0
+    if m:
+        name, order = m.group("base"), int(m.group("order"))
+    base, sub = _split_name(name)
+    if order:
+        base = "%s{%s}" % (_ACCENT[order], base)
+    return base if sub is None else "%s_{%s}" % (base, sub)
+
+
+def vector_latex(name: str) -> str:
+    """LaTeX for a vector name: an arrow over the base letter (``r2`` → ``\\vec{r}_{2}``).
+
+    Examples
+    --------
+    >>> from loopsolve.latex import vector_latex
+    >>> vector_latex("r2"), vector_latex("rAB"), vector_latex("AB")
+    ('\\\\vec{r}_{2}', '\\\\vec{r}_{AB}', '\\\\overrightarrow{AB}')
+    """
+    base, sub = _split_name(name)
+    single = len(base) == 1 or (base.startswith("\\") and not base.startswith(r"\mathrm"))
+    arrow = r"\vec{%s}" % base if single else r"\overrightarrow{%s}" % base
+    return arrow if sub is None else "%s_{%s}" % (arrow, sub)
+
+
+# ============================================================================ printer
+
+
+class DegreeConstant(sp.Symbol):
+    """A constant angle printed in degrees (``30^\\circ``); only ever used for printing."""
+
+
+def _degree_text(value: float) -> str:
+    """Degrees to 6 significant digits (``30``, ``12.5``, ``5.31978 \\times 10^{-6}``)."""
+    v = round(value, 9)
+    if float(v).is_integer():
+        return str(int(v))
+    text = "%.6g" % v
+    if "e" in text:
+        mant, exp = text.split("e")
+        return r"%s \times 10^{%d}" % (mant, int(exp))
+    return text
+
+
+def _to_degrees(arg: sp.Expr) -> sp.Expr:
+    """Replace the rational/float multiples of π in a sum by :class:`DegreeConstant` terms."""
+    out = []
+    for t in sp.Add.make_args(arg):
+        c = t / sp.pi
+        if t.has(sp.pi) and c.is_number and c.is_real:
+            deg = float(c) * 180.0
+            sym = DegreeConstant(_degree_text(abs(deg)))
+            out.append(-sym if deg < 0 else sym)
+        else:
+            out.append(t)
+    return sp.Add(*out, evaluate=False) if len(out) > 1 else out[0]
+
+
+_TRIG = (sp.sin, sp.cos, sp.tan)
+
+
+class LatexPrinter(_SympyLatexPrinter):
+    """sympy's LaTeX printer with the notation of the kinematics notes.
+
+    Settings (besides sympy's): ``degrees`` — print the π-multiples inside sin/cos/tan as
+    degrees (for degree models); ``angles`` — the declared vector angles (radians): sympy writes
+    cos(θ − 20°) as sin(θ + 70°), the printer writes it back in terms of the declared angle.
+    Matrices print as ``bmatrix``.
+
+    Examples
+    --------
+    >>> import sympy as sp
+    >>> from loopsolve.latex import LatexPrinter
+    >>> t3, w3, r3 = sp.symbols("theta3 theta3__d1 r3")
+    >>> LatexPrinter().doprint(-r3 * w3**2 * sp.cos(t3))
+    '- r_{3} \\\\dot{\\\\theta}_{3}^{2} \\\\cos\\\\theta_{3}'
+    >>> LatexPrinter({"degrees": True}).doprint(sp.sin(t3 + sp.pi / 6))
+    '\\\\sin(\\\\theta_{3} + 30^{\\\\circ})'
+    >>> sp.cos(t3 - sp.pi / 9)
+    sin(theta3 + 7*pi/18)
+    >>> LatexPrinter({"degrees": True, "angles": (t3 - sp.pi / 9,)}).doprint(sp.cos(t3 - sp.pi / 9))
+    '\\\\cos(\\\\theta_{3} - 20^{\\\\circ})'
+    """
+
+    _default_settings = {
+        **_SympyLatexPrinter._default_settings,
+        "degrees": False,
+        "angles": (),
+        "mat_str": "bmatrix",
+        "mat_delim": "",
+    }
+
+    def doprint(self, expr):
+        return super().doprint(self.prepare(expr))
+
+    def prepare(self, expr):
+        """The expression as it will be printed: trig arguments restored to the declared angles
+        (``angles`` setting) and degree constants substituted (``degrees`` setting)."""
+        if isinstance(expr, sp.MatrixBase):
+            return expr.applyfunc(self.prepare)
+        if not isinstance(expr, sp.Basic):
+            return expr
+        if self._settings["angles"]:
+            expr = expr.replace(lambda e: isinstance(e, (sp.sin, sp.cos)), self._declared_angle)
+        if self._settings["degrees"]:
+            expr = expr.replace(lambda e: isinstance(e, _TRIG),
+                                lambda e: e.func(_to_degrees(e.args[0]), evaluate=False))
+        return expr
+
+    def _declared_angle(self, f):
+        """sympy folds cos(θ − 20°) into sin(θ + 70°): write it back in terms of a declared angle.
+
+        When the argument differs from a declared angle p by n·π/2, sin/cos of it is ±sin p or
+        ±cos p (kept unevaluated)."""
+        arg = f.args[0]
+        for p in self._settings["angles"]:
+            d = arg - p
+            if d == 0 or not d.is_number:
+                continue
+            n = float(d / (sp.pi / 2))
+            if abs(n - round(n)) > 1e-12:  # sympy's fold is exact up to float round-off
+                continue
+            n = int(round(n)) % 4
+            # sin(p + nπ/2), cos(p + nπ/2) for n = 0..3
+            table = {0: (1, sp.sin, 1, sp.cos), 1: (1, sp.cos, -1, sp.sin),
+                     2: (-1, sp.sin, -1, sp.cos), 3: (-1, sp.cos, 1, sp.sin)}[n]
+            sign, func = (table[0], table[1]) if isinstance(f, sp.sin) else (table[2], table[3])
+            return sign * func(p, evaluate=False)
+        return f
+
+    def angle(self, expr) -> str:
+        """Print an angle expression (a whole angle, not a trig argument): degrees when asked."""
+        if self._settings["degrees"]:
+            expr = _to_degrees(sp.sympify(expr))
+        return self.doprint(expr)
+
+    # ---- symbols
+    def _print_Symbol(self, expr, style="plain"):
+        name = self._settings["symbol_names"].get(expr)
+        if name is not None:
+            return name
+        return symbol_latex(expr.name)
+
+    def _print_DegreeConstant(self, expr, style="plain"):
+        if "times" in expr.name:
+            return "(%s)^{\\circ}" % expr.name
+        return "%s^{\\circ}" % expr.name
+
+    # ---- trigonometric functions: \sin\theta_2, \sin^{2}\theta_2, \sin\left(\theta_2 - \theta_3\right)
+    def _trig(self, name, expr, exp=None):
+        arg = expr.args[0]
+        head = "\\" + name + ("^{%s}" % exp if exp is not None else "")
+        inner = self._print(arg)
+        if arg.is_Symbol and not isinstance(arg, DegreeConstant):
+            return head + inner if inner.startswith("\\") else head + " " + inner
+        if isinstance(arg, sp.Add):
+            terms = self.signed_terms(arg, prepared=True)
+            first = next((i for i, (neg, _) in enumerate(terms) if not neg), 0)
+            inner = _join_terms(terms[first:first + 1] + terms[:first] + terms[first + 1:])
+        return r"%s(%s)" % (head, inner)
+
+    def _print_sin(self, expr, exp=None):
+        return self._trig("sin", expr, exp)
+
+    def _print_cos(self, expr, exp=None):
+        return self._trig("cos", expr, exp)
+
+    def _print_tan(self, expr, exp=None):
+        return self._trig("tan", expr, exp)
+
+    # ---- products: number, lengths/parameters, rates, then sin/cos (r_2 \dot\theta_2 \sin\theta_2)
+    @staticmethod
+    def _factor_key(f):
+        base = f.base if isinstance(f, sp.Pow) else f
+        if f.is_Number:
+            return (0, 0, "")
+        if isinstance(base, sp.Symbol):
+            m = _RATE_RE.match(base.name)
+            if m:
+                return (2, int(m.group("order")), m.group("base"))
+            return (1, 0, base.name)
+        if isinstance(base, _TRIG):
+            return (4, 0, str(base))
+        return (3, 0, str(f))
+
+    def _print_Mul(self, expr):
+        args = expr.args
+        if args[0] is sp.S.One or any(isinstance(a, sp.Number) for a in args[1:]):
+            return super()._print_Mul(expr)  # unevaluated Mul: printed as given
+        tex = ""
+        if expr.could_extract_minus_sign():
+            expr = -expr
+            if expr.is_Add:
+                return "- (%s)" % self._print(expr)
+            tex = "- "
+        numer, denom = sp.fraction(expr, exact=True)
+        if denom is sp.S.One:
+            return tex + self._product(expr)
+        return tex + r"\frac{%s}{%s}" % (self._product(numer), self._product(denom))
+
+    def _product(self, expr) -> str:
+        if not expr.is_Mul:
+            return self._print(expr)
+        args = sorted(expr.args, key=self._factor_key)
+        out, last = "", ""
+        for i, term in enumerate(args):
+            t = self._print(term)
+            if self._needs_mul_brackets(term, first=(i == 0), last=(i == len(args) - 1)):
+                t = r"\left(%s\right)" % t
+            if out:
+                out += r" \cdot " if (re.search(r"[0-9][}]*\s*$", last) and re.match(r"\s*[{]*[0-9-]", t)) else " "
+            out += t
+            last = t
+        return out
+
+    # ---- sums: degree constants last (theta_4 + 30°); terms available for line breaking
+    def ordered_terms(self, expr) -> list:
+        terms = list(self._as_ordered_terms(expr)) if isinstance(expr, sp.Add) else [expr]
+        deg = [t for t in terms if t.atoms(DegreeConstant) and not (t.free_symbols - t.atoms(DegreeConstant))]
+        return [t for t in terms if t not in deg] + deg
+
+    def _print_Add(self, expr, order=None):
+        return _join_terms(self.signed_terms(expr, prepared=True))
+
+    def signed_terms(self, expr, *, prepared: bool = False) -> list[tuple[bool, str]]:
+        """``expr`` as a list of ``(negative, tex)`` terms, in printing order."""
+        if not prepared:
+            expr = self.prepare(sp.sympify(expr))
+        out = []
+        for term in self.ordered_terms(expr):
+            neg = term.could_extract_minus_sign()
+            if neg:
+                term = -term
+            tex = self._print(term)
+            if self._needs_add_brackets(term):
+                tex = r"\left(%s\right)" % tex
+            out.append((neg, tex))
+        return out
+
+
+def _join_terms(terms: Sequence[tuple[bool, str]]) -> str:
+    if not terms:
+        return "0"
+    text = ""
+    for i, (neg, tex) in enumerate(terms):
+        if i == 0:
+            text = ("- " if neg else "") + tex
+        else:
+            text += (" - " if neg else " + ") + tex
+    return text
+
+
+# ============================================================================ layout helpers
+
+#: width of a display line, in the units of :func:`_width` (one unit ≈ 0.19 cm, an italic
+#: letter at 11 pt; the text is 16.6 cm wide on A4 with 2.2 cm margins)
+_BUDGET = 80.0
+
+
+def _group_end(s: str, start: int) -> int:
+    """Index just past the brace group that opens at ``s[start] == "{"``."""
+    depth = 0
+    for i in range(start, len(s)):
+        depth += {"{": 1, "}": -1}.get(s[i], 0)
+        if depth == 0:
+            return i + 1
+    return len(s)
+
+
+def _width(tex: str) -> float:
+    """Rough printed width of a math string (a letter ≈ 1, sub/superscripts ≈ 0.7, operators ≈ 2;
+    a fraction is as wide as the wider of its numerator and denominator)."""
+    i = tex.find("\\frac{")
+    if i >= 0:
+        a_end = _group_end(tex, i + 5)
+        b_end = _group_end(tex, a_end)
+        frac = max(_width(tex[i + 6:a_end - 1]), _width(tex[a_end + 1:b_end - 1])) + 1.0
+        return _width(tex[:i]) + frac + _width(tex[b_end:])
+    s = re.sub(r"\\(left|right)\b", "", tex)
+    s = re.sub(r"\\begin\{[a-z]+\}|\\end\{[a-z]+\}", "", s)
+    s = re.sub(r"\\(mathrm|mathbf|vec|dot|ddot|overset|ldots|hat|overrightarrow|boldsymbol|text)\b", "", s)
+    s = re.sub(r"\\(sin|cos|tan)", "sin", s)
+    s = re.sub(r"\\(quad|qquad)", "xx", s)
+    s = re.sub(r"\\[,;!]", "", s)
+    s = re.sub(r"\\[A-Za-z]+", "x", s)
+    width, depth, stack = 0.0, 0, []
+    i = 0
+    while i < len(s):
+        ch = s[i]
+        if ch in "_^" and i + 1 < len(s) and s[i + 1] == "{":
+            stack.append(True)
+            depth += 1
+            i += 2
+            continue
+        if ch == "{":
+            stack.append(False)
+        elif ch == "}":
+            if stack and stack.pop():
+                depth -= 1
+        elif ch in "+-=" and depth == 0:
+            width += 2.0
+        elif ch == "&":
+            pass
+        elif not ch.isspace():
+            width += 0.7 if depth else 1.0
+        i += 1
+    return width
+
+
+def _matrix_width(cells: list[list[str]]) -> float:
+    if not cells:
+        return 0.0
+    cols = len(cells[0])
+    return sum(max(_width(row[j]) for row in cells) for j in range(cols)) + 2.5 * cols + 1.5
+
+
+def _break_terms(terms: Sequence[tuple[bool, str]], budget: float) -> list[str]:
+    """Pack signed terms greedily into lines no wider than ``budget`` (continuation lines start
+    with their sign)."""
+    lines: list[str] = []
+    cur = ""
+    for neg, tex in terms:
+        if not cur:
+            cur = (("- " if neg else "") if not lines else ("{}- " if neg else "{}+ ")) + tex
+            continue
+        piece = (" - " if neg else " + ") + tex
+        if _width(cur + piece) > budget:
+            lines.append(cur)
+            cur = ("{}- " if neg else "{}+ ") + tex
+        else:
+            cur += piece
+    if cur or not lines:
+        lines.append(cur or "0")
+    return lines
+
+
+def _eq_lines(lhs: str, rhs_terms: Sequence[tuple[bool, str]], budget: float = _BUDGET) -> list[str]:
+    """``lhs &= rhs`` as align lines, the right side broken over lines when too wide."""
+    room = max(budget - _width(lhs) - 3.0, 0.45 * budget)
+    parts = _break_terms(rhs_terms, room)
+    return ["%s &= %s" % (lhs, parts[0])] + [r"&\quad %s" % p for p in parts[1:]]
+
+
+def _balance_block(pairs, budget: float = _BUDGET) -> list[str]:
+    """Align lines for equations ``lhs = rhs`` whose sides are both sums (the loop equations).
+
+    When they all fit, they align on ``=``. Otherwise every equation of the block is set as
+    its left side on one line (or more) and ``= right side`` below, all flush on one column,
+    so that no line is pushed past the margin by the alignment."""
+    texts = [(_join_terms(lt), _join_terms(rt)) for lt, rt in pairs]
+    widest_lhs = max(_width(lhs) for lhs, _ in texts)
+    if all(widest_lhs + _width(rhs) + 3 <= budget for _, rhs in texts):
+        return ["%s &= %s" % (lhs, rhs) for lhs, rhs in texts]
+    lines: list[str] = []
+    for lt, rt in pairs:
+        if lines:
+            lines.append(_GAP)
+        left = _break_terms(lt, budget - 4)
+        right = _break_terms(rt, budget - 6)
+        lines += ["& " + left[0]] + [r"&\quad %s" % p for p in left[1:]]
+        lines += ["&= " + right[0]] + [r"&\quad %s" % p for p in right[1:]]
+    return lines
+
+
+_TEX_SPECIAL = {"\\": r"\textbackslash{}", "&": r"\&", "%": r"\%", "$": r"\$", "#": r"\#", "_": r"\_",
+                "{": r"\{", "}": r"\}", "~": r"\textasciitilde{}", "^": r"\textasciicircum{}"}
+
+
+def _escape(text: str) -> str:
+    """Plain text for LaTeX text mode (special characters escaped, non-ASCII dropped to '?')."""
+    out = "".join(_TEX_SPECIAL.get(c, c) for c in str(text))
+    return out.encode("ascii", "replace").decode("ascii")
+
+
+def _number(v) -> str:
+    """A value for a table, in math mode (6 significant digits, powers of ten written out)."""
+    if v is None or (isinstance(v, float) and not math.isfinite(v)):
+        return r"\text{--}"
+    v = float(v)
+    if v == 0:
+        return "0"
+    s = "%.6g" % v
+    if "e" in s:
+        mant, exp = s.split("e")
+        return r"%s \times 10^{%d}" % (mant, int(exp))
+    return s
+
+
+def _unit(label: str) -> str:
+    """A unit label (``deg``, ``rad/s^2``, ``mm/s``) in math mode, with its leading space."""
+    if not label:
+        return ""
+    if label == "deg":
+        return r"^{\circ}"
+    label = re.sub(r"\^(\d)", r"^{\1}", label)
+    return r"\,\mathrm{%s}" % label
+
+
+# ============================================================================ the document model
+
+
+@dataclass(frozen=True)
+class _Section:
+    title: str
+
+
+@dataclass(frozen=True)
+class _Text:
+    text: str  # LaTeX text mode (inline math with $...$)
+
+
+@dataclass(frozen=True)
+class _Eqs:
+    lines: tuple[str, ...]  # align lines (with &)
+
+
+@dataclass(frozen=True)
+class _Table:
+    header: tuple[str, ...]  # text mode
+    rows: tuple[tuple[str, ...], ...]  # math mode cells
+    align: str
+    equation: bool = False  # kept in snippets (the numeric table asked for with `at`)
+
+
+def velocity_solution(kin) -> dict[str, sp.Expr] | None:
+    """The unknown rates of a 2×2 velocity equation by Cramer's rule, simplified.
+
+    ``None`` when Φ_q is not 2×2 or the result does not simplify to a compact form. These are
+    the formulas the document prints under the velocity equation.
+
+    Examples
+    --------
+    >>> from loopsolve.latex import velocity_solution
+    >>> sol = velocity_solution(ls.fourbar(r1=60, r2=25, r3=70, r4=45).derive())
+    >>> sol["theta4"]
+    -r2*theta2__d1*sin(theta2 - theta3)/(r4*sin(theta3 - theta4))
+    """
+    jac, b1 = kin.jac, kin.rhs[0]
+    if jac.shape != (2, 2):
+        return None
+    det = sp.factor(sp.trigsimp(jac.det()))
+    if det == 0:
+        return None
+    out = {}
+    for i, name in enumerate(kin.unknowns):
+        ji = jac.copy()
+        ji[:, i] = b1
+        value = sp.factor(sp.trigsimp(ji.det())) / det
+        if sp.count_ops(value) > 40:
+            return None
+        out[name] = value
+    return out
+
+
+class _Builder:
+    """Collects the parts of the derivation for one mechanism and one input choice."""
+
+    def __init__(self, mech: Mechanism, input, at):
+        self.mech = mech
+        self.kin = mech.derive(input)
+        self.deg = mech.units.angle == "deg"
+        declared = tuple(a for _, a in self.kin.vectors.values()
+                         if a is not None and not a.is_Symbol and a.free_symbols)
+        self.p = LatexPrinter({"degrees": self.deg, "angles": declared})
+        self.items: list = []
+        self.input = input
+        self.at = at
+
+    # ---- helpers
+    def tex(self, expr) -> str:
+        return self.p.doprint(expr)
+
+    def terms(self, expr):
+        return self.p.signed_terms(expr)
+
+    def sym(self, name: str, order: int = 0) -> str:
+        return symbol_latex(name + ("__d%d" % order if order else ""))
+
+    def column(self, names: Sequence[str], order: int) -> str:
+        return r"\begin{bmatrix} %s \end{bmatrix}" % r" \\ ".join(self.sym(n, order) for n in names)
+
+    def matrix_cells(self, m: sp.Matrix) -> list[list[str]]:
+        return [[self.tex(m[i, j]) for j in range(m.cols)] for i in range(m.rows)]
+
+    @staticmethod
+    def bmatrix(cells: list[list[str]]) -> str:
+        return r"\begin{bmatrix} %s \end{bmatrix}" % r" \\ ".join(" & ".join(r) for r in cells)
+
+    # ---- parts
+    def header(self):
+        mech, kin = self.mech, self.kin
+        units = mech.units
+        self.items.append(_Section("Mechanism"))
+        src = r" (model file \texttt{%s})" % _escape(Path(mech.source).name) if mech.source else ""
+        self.items.append(_Text(r"\emph{%s}%s. Lengths in %s, angles in %s; angular rates in rad/s, "
+                                r"rad/s$^2$, rad/s$^3$. Angles are measured counter-clockwise from the "
+                                r"$x$ axis." % (_escape(mech.name), src, _escape(units.length),
+                                                "degrees" if self.deg else "radians")))
+        if mech.parameters:
+            rows = []
+            for prm in mech.parameters:
+                if prm.kind is Kind.ANGLE:
+                    value = prm.value / (math.pi / 180) if self.deg else prm.value
+                    cell = _number(value) + _unit(units.angle if self.deg else "rad")
+                elif prm.kind is Kind.LENGTH:
+                    cell = _number(prm.value) + _unit(units.length)
+                else:
+                    cell = _number(prm.value)
+                rows.append((self.sym(prm.name), cell))
+            self.items.append(_Text("Parameters (they stay symbols in the equations):"))
+            self.items.append(_Table(("Parameter", "Value"), tuple(rows), "lr"))
+        vrows = []
+        for v in mech.vectors:
+            length, angle = kin.vectors[v.name]
+            if angle is None:
+                xy = kin.vector_xy[v.name]
+                vrows.append((vector_latex(v.name), r"x = %s,\ y = %s" % (self.tex(xy[0]), self.tex(xy[1])),
+                               r"\text{--}"))
+            else:
+                vrows.append((vector_latex(v.name), self.tex(length), self.p.angle(angle)))
+        self.items.append(_Text("Vectors (length and angle of each):"))
+        self.items.append(_Table(("Vector", "Length", "Angle"), tuple(vrows), "lll"))
+        ins = ", ".join("$%s$" % self.sym(n) for n in kin.inputs)
+        q = r",\ ".join(self.sym(n) for n in kin.unknowns)
+        self.items.append(_Text(r"Input: %s. Unknowns: $\mathbf{q} = [%s]^{T}$ (%d scalar equations, "
+                                r"%d unknowns)." % (ins, q, kin.jac.rows, len(kin.unknowns))))
+
+    def loops(self):
+        mech, kin = self.mech, self.kin
+        self.items.append(_Section("Vector loops and position equations"))
+        self.items.append(_Text(r"Each loop closes: in vector form, in complex-exponential form "
+                                r"($\vec{r} = r\,\mathrm{e}^{\mathrm{j}\theta}$, "
+                                r"$\mathrm{j}^2 = -1$), and by its $x$ and $y$ components, which are the "
+                                r"position equations $\boldsymbol{\Phi}(\mathbf{q}) = \mathbf{0}$."))
+        for idx, loop in enumerate(mech.loops):
+            lhs, rhs = (loop.lhs, loop.rhs) if (loop.lhs or loop.rhs) else (loop.terms, ())
+            vec = lambda side: [(s < 0, vector_latex(n)) for s, n in side] or [(False, r"\vec{0}")]  # noqa: E731
+            cplx = lambda side: [self.complex_term(s, n) for s, n in side] or [(False, "0")]  # noqa: E731
+            pairs = [(vec(lhs), vec(rhs)), (cplx(lhs), cplx(rhs))]
+            for c in (0, 1):  # the x and y components, term by term in the loop's order
+                side = lambda vs: [t for s, n in vs if kin.vector_xy[n][c] != 0  # noqa: E731
+                                   for t in self.terms(s * kin.vector_xy[n][c])] or [(False, "0")]
+                pairs.append((side(lhs), side(rhs)))
+            lines = _balance_block(pairs)
+            if len(mech.loops) > 1:
+                label = "" if loop.name == "loop%d" % (idx + 1) else " (%s)" % _escape(loop.name)
+                self.items.append(_Text("Loop %d%s:" % (idx + 1, label)))
+            self.items.append(_Eqs(tuple(lines)))
+
+    def complex_term(self, sign: int, name: str) -> tuple[bool, str]:
+        length, angle = self.kin.vectors[name]
+        if angle is None:
+            x, y = self.kin.vector_xy[name]
+            parts = []
+            if x != 0:
+                neg = x.could_extract_minus_sign()
+                parts.append((neg, self.tex(-x if neg else x)))
+            if y != 0:
+                neg = y.could_extract_minus_sign()
+                yt = self.tex(-y if neg else y)
+                if isinstance(y, sp.Add):
+                    yt = r"\left(%s\right)" % yt
+                parts.append((neg, r"\mathrm{j}\,%s" % yt))
+            return sign < 0, r"\left(%s\right)" % _join_terms(parts)
+        lt = self.tex(length)
+        if isinstance(length, sp.Add) or length.could_extract_minus_sign():
+            lt = r"\left(%s\right)" % lt
+        if angle == 0:
+            return sign < 0, lt
+        at = self.p.angle(angle)
+        if not (angle.is_Symbol or (self.deg and (angle / sp.pi).is_number)):
+            at = r"\left(%s\right)" % at
+        return sign < 0, r"%s\,\mathrm{e}^{\mathrm{j}%s}" % (lt, at)
+
+    def rates(self):
+        kin = self.kin
+        names = kin.unknowns
+        jac_cells = self.matrix_cells(kin.jac)
+        jac_w = _matrix_width(jac_cells)
+        jac_tex = self.bmatrix(jac_cells)
+        jac_inline = jac_w <= 0.55 * _BUDGET
+        titles = ("Velocity", "Acceleration", "Jerk")
+        what = ("velocity", "acceleration", "jerk")
+        rate_words = ("first", "second", "third")
+        for k in (1, 2, 3):
+            b = kin.rhs[k - 1]
+            self.items.append(_Section("%s equation" % titles[k - 1]))
+            if k == 1:
+                self.items.append(_Text(
+                    r"Differentiating the position equations with respect to time gives the velocity equation, "
+                    r"linear in the unknown rates: $\boldsymbol{\Phi}_{\mathbf{q}}\,\dot{\mathbf{q}} = "
+                    r"\mathbf{b}_1$. The coefficient matrix $\boldsymbol{\Phi}_{\mathbf{q}} = "
+                    r"\partial\boldsymbol{\Phi}/\partial\mathbf{q}$ is the same in the acceleration and jerk "
+                    r"equations."))
+                if not jac_inline:
+                    self.items.append(_Eqs(tuple(self.jacobian_lines(jac_cells, jac_w))))
+            else:
+                self.items.append(_Text(
+                    r"Differentiating %s gives the %s equation "
+                    r"$\boldsymbol{\Phi}_{\mathbf{q}}\,%s = \mathbf{b}_%d$ (%s time derivatives)."
+                    % ("once more" if k == 2 else "again", what[k - 1],
+                       {2: r"\ddot{\mathbf{q}}", 3: r"\overset{\ldots}{\mathbf{q}}"}[k], k, rate_words[k - 1])))
+            lhs = (jac_tex if jac_inline else r"\boldsymbol{\Phi}_{\mathbf{q}}") + " " + self.column(names, k)
+            lhs_w = (jac_w if jac_inline else 3.0) + _matrix_width([[self.sym(n, k)] for n in names])
+            b_cells = self.matrix_cells(b)
+            if lhs_w + _matrix_width(b_cells) + 3 <= _BUDGET:
+                self.items.append(_Eqs((r"%s &= %s" % (lhs, self.bmatrix(b_cells)),)))
+            else:
+                self.items.append(_Eqs((r"%s &= \mathbf{b}_{%d}" % (lhs, k),)))
+                self.items.append(_Text(r"where the entries of $\mathbf{b}_{%d}$ are" % k))
+                lines = []
+                for i in range(b.rows):
+                    lines += _eq_lines("b_{%d,%d}" % (k, i + 1), self.terms(b[i]))
+                self.items.append(_Eqs(tuple(lines)))
+            if k == 1:
+                self.cramer()
+
+    def jacobian_lines(self, cells, width) -> list[str]:
+        if width <= _BUDGET:
+            return [r"\boldsymbol{\Phi}_{\mathbf{q}} &= %s" % self.bmatrix(cells)]
+        lines = []
+        for i, row in enumerate(cells):
+            for j, c in enumerate(row):
+                if c != "0":
+                    lines.append(r"\left(\boldsymbol{\Phi}_{\mathbf{q}}\right)_{%d,%d} &= %s" % (i + 1, j + 1, c))
+        lines.append(r"&\text{(the other entries are zero)}")
+        return lines
+
+    def cramer(self):
+        kin = self.kin
+        sol = velocity_solution(kin)
+        if not sol:
+            return
+        lines = []
+        x_rates = [kin.z1[kin.variables.index(n)] for n in kin.inputs]
+        for name, value in sol.items():
+            lhs = self.sym(name, 1)
+            rate = x_rates[0] if len(x_rates) == 1 else None
+            coeff = sp.cancel(value / rate) if rate is not None and value.has(rate) else None
+            if coeff is not None and not coeff.has(rate):
+                lines.append(r"%s &= %s\,%s" % (lhs, self.fraction(coeff), self.tex(rate)))
+            else:
+                lines.append(r"%s &= %s" % (lhs, self.fraction(value)))
+        if any(_width(line) > _BUDGET for line in lines):
+            return  # too long to be worth reading (e.g. two inputs): the matrix form says it all
+        self.items.append(_Text(r"Solved by Cramer's rule:"))
+        self.items.append(_Eqs(tuple(lines)))
+
+    def fraction(self, value: sp.Expr) -> str:
+        """Print a quotient; a leading minus sign is absorbed into a sine of a difference when
+        there is one (−a/sin(θ₃−θ₄) → a/sin(θ₄−θ₃), as the notes write it)."""
+        num, den = sp.fraction(sp.factor(value))
+        if (num / den).could_extract_minus_sign():
+            for part, other in ((den, num), (num, den)):
+                for f in sp.Mul.make_args(part):
+                    if isinstance(f, sp.sin) and isinstance(f.args[0], sp.Add):
+                        # sin(-a) = -sin(a): flipping one sine flips the sign of the quotient
+                        flipped = part.xreplace({f: sp.sin(-f.args[0], evaluate=False)})
+                        if part is den:
+                            return self._quotient(-num, flipped)
+                        return self._quotient(-flipped, den)
+        return self._quotient(num, den)
+
+    def _quotient(self, num, den) -> str:
+        sign = ""
+        if num.could_extract_minus_sign():
+            sign, num = "-", -num
+        if den == 1:
+            return sign + self.tex(num)
+        return r"%s\frac{%s}{%s}" % (sign, self.tex(num), self.tex(den))
+
+    def points(self):
+        kin, mech = self.kin, self.mech
+        if not mech.points:
+            return
+        self.items.append(_Section("Points"))
+        self.items.append(_Text("Position, velocity and acceleration of each point (components along $x$ and $y$)."))
+        lines: list[str] = []
+        for pt in mech.points:
+            ptex = symbol_latex(pt.name)
+            vec = _join_terms([(s < 0, vector_latex(n)) for s, n in pt.terms]) if pt.terms else r"\vec{0}"
+            if lines:
+                lines.append(_GAP)
+            lines.append(r"\vec{r}_{%s} &= %s" % (ptex, vec))
+            pos, vel, acc, _ = kin.points[pt.name]
+            for order, m in enumerate((pos, vel, acc)):
+                for c, axis in ((0, "x"), (1, "y")):
+                    sym = "%s_{%s}" % (_ACCENT[order] + "{%s}" % axis if order else axis, ptex)
+                    lines += _eq_lines(sym, self.terms(m[c]))
+        self.items.append(_Eqs(tuple(lines)))
+
+    def numeric(self):
+        if self.at is None:
+            return
+        from .results import column_units
+
+        state = self.mech.solve(self.at, input=self.input)
+        row = state.row()
+        units = column_units(state.compiled)
+        kin = self.kin
+        inp = kin.inputs[0]
+        self.items.append(_Section("Numeric solution"))
+        rates = ", ".join(
+            "$%s = %s%s$" % (self.sym(inp, k), _number(row[inp + suf]), _unit(units[inp + suf]))
+            for k, suf in enumerate(("", "_vel", "_acc")))
+        resid = "%.1e" % state.residual
+        mant, exp = resid.split("e")
+        self.items.append(_Text(r"At %s. Assembly mode %s; loop-closure residual $%s \times 10^{%d}$."
+                                % (rates, "$%s$" % state.mode if state.mode else "--", mant, int(exp))))
+        scale = float(getattr(state.compiled, "scale", 1.0) or 1.0)
+
+        def cells(key):
+            values = [row[key + s] for s in ("", "_vel", "_acc", "_jerk")]
+            # round-off (1e-15 of the row's size) is shown as 0
+            size = max([abs(v) for v in values if v is not None] + [scale])
+            return tuple(_number(0.0 if v is not None and abs(v) < 1e-11 * size else v) + _unit(units[key + s])
+                         for v, s in zip(values, ("", "_vel", "_acc", "_jerk")))
+
+        rows = [(self.sym(name),) + cells(name) for name in list(kin.inputs) + list(kin.unknowns)]
+        for pt in self.mech.points:
+            for axis in ("x", "y"):
+                rows.append(("%s_{%s}" % (axis, symbol_latex(pt.name)),) + cells("%s_%s" % (pt.name, axis)))
+        self.items.append(_Table(("", "Position", "Velocity", "Acceleration", "Jerk"), tuple(rows),
+                                 "lrrrr", equation=True))
+
+    def build(self):
+        self.header()
+        self.loops()
+        self.rates()
+        self.points()
+        self.numeric()
+        return self.items
+
+
+# ============================================================================ rendering
+
+
+def _render_table(t: _Table) -> str:
+    head = " & ".join(r"\textbf{%s}" % h if h else "" for h in t.header)
+    body = "\n".join(" & ".join("$%s$" % c for c in row) + r" \\" for row in t.rows)
+    return ("\\begin{center}\n\\begin{tabular}{%s}\n\\hline\n%s \\\\\n\\hline\n%s\n\\hline\n"
+            "\\end{tabular}\n\\end{center}" % (t.align, head, body))
+
+
+#: a line of an ``_Eqs`` block that only adds vertical space before the next line
+_GAP = ""
+
+
+def _join_lines(lines: Sequence[str]) -> str:
+    out = ""
+    for i, line in enumerate(lines):
+        if line == _GAP:
+            continue
+        if out:
+            out += " \\\\[2.5ex]\n" if lines[i - 1] == _GAP else " \\\\\n"
+        out += line
+    return out
+
+
+def _render_align(lines: Sequence[str]) -> str:
+    return "\\begin{align*}\n" + _join_lines(lines) + "\n\\end{align*}"
+
+
+def _equations_only(items) -> list:
+    """Drop the text and the equation-free sections (for snippets)."""
+    kept: list = []
+    for it in items:
+        if isinstance(it, _Text) or (isinstance(it, _Table) and not it.equation):
+            continue
+        if isinstance(it, _Section) and kept and isinstance(kept[-1], _Section):
+            kept.pop()
+        kept.append(it)
+    if kept and isinstance(kept[-1], _Section):
+        kept.pop()
+    return kept
+
+
+def _render_body(items, *, snippet: bool) -> str:
+    if snippet:
+        items = _equations_only(items)
+    out = []
+    for it in items:
+        if isinstance(it, _Section):
+            out.append(("%% %s" % it.title) if snippet else "\\section*{%s}" % _escape(it.title))
+        elif isinstance(it, _Text):
+            if not snippet:
+                out.append(it.text)
+        elif isinstance(it, _Eqs):
+            out.append(_render_align(it.lines))
+        elif isinstance(it, _Table):
+            if not snippet or it.equation:
+                out.append(_render_table(it))
+    return "\n\n".join(out) + "\n"
+
+
+def _render_inline(items) -> str:
+    """One ``aligned`` environment (for ``$\\displaystyle ...$`` in Jupyter / MathJax)."""
+    lines: list[str] = []
+    for it in _equations_only(items):
+        if isinstance(it, _Section):
+            lines.append(r"&\textbf{%s}" % _escape(it.title))
+        elif isinstance(it, _Eqs):
+            lines.extend(ln for ln in it.lines if ln != _GAP)
+        elif isinstance(it, _Table) and it.equation:
+            head = " & ".join(r"\text{%s}" % h for h in it.header)
+            body = r" \\ ".join(" & ".join(row) for row in it.rows)
+            lines.append(r"&\begin{array}{%s} %s \\ \hline %s \end{array}" % (it.align, head, body))
+    return "\\begin{aligned}\n" + " \\\\\n".join(lines) + "\n\\end{aligned}"
+
+
+_PREAMBLE = r"""\documentclass[11pt,a4paper]{article}
+\usepackage[margin=2.2cm]{geometry}
+\usepackage{amsmath}
+\allowdisplaybreaks
+\pdfgentounicode=1
+\setlength{\parindent}{0pt}
+\setlength{\parskip}{0.6ex}
+"""
+
+
+def _document(title: str, body: str) -> str:
+    return (_PREAMBLE + "\\title{%s}\n\\author{Kinematic derivation by loopsolve}\n\\date{}\n"
+            "\\begin{document}\n\\maketitle\n\n%s\n\\end{document}\n" % (_escape(title), body))
+
+
+def to_latex(mech: Mechanism, *, input: str | Sequence[str] | None = None, at=None,
+             snippet: bool = False, inline: bool = False) -> str:
+    """The symbolic derivation of ``mech`` as LaTeX.
+
+    Parameters
+    ----------
+    mech : Mechanism
+    input : str or sequence of str, optional
+        Derive for this input variable instead of the declared one.
+    at : float or str, optional
+        Also tabulate the numeric solution (positions and rates) at this input value (model
+        units, or with a unit such as ``"1.2rad"``), solved with the model's speed/accel.
+    snippet : bool
+        Equations only (``align*`` environments, and the numeric table when ``at`` is given),
+        to paste into a document that loads ``amsmath``; default: a standalone ``article``.
+    inline : bool
+        With ``snippet``: one ``aligned`` environment to place inside ``$...$`` (Jupyter).
+
+    Returns
+    -------
+    str
+
+    Raises
+    ------
+    ModelError
+        For an unknown input name.
+    SolveError
+        When ``at`` is given and the mechanism cannot be solved there.
+
+    Examples
+    --------
+    >>> mech = ls.load(ls.models_dir() / "thesis_crank_rocker.toml")
+    >>> tex = mech.to_latex()
+    >>> tex.startswith("\\\\documentclass") and r"\\vec{r}_{2} + \\vec{r}_{3} &= \\vec{r}_{1} + \\vec{r}_{4}" in tex
+    True
+    >>> snippet = ls.latex.to_latex(mech, snippet=True)
+    >>> print(next(line for line in snippet.splitlines() if "cos" in line))
+    r_{2} \\cos\\theta_{2} + r_{3} \\cos\\theta_{3} &= r_{1} + r_{4} \\cos\\theta_{4} \\\\
+    """
+    items = _Builder(mech, input, at).build()
+    if inline:
+        return _render_inline(items)
+    if snippet:
+        return "%% loopsolve: %s\n" % mech.name.replace("\n", " ") + _render_body(items, snippet=True)
+    return _document(mech.name, _render_body(items, snippet=False))
+
+
+# ============================================================================ PDF
+
+
+def _find_program(program: str | None) -> tuple[str, str]:
+    names = (program,) if program else ("pdflatex", "latexmk")
+    for name in names:
+        path = shutil.which(name)
+        if path:
+            return name, path
+    raise MissingDependencyError(
+        "%s not found on PATH: install TeX Live (Debian/Ubuntu: apt-get install texlive-latex-base), "
+        "or write the .tex file without --pdf" % (" or ".join(names)))
+
+
+def _log_excerpt(log: str, limit: int = 12) -> str:
+    """The error lines of a TeX log: each ``!`` message with the ``l.N`` line that follows."""
+    lines = log.splitlines()
+    keep: list[str] = []
+    for i, line in enumerate(lines):
+        if line.startswith("!"):
+            keep.append(line)
+            for follow in lines[i + 1:i + 8]:
+                if re.match(r"l\.\d+", follow):
+                    keep.append(follow)
+                    break
+    if not keep:
+        keep = [ln for ln in lines if "Error" in ln or "not found" in ln] or lines[-limit:]
+    return "\n".join(keep[:limit])
+
+
+def write_pdf(tex: str, output: str | os.PathLike, *, program: str | None = None,
+              timeout: float = 300.0) -> Path:
+    """Compile a LaTeX document (or a snippet, wrapped in one) to ``output`` as PDF.
+
+    Runs ``pdflatex`` (or ``latexmk -pdf`` when pdflatex is absent) in a temporary directory,
+    non-interactively and without shell escape.
+
+    Parameters
+    ----------
+    tex : str
+        A document from :func:`to_latex` (a snippet without ``\\documentclass`` is wrapped).
+    output : path
+        The PDF file to write (its folder must exist).
+    program : {"pdflatex", "latexmk"}, optional
+        Force one program.
+    timeout : float
+        Seconds before the compilation is abandoned.
+
+    Returns
+    -------
+    pathlib.Path
+        ``output``.
+
+    Raises
+    ------
+    MissingDependencyError
+        Neither program is installed (the message names them).
+    LoopsolveError
+        Compilation failed (the message quotes the error lines of the TeX log), or
+        ``output`` cannot be written.
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> from loopsolve.latex import write_pdf
+    >>> path = pathlib.Path(tempfile.mkdtemp()) / "fourbar.pdf"
+    >>> try:
+    ...     out = write_pdf(ls.fourbar(r1=60, r2=25, r3=70, r4=45).to_latex(), path)
+    ... except ls.MissingDependencyError:   # no TeX installed here
+    ...     out = None
+    >>> out is None or out.read_bytes()[:5] == b"%PDF-"
+    True
+    """
+    if "\\documentclass" not in tex:
+        tex = _document("Kinematic derivation", tex)
+    name, exe = _find_program(program)
+    output = Path(output)
+    with tempfile.TemporaryDirectory(prefix="loopsolve-tex-") as tmp:
+        src = Path(tmp) / "derivation.tex"
+        src.write_text(tex, encoding="utf-8")
+        if name == "latexmk":
+            cmd = [exe, "-pdf", "-interaction=nonstopmode", "-halt-on-error", "-no-shell-escape", src.name]
+        else:
+            cmd = [exe, "-interaction=nonstopmode", "-halt-on-error", "-no-shell-escape", src.name]
+        try:
+            proc = subprocess.run(cmd, cwd=tmp, stdin=subprocess.DEVNULL, stdout=subprocess.PIPE,
+                                  stderr=subprocess.STDOUT, timeout=timeout, check=False)
+        except subprocess.TimeoutExpired:
+            raise LoopsolveError(f"{name} did not finish within {timeout:g} s; the document was not compiled")
+        pdf = Path(tmp) / "derivation.pdf"
+        if proc.returncode != 0 or not pdf.exists():
+            log_file = Path(tmp) / "derivation.log"
+            log = (log_file.read_text(encoding="utf-8", errors="replace") if log_file.exists()
+                   else proc.stdout.decode("utf-8", errors="replace"))
+            raise LoopsolveError(f"{name} failed (exit status {proc.returncode}) compiling the LaTeX "
+                                 f"document:\n{_log_excerpt(log)}")
+        try:
+            shutil.copyfile(pdf, output)
+        except OSError as exc:
+            raise LoopsolveError(f"cannot write the PDF to {str(output)!r}: {exc.strerror or exc}") from None
+    return output
