@@ -12,7 +12,7 @@ tracking, and gives velocities, accelerations and jerks, sweeps, plots and the L
 
 __version__ = "0.1.0"
 
-from . import errors, expr, newton, topology, units  # noqa: E402
+from . import diagram, errors, expr, newton, topology, units  # noqa: E402
 from .errors import (  # noqa: E402
     AssemblyError,
     BranchError,

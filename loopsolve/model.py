@@ -185,7 +185,10 @@ class Mechanism:
             names = (input,)
             declared = self.inputs
             if len(declared) > 1:  # keep the other declared inputs held
-                names = (input,) + tuple(n for n in declared[1:] if n != input)
+                if input in declared:  # drive this one, hold the others
+                    names = (input,) + tuple(n for n in declared if n != input)
+                else:  # replaces the first declared input
+                    names = (input,) + tuple(declared[1:])
         else:
             names = tuple(input)
         for n in names:
@@ -792,6 +795,60 @@ class MechanismBuilder:
         """Add a point of interest: a sum/difference of vectors from the origin."""
         return self._put("points", name, terms)
 
+    # ------------------------------------------------------- kinematic diagram
+    def revolute(self, name: str, at) -> "MechanismBuilder":
+        """Add a pin joint drawn at ``at`` = (x, y) (kinematic-diagram models)."""
+        return self._put_diagram("joints", name, {"at": list(at)})
+
+    def prismatic(self, name: str, at, axis, *, guide: str | None = None) -> "MechanismBuilder":
+        """Add a slider joint drawn at ``at``, sliding along ``axis`` ((dx, dy) or an angle)."""
+        d: dict[str, Any] = {"at": list(at), "type": "P",
+                             "axis": list(axis) if isinstance(axis, (list, tuple)) else axis}
+        if guide is not None:
+            d["guide"] = guide
+        return self._put_diagram("joints", name, d)
+
+    def link(self, name: str, joints: Sequence[str]) -> "MechanismBuilder":
+        """Add a link carrying ``joints`` (the fixed link is ``"ground"``)."""
+        return self._put_diagram("links", name, list(joints))
+
+    def drive(self, *, joint: str | Sequence[str] | None = None, link: str | Sequence[str] | None = None,
+              speed=None, accel=None, jerk=None) -> "MechanismBuilder":
+        """Name the driven joint(s) or link(s) of a kinematic diagram (and the first one's rates).
+
+        Examples
+        --------
+        >>> b = ls.MechanismBuilder("Four-bar (diagram)")
+        >>> for n, xy in dict(O2=(0, 0), B=(0, 25), C=(67.255, 44.411), O4=(60, 0)).items():
+        ...     b = b.revolute(n, xy)
+        >>> b = b.link("ground", ["O2", "O4"]).link("crank", ["O2", "B"])
+        >>> b = b.link("coupler", ["B", "C"]).link("rocker", ["O4", "C"]).drive(joint="O2")
+        >>> round(b.build().solve(90)["theta_rocker"], 2)
+        80.72
+        """
+        d: dict[str, Any] = {}
+        for k, v in (("joint", joint), ("link", link), ("speed", speed), ("accel", accel), ("jerk", jerk)):
+            if v is not None:
+                d[k] = v if isinstance(v, (str, int, float)) else list(v)
+        self._spec["input"] = d
+        return self
+
+    def _put_diagram(self, section: str, name: str, value: Any) -> "MechanismBuilder":
+        table = self._spec.setdefault(section, {})
+        if name in table:
+            raise ModelError(f"{section}.{name}: {name!r} is declared twice")
+        table[name] = value
+        return self
+
     def build(self) -> Mechanism:
         """Validate and return the :class:`Mechanism` (all problems reported at once)."""
+        if self._spec.get("joints") or self._spec.get("links"):
+            from .diagram import diagram_to_spec
+
+            busy = [k for k in ("variables", "vectors", "loops", "points") if self._spec.get(k)]
+            if busy:
+                raise ModelError("a mechanism is declared either by joints and links (a kinematic diagram) "
+                                 f"or by variables, vectors and loops, not both (this one also has {', '.join(busy)})")
+            data = {k: v for k, v in self._spec.items() if k not in ("variables", "vectors", "loops", "points")}
+            return build_mechanism(diagram_to_spec(data, source=None), source=None)
         return build_mechanism(self._spec, source=None)
