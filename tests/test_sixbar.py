@@ -118,11 +118,12 @@ def test_positions_over_a_full_turn(model):
     for st in sw.states:
         ref = INDEPENDENT[model](math.radians(st.input_value))
         for name, value in ref.items():
+            # 1e-8 mm on links of ~100 mm: the Newton tolerance, not the model
             if np.ndim(value):
-                assert st[f"{name}_x"] == pytest.approx(value[0], abs=1e-9), (name, st.input_value)
-                assert st[f"{name}_y"] == pytest.approx(value[1], abs=1e-9), (name, st.input_value)
+                assert st[f"{name}_x"] == pytest.approx(value[0], abs=1e-8), (name, st.input_value)
+                assert st[f"{name}_y"] == pytest.approx(value[1], abs=1e-8), (name, st.input_value)
             else:
-                assert st[name] == pytest.approx(value, abs=1e-9), (name, st.input_value)
+                assert st[name] == pytest.approx(value, abs=1e-8), (name, st.input_value)
     # the tracked branch keeps one assembly mode (one sign per block) around the turn
     assert len({st.mode for st in sw.states}) == 1
 
