@@ -208,16 +208,18 @@ def cmd_latex(args) -> int:
 
 
 def cmd_plot(args) -> int:
-    from .plotting import plot_sweep
+    from .plotting import check_output, plot_sweep
 
+    check_output(args.output, "figure")
     plot_sweep(_sweep_for(args), args.vars, output=args.output)
     print(f"wrote {args.output}", file=sys.stderr)
     return EXIT_OK
 
 
 def cmd_draw(args) -> int:
-    from .plotting import draw
+    from .plotting import check_output, draw
 
+    check_output(args.output, "figure")
     mech = _load(args.model)
     draw(mech, args.at, input=args.input, mode=args.mode, vectors=args.vectors, output=args.output)
     print(f"wrote {args.output}", file=sys.stderr)
@@ -225,8 +227,9 @@ def cmd_draw(args) -> int:
 
 
 def cmd_animate(args) -> int:
-    from .plotting import animate
+    from .plotting import animate, check_output
 
+    check_output(args.output, "animation")
     animate(_sweep_for(args), output=args.output, fps=args.fps, progress=None if not args.quiet else False)
     print(f"wrote {args.output}", file=sys.stderr)
     return EXIT_OK

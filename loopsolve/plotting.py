@@ -1,0 +1,1155 @@
+"""Pictures: sweep plots, kinematic diagrams and animations (matplotlib + Pillow, the ``plot`` extra).
+
+Nothing here runs at import time: matplotlib is imported inside the functions, and figures
+are made with the object-oriented API on an Agg canvas (``matplotlib.figure.Figure``), so
+the global pyplot state and backend of the caller (a script, a notebook) are never touched.
+
+The kinematic diagram is rebuilt from the solved state alone:
+
+* every vector is placed by walking the loops (``lhs`` forward, ``rhs`` backward, starting at
+  the origin or at a vector an earlier loop already placed) and then the points of interest
+  (sums of vectors from the origin), with the lengths and angles of
+  :meth:`CompiledKinematics.vector_values`;
+* a vector whose length and angle do not depend on any variable is *ground* when one of its
+  ends is fixed (the origin is); its ends are fixed points;
+* a vector whose angle depends on variables and whose length is constant is part of a *link*;
+  vectors whose angles depend on the same variables are the same rigid link (a link with
+  three or more joints is drawn as a filled polygon: a ternary link is a triangle);
+* a vector whose length is a variable is a *slider*: a block at its tip on a guide along it
+  (a fixed guide, hatched, when its angle is constant; a slotted lever when it rotates).
+
+A model written as a kinematic diagram (``[joints]``/``[links]``, see :mod:`loopsolve.diagram`)
+is drawn from its links and joints instead, when its ``spec`` still carries them.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+import shutil
+import sys
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from .errors import LoopsolveError, MissingDependencyError, ModelError
+
+__all__ = ["plot_sweep", "draw", "animate", "check_output", "tex_name", "FIGURE_FORMATS", "ANIMATION_FORMATS"]
+
+#: image formats of :func:`plot_sweep` and :func:`draw` (by file suffix)
+FIGURE_FORMATS = ("png", "svg", "pdf")
+#: formats of :func:`animate` (MP4 needs the ffmpeg program)
+ANIMATION_FORMATS = ("gif", "mp4")
+
+_EXTRA = "pip install 'loopsolve[plot]'"
+_GREEK = ("alpha", "beta", "gamma", "delta", "epsilon", "zeta", "eta", "theta", "iota", "kappa", "lambda",
+          "mu", "nu", "xi", "pi", "rho", "sigma", "tau", "upsilon", "phi", "chi", "psi", "omega")
+_EVENT_STYLE = {"limit": ("tab:red", "--"), "singular": ("tab:orange", "-."),
+                "not-assemblable": ("0.4", ":"), "mode-change": ("tab:purple", "--")}
+_LINK_COLORS = ("#1f4e79", "#b03a2e", "#1e8449", "#7d3c98", "#b9770e", "#117a65", "#5d6d7e", "#a04000")
+
+
+# ----------------------------------------------------------------------------------- imports
+def _matplotlib():
+    """Import matplotlib (and check Pillow) or raise :class:`MissingDependencyError`."""
+    try:
+        import matplotlib
+        from matplotlib.backends.backend_agg import FigureCanvasAgg  # noqa: F401
+        from matplotlib.figure import Figure  # noqa: F401
+    except ImportError as exc:
+        raise MissingDependencyError(
+            f"plots, diagrams and animations need matplotlib ({exc}); install the plot extra: {_EXTRA}") from None
+    try:
+        import PIL  # noqa: F401
+    except ImportError as exc:
+        raise MissingDependencyError(
+            f"plots, diagrams and animations need Pillow ({exc}); install the plot extra: {_EXTRA}") from None
+    return matplotlib
+
+
+def _new_figure(figsize):
+    _matplotlib()
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=figsize, layout="constrained")
+    FigureCanvasAgg(fig)
+    return fig
+
+
+def _format_of(output, allowed: tuple[str, ...], what: str) -> str:
+    suffix = Path(output).suffix.lower().lstrip(".")
+    if suffix not in allowed:
+        raise ModelError(f"cannot write {what} to {str(output)!r}: the file name must end in "
+                         + ", ".join("." + a for a in allowed))
+    return suffix
+
+
+def check_output(output, what: str = "figure") -> str:
+    """Check, before any work, that ``output`` can be written as a ``"figure"`` or ``"animation"``.
+
+    Returns the format (the lower-case suffix). Raises :class:`ModelError` for an unsupported
+    suffix and :class:`MissingDependencyError` when matplotlib/Pillow (or ffmpeg for an MP4)
+    is missing, so the command line fails fast instead of after a long sweep.
+
+    Examples
+    --------
+    >>> from loopsolve.plotting import check_output
+    >>> check_output("crank.svg"), check_output("crank.GIF", "animation")
+    ('svg', 'gif')
+    >>> check_output("crank.jpg")
+    Traceback (most recent call last):
+    ...
+    loopsolve.errors.ModelError: cannot write a figure to 'crank.jpg': the file name must end in .png, .svg, .pdf
+    """
+    if what not in ("figure", "animation"):
+        raise ModelError(f"what must be 'figure' or 'animation', not {what!r}")
+    fmt = _format_of(output, FIGURE_FORMATS if what == "figure" else ANIMATION_FORMATS, f"a{'n' * (what[0] == 'a')} "
+                     + what)
+    _matplotlib()
+    if fmt == "mp4" and shutil.which("ffmpeg") is None:
+        raise MissingDependencyError(
+            "writing an MP4 needs the ffmpeg program on the PATH; install ffmpeg or write a .gif instead")
+    return fmt
+
+
+def _save(fig, output, *, dpi=150) -> None:
+    fmt = _format_of(output, FIGURE_FORMATS, "a figure")
+    try:
+        fig.savefig(output, format=fmt, dpi=dpi)
+    except OSError as exc:
+        raise LoopsolveError(f"cannot write {str(output)!r}: {exc.strerror or exc}") from None
+
+
+# ------------------------------------------------------------------------------------- names
+def tex_name(name: str) -> str:
+    """A variable, point or vector name as matplotlib mathtext: ``theta2`` → ``$\\theta_{2}$``.
+
+    Greek-letter names become the letter; a trailing number or upper-case tag
+    (``theta2``, ``rAB``) or anything after the first underscore (``C_x``, ``theta_crank``)
+    becomes a subscript. Names that fit none of these are returned unchanged.
+
+    Examples
+    --------
+    >>> from loopsolve.plotting import tex_name
+    >>> tex_name("theta2"), tex_name("rAB"), tex_name("C_x"), tex_name("s")
+    ('$\\\\theta_{2}$', '$r_{AB}$', '$C_{x}$', '$s$')
+    >>> tex_name("theta_crank"), tex_name("r_ground_O2"), tex_name("omega")
+    ('$\\\\theta_{\\\\mathrm{crank}}$', '$r_{\\\\mathrm{ground\\\\_O2}}$', '$\\\\omega$')
+    """
+    def base_tex(base: str) -> str:
+        return "\\" + base if base in _GREEK else base
+
+    if "_" in name:
+        base, sub = name.split("_", 1)
+        if re.fullmatch(r"[A-Za-z]+", base) and re.fullmatch(r"[A-Za-z0-9_]+", sub):
+            sub = sub if len(sub) == 1 or sub.isdigit() else "\\mathrm{" + sub.replace("_", "\\_") + "}"
+            return f"${base_tex(base)}_{{{sub}}}$"
+        return name
+    m = re.fullmatch(r"([A-Za-z]+?)([0-9]+[A-Za-z]*|[A-Z][A-Z0-9]*)", name)
+    if m and (m.group(1) in _GREEK or len(m.group(1)) == 1):
+        return f"${base_tex(m.group(1))}_{{{m.group(2)}}}$"
+    if name in _GREEK:
+        return f"${base_tex(name)}$"
+    if re.fullmatch(r"[A-Za-z]", name):
+        return f"${name}$"
+    return name
+
+
+# ------------------------------------------------------------------------------------- plots
+def _pretty_unit(unit: str) -> str:
+    """``rad/s^2`` → ``rad/s²`` for axis labels."""
+    return unit.replace("^2", "\u00b2").replace("^3", "\u00b3")
+
+
+def _plot_vars(sweep, vars) -> list[str]:
+    ck = sweep.compiled
+    if vars is None:
+        return list(ck.unknowns)
+    if isinstance(vars, str):
+        vars = [vars]
+    out: list[str] = []
+    for v in vars:
+        if v in ck.variables or v in {f"{p}_{c}" for p in ck.points for c in "xy"}:
+            out.append(v)
+        elif v in ck.points:
+            out += [f"{v}_x", f"{v}_y"]
+        else:
+            raise ModelError(f"cannot plot {v!r}: choose variables ({', '.join(ck.variables)}), points "
+                             f"({', '.join(ck.points) or 'none'}) or point coordinates such as "
+                             f"{(ck.points[0] if ck.points else 'P')}_x")
+    return list(dict.fromkeys(out))
+
+
+def _unwrapped(values: np.ndarray, unit: str) -> np.ndarray:
+    """Angles tracked continuously (the table wraps them to (−180°, 180°])."""
+    period = 360.0 if unit == "deg" else 2 * math.pi
+    good = np.isfinite(values)
+    if good.sum() < 2:
+        return values
+    out = values.copy()
+    out[good] = np.unwrap(values[good], period=period)
+    shift = period * np.round(np.nanmean(out) / period)
+    return out - shift
+
+
+def _angle_ticks(ax, lo: float, hi: float, unit: str) -> None:
+    if unit != "deg" or not np.isfinite([lo, hi]).all() or hi - lo < 90:
+        return
+    from matplotlib.ticker import MultipleLocator
+
+    for step in (15, 30, 45, 90, 180, 360):
+        if (hi - lo) / step <= 12:
+            ax.xaxis.set_major_locator(MultipleLocator(step))
+            return
+
+
+def _rate_note(sweep) -> str:
+    if not len(sweep):
+        return ""
+    ck = sweep.compiled
+    name = ck.inputs[0]
+    units = sweep.units()
+    st = sweep.states[0]
+    i = ck.index(name)
+    vel, acc = float(st.z1[i]), float(st.z2[i])
+    if vel == 1.0 and acc == 0.0:
+        return f"rates per unit input speed ({tex_name(name)} at 1 {units[name + '_vel']})"
+    note = f"{tex_name(name)} speed {vel:.4g} {units[name + '_vel']}"
+    if acc:
+        note += f", acceleration {acc:.4g} {units[name + '_acc']}"
+    return note
+
+
+def plot_sweep(sweep, vars=None, *, output=None):
+    """Positions, velocities and accelerations of the chosen variables against the input.
+
+    One column of panels per unit (angles and lengths are never mixed on an axis), three
+    rows: position, velocity, acceleration. Angles are shown tracked continuously (not
+    wrapped to ±180°); limit, singular, not-assemblable and mode-change events of the sweep
+    are marked with vertical lines.
+
+    Parameters
+    ----------
+    sweep : Sweep
+        A sweep (:func:`loopsolve.sweep`, :meth:`Mechanism.sweep`).
+    vars : sequence of str, optional
+        Variables (``theta3``), points (``C``: both coordinates) or point coordinates
+        (``C_x``). Default: the unknowns.
+    output : str or Path, optional
+        Also write the figure to this file (``.png``, ``.svg`` or ``.pdf``).
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+
+    Raises
+    ------
+    MissingDependencyError
+        matplotlib or Pillow is not installed (``pip install 'loopsolve[plot]'``).
+    ModelError
+        An unknown variable name or an unsupported file suffix.
+
+    Examples
+    --------
+    >>> from loopsolve.plotting import plot_sweep
+    >>> sw = ls.load(ls.models_dir() / "thesis_crank_rocker.toml").sweep(0, 360, 10)
+    >>> fig = plot_sweep(sw, ["theta3", "theta4"])
+    >>> [ax.get_ylabel() for ax in fig.axes]
+    ['angle [deg]', 'angular velocity [rad/s]', 'angular acceleration [rad/s²]']
+    """
+    names = _plot_vars(sweep, vars)
+    ck = sweep.compiled
+    units = sweep.units()
+    cols = sweep.columns
+    x = cols[ck.inputs[0]]
+    x_unit = units[ck.inputs[0]]
+    groups: dict[str, list[str]] = {}
+    for n in names:
+        groups.setdefault(units[n], []).append(n)
+    fig = _new_figure((6.4 * len(groups) if len(groups) > 1 else 7.5, 8.0))
+    axes = fig.subplots(3, len(groups), sharex=True, squeeze=False)
+    suffixes = ("", "_vel", "_acc")
+    for c, (unit, members) in enumerate(groups.items()):
+        angular = unit in ("deg", "rad")
+        titles = (("angle", "angular velocity", "angular acceleration") if angular else
+                  ("position", "velocity", "acceleration"))
+        for r, suffix in enumerate(suffixes):
+            ax = axes[r, c]
+            for k, n in enumerate(members):
+                y = cols[n + suffix]
+                if r == 0 and angular and n in ck.variables:
+                    y = _unwrapped(y, unit)
+                style = "-o" if len(x) < 40 else "-"
+                ax.plot(x, y, style, ms=3, lw=1.6, color=f"C{k}", label=tex_name(n))
+            ax.set_ylabel(f"{titles[r]} [{_pretty_unit(units[members[0] + suffix])}]")
+            ax.grid(True, alpha=0.35)
+            lo, hi = ax.dataLim.intervaly
+            if lo < 0 < hi:
+                ax.axhline(0.0, color="0.6", lw=0.6, zorder=0)
+            _mark_events(ax, sweep.events, legend=(r == 0 and c == 0))
+            if r == 0:
+                ax.legend(loc="best", fontsize=9, ncols=min(3, len(members) + len(sweep.events)))
+        axes[-1, c].set_xlabel(f"{tex_name(ck.inputs[0])} [{_pretty_unit(x_unit)}]")
+        if len(x):
+            _angle_ticks(axes[-1, c], float(np.nanmin(x)), float(np.nanmax(x)), x_unit)
+    alias = {v: k for k, v in getattr(ck.mechanism, "mode_aliases", {}).items()}.get(sweep.mode)
+    mode = (f", mode {sweep.mode}" + (f" ({alias})" if alias else "")) if sweep.mode else ""
+    fig.suptitle(f"{ck.mechanism.name}{mode}\n{_rate_note(sweep)}", fontsize=11)
+    if output is not None:
+        _save(fig, output)
+    return fig
+
+
+def _mark_events(ax, events, *, legend: bool) -> None:
+    seen = set()
+    for ev in events:
+        kind = ev.kind.value
+        color, ls = _EVENT_STYLE.get(kind, ("k", "--"))
+        label = f"{kind} at {ev.input:.4g}" if legend and kind not in seen else None
+        seen.add(kind)
+        ax.axvline(ev.input, color=color, ls=ls, lw=1.3, label=label)
+
+
+# ------------------------------------------------------------------------- diagram geometry
+class _Nodes:
+    """Union-find over vector ends: ``("tail", v)``, ``("head", v)`` and ``"origin"``."""
+
+    def __init__(self):
+        self.parent: dict = {}
+
+    def find(self, k):
+        self.parent.setdefault(k, k)
+        while self.parent[k] != k:
+            self.parent[k] = self.parent[self.parent[k]]
+            k = self.parent[k]
+        return k
+
+    def union(self, a, b):
+        ra, rb = self.find(a), self.find(b)
+        if ra != rb:
+            # keep "origin" as the representative when present
+            if rb == "origin":
+                ra, rb = rb, ra
+            self.parent[rb] = ra
+
+
+def _walk_sequence(loop) -> tuple[tuple[int, str], ...]:
+    """The closed path of a loop: the left side forward, then the right side backward."""
+    if loop.rhs:
+        return tuple(loop.lhs) + tuple((-s, n) for s, n in reversed(loop.rhs))
+    return tuple(loop.terms)
+
+
+@dataclass
+class _Structure:
+    """Pose-independent structure of a mechanism's diagram (from its vectors and loops)."""
+
+    walks: list  # (start: "origin" | (vec, index in sequence), sequence, closing: bool, point name | None)
+    node_of: dict  # (end, vec) -> node id
+    kind: dict  # vec -> "ground" | "bar" | "slider" | "rslider" | "offset" | "moving"
+    link_of: dict  # vec -> link key (bars, rotating sliders)
+    fixed: set  # fixed node ids
+    point_node: dict  # point name -> node id
+    names: dict  # node id -> label
+    vectors: tuple  # placed vectors in compiled order
+    links: dict = field(default_factory=dict)  # link key -> list of node ids (declared order)
+    blocks: list = field(default_factory=list)  # (slider vec, node id of the block)
+
+
+def _structure(ck) -> _Structure:
+    from .expr import names as expr_names
+
+    mech = ck.mechanism
+    variables = set(ck.variables)
+    nodes = _Nodes()
+    nodes.find("origin")
+    placed: set[str] = set()
+    walks = []
+    pending = list(mech.loops)
+    while pending:
+        pick, start = None, "origin"
+        for loop in pending:
+            seq = _walk_sequence(loop)
+            hit = next((i for i, (_, v) in enumerate(seq) if v in placed), None)
+            if hit is not None:
+                pick, start = loop, (seq[hit][1], hit)
+                break
+        if pick is None:
+            pick = pending[0]
+        pending.remove(pick)
+        seq = _walk_sequence(pick)
+        walks.append((start, seq, True, None))
+        cur = "origin" if start == "origin" else None
+        first = None
+        for sign, v in seq:
+            tail, head = ("tail", v), ("head", v)
+            enter, leave = (tail, head) if sign > 0 else (head, tail)
+            if cur is None:
+                first = enter
+            else:
+                nodes.union(cur, enter)
+            cur = leave
+            placed.add(v)
+        nodes.union(cur, "origin" if start == "origin" else first)
+    point_node = {}
+    for p in mech.points:
+        cur = "origin"
+        for sign, v in p.terms:
+            tail, head = ("tail", v), ("head", v)
+            enter, leave = (tail, head) if sign > 0 else (head, tail)
+            nodes.union(cur, enter)
+            cur = leave
+        walks.append(("origin", tuple(p.terms), False, p.name))
+        placed.update(v for _, v in p.terms)
+        point_node[p.name] = cur
+    vectors = tuple(v for v in ck.vectors if v in placed)
+    node_of = {}
+    for v in vectors:
+        for end in ("tail", "head"):
+            node_of[(end, v)] = nodes.find((end, v))
+    point_node = {p: nodes.find(k) for p, k in point_node.items()}
+    origin = nodes.find("origin")
+
+    lvars, avars = {}, {}
+    for v in vectors:
+        vec = mech.vector(v)
+        if vec.cartesian:
+            deps = (expr_names(vec.x) | expr_names(vec.y)) & variables
+            lvars[v], avars[v] = deps, deps
+        else:
+            lvars[v] = expr_names(vec.length) & variables
+            avars[v] = (expr_names(vec.angle) | (expr_names(vec.offset) if vec.offset is not None else set())) \
+                & variables
+    # fixed nodes: the origin and everything reached from it through constant vectors
+    fixed = {origin}
+    changed = True
+    while changed:
+        changed = False
+        for v in vectors:
+            if lvars[v] or avars[v]:
+                continue
+            a, b = node_of[("tail", v)], node_of[("head", v)]
+            if (a in fixed) != (b in fixed):
+                fixed.update((a, b))
+                changed = True
+    kind, link_of, links = {}, {}, {}
+    for v in vectors:
+        a, b = node_of[("tail", v)], node_of[("head", v)]
+        if lvars[v]:
+            kind[v] = "rslider" if avars[v] else "slider"
+        elif avars[v]:
+            kind[v] = "moving" if mech.vector(v).cartesian else "bar"
+        else:
+            kind[v] = "ground" if a in fixed else "offset"
+        if kind[v] in ("bar", "rslider", "moving"):
+            key = frozenset(avars[v])
+            link_of[v] = key
+            members = links.setdefault(key, [])
+            for n in (a, b) if kind[v] != "rslider" else (a,):
+                if n not in members:
+                    members.append(n)
+    # block of each slider: at its tip, or further along constant offsets where a link is pinned
+    pinned = {n for key, members in links.items() for n in members}
+    blocks = []
+    offsets: dict = {}
+    for v in vectors:
+        if kind[v] == "offset":
+            a, b = node_of[("tail", v)], node_of[("head", v)]
+            offsets.setdefault(a, set()).add(b)
+            offsets.setdefault(b, set()).add(a)
+    for v in vectors:
+        if kind[v] not in ("slider", "rslider"):
+            continue
+        tip = node_of[("head", v)]
+        block = tip
+        if kind[v] == "slider" and tip not in pinned:
+            seen, frontier = {tip}, [tip]
+            while frontier:
+                n = frontier.pop(0)
+                if n in pinned:
+                    block = n
+                    break
+                for m in offsets.get(n, ()):
+                    if m not in seen:
+                        seen.add(m)
+                        frontier.append(m)
+        blocks.append((v, block))
+    names = _node_names(mech, vectors, node_of, point_node, kind, fixed, links)
+    return _Structure(walks, node_of, kind, link_of, fixed, point_node, names, vectors, links, blocks)
+
+
+def _node_names(mech, vectors, node_of, point_node, kind, fixed, links) -> dict:
+    """Labels: point names first, then names read off vector names (``rAB``: A→B, ``r2``: O2)."""
+    names: dict = {}
+    for p, n in point_node.items():
+        names.setdefault(n, p)
+    for v in vectors:
+        m = re.fullmatch(r"r_?([A-Z][0-9]*)([A-Z][0-9]*)", v)
+        if m:
+            names.setdefault(node_of[("tail", v)], m.group(1))
+            names.setdefault(node_of[("head", v)], m.group(2))
+    pivots = {n for key, members in links.items() for n in members} & fixed
+    taken = set(names.values())
+    for v in vectors:
+        if kind[v] not in ("bar", "rslider"):
+            continue
+        for end in ("tail", "head"):
+            n = node_of[(end, v)]
+            if n in pivots and n not in names:
+                m = re.fullmatch(r"[a-zA-Z]+_?([0-9]+[a-z]*)", v)
+                label = f"O{m.group(1)}" if m else f"O({v})"
+                if label not in taken:
+                    names[n] = label
+                    taken.add(label)
+    return names
+
+
+def _positions(st: _Structure, ck, z) -> dict:
+    """Node id → (x, y) at the pose ``z`` (internal units)."""
+    vv = ck.vector_values(0, z)
+    disp = {}
+    for v in st.vectors:
+        length, angle = vv[ck.vectors.index(v)]
+        disp[v] = np.array([length * math.cos(angle), length * math.sin(angle)])
+    tails: dict[str, np.ndarray] = {}
+    for start, seq, closing, _point in st.walks:
+        if start == "origin":
+            cur = np.zeros(2)
+        else:
+            anchor, hit = start
+            rel = np.zeros(2)
+            for sign, v in seq[:hit]:
+                rel = rel + sign * disp[v]
+            own = rel if seq[hit][0] > 0 else rel - disp[anchor]
+            cur = tails[anchor] - own
+        for sign, v in seq:
+            if sign > 0:
+                tails.setdefault(v, cur.copy())
+                cur = cur + disp[v]
+            else:
+                cur = cur - disp[v]
+                tails.setdefault(v, cur.copy())
+    pos = {}
+    for v in st.vectors:
+        pos.setdefault(st.node_of[("tail", v)], tails[v])
+        pos.setdefault(st.node_of[("head", v)], tails[v] + disp[v])
+    return pos, tails, disp
+
+
+@dataclass
+class _Frame:
+    """Everything drawn for one pose (data coordinates)."""
+
+    links: list  # (key, [xy...], color index)
+    pivots: list  # (xy, name|None)
+    blocks: list  # (xy, angle)
+    guides: list  # (key, block xy, unit direction, ground: bool, tail xy | None)
+    levers: list  # (vector, pivot xy, unit direction, block xy)
+    joints: list  # xy
+    points: list  # (xy, name)
+    labels: list  # (xy, text, attached directions)
+    arrows: list  # (tail, head, name)
+    ground_lines: list  # (p0, p1)
+
+
+def _unit(v) -> np.ndarray:
+    n = float(np.hypot(*v))
+    return np.asarray(v, dtype=float) / n if n > 0 else np.zeros(2)
+
+
+def _diagram_spec(mech):
+    spec = getattr(mech, "spec", None) or {}
+    joints, links = spec.get("joints"), spec.get("links")
+    if isinstance(joints, dict) and isinstance(links, dict) and links:
+        return joints, links
+    return None
+
+
+def _frames(states, *, vectors: bool) -> tuple[list[_Frame], _Structure]:
+    ck = states[0].compiled
+    st = _structure(ck)
+    layout = _diagram_spec(ck.mechanism)
+    frames = []
+    for s in states:
+        pos, tails, disp = _positions(st, ck, s.z)
+        frames.append(_frame_from_layout(layout, s, st, pos) if layout else _frame(st, ck, s, pos))
+        if vectors:
+            frames[-1].arrows = [(tails[v], tails[v] + disp[v], v) for v in st.vectors
+                                 if float(np.hypot(*disp[v])) > 0]
+    return frames, st
+
+
+def _frame(st: _Structure, ck, s, pos) -> _Frame:
+    links, pivots, blocks, guides, levers, joints, points, ground_lines = [], [], [], [], [], set(), [], []
+    for i, (key, members) in enumerate(st.links.items()):
+        links.append((key, [pos[n] for n in members], i))
+        joints.update(members)
+    vv = ck.vector_values(0, s.z)
+    for v, block in st.blocks:
+        length, angle = vv[ck.vectors.index(v)]
+        d = np.array([math.cos(angle), math.sin(angle)])
+        tail = pos[st.node_of[("tail", v)]]
+        if st.kind[v] == "rslider":
+            levers.append((v, tail, d, pos[block]))
+        else:
+            ground = st.node_of[("tail", v)] in st.fixed
+            guides.append((v, pos[block], d, ground, tail))
+        blocks.append((pos[block], angle))
+        joints.add(block)
+    for v in st.vectors:
+        if st.kind[v] == "ground":
+            ground_lines.append((pos[st.node_of[("tail", v)]], pos[st.node_of[("head", v)]]))
+    pivot_nodes = joints & st.fixed
+    pivots = [(pos[n], n) for n in pivot_nodes]
+    point_nodes = set(st.point_node.values())
+    points = [(pos[n], n) for n in point_nodes - joints]
+    labels = {n: st.names[n] for n in (joints | point_nodes) if n in st.names}
+    return _Frame(links, pivots, blocks, guides, levers, [pos[n] for n in joints], points,
+                  [(pos[n], text, n) for n, text in labels.items()], [], ground_lines)
+
+
+def _frame_from_layout(layout, s, st: _Structure, pos) -> _Frame:
+    """A frame from a kinematic-diagram model: links and joints by name (every joint is a point).
+
+    A link is drawn through its distinct joint positions (coincident joints, such as a pin
+    and the prismatic joint of the same block, count once); a link whose joints all coincide
+    is a block, drawn by its prismatic joint. A prismatic joint is a block along the sliding
+    vector that ends at it (its ``axis`` when none does), on a hatched guide when the joint
+    belongs to the ground link.
+    """
+    joints_spec, links_spec = layout
+    ck = s.compiled
+    where = {p: np.asarray(s.points[0, j], dtype=float) for j, p in enumerate(ck.points)}
+    missing = [j for j in joints_spec if j not in where]
+    if missing:
+        raise ModelError(f"cannot draw {ck.mechanism.name!r}: joints {', '.join(missing)} are not points "
+                         "of the solved model")
+    tol = 1e-9 * ck.scale
+    ground_name = "ground" if "ground" in links_spec else None
+    ground_joints = set(links_spec.get(ground_name, ())) if ground_name else set()
+    vv = ck.vector_values(0, s.z)
+
+    def distinct(names):
+        out = []
+        for n in names:
+            if not any(np.linalg.norm(where[n] - q) < tol for q in out):
+                out.append(where[n])
+        return out
+
+    links, pivots, blocks, guides, joints = [], [], [], [], []
+    for i, (name, members) in enumerate(links_spec.items()):
+        xy = distinct(members)
+        if name != ground_name and len(xy) >= 2:
+            links.append((name, xy, i))
+    kinds = {n: (str(spec.get("type", "R")).upper() if isinstance(spec, dict) else "R")
+             for n, spec in joints_spec.items()}
+    for name, spec in joints_spec.items():
+        p = where[name]
+        if kinds[name] == "P":
+            angle = None
+            for v, block in st.blocks:
+                if np.linalg.norm(pos[block] - p) < tol:
+                    angle = float(vv[ck.vectors.index(v)][1])
+            if angle is None:
+                axis = spec.get("axis", (1.0, 0.0))
+                angle = math.atan2(float(axis[1]), float(axis[0]))
+            blocks.append((p, angle))
+            if name in ground_joints:
+                guides.append((name, p, np.array([math.cos(angle), math.sin(angle)]), True, None))
+        else:
+            if name in ground_joints:
+                pivots.append((p, name))
+        if not any(np.linalg.norm(p - q) < tol for q in joints):
+            joints.append(p)
+    # one label per position: the revolute joints there (else the prismatic one)
+    labels = []
+    for p in joints:
+        here = [n for n in joints_spec if np.linalg.norm(where[n] - p) < tol]
+        named = [n for n in here if kinds[n] == "R"] or here
+        labels.append((p, ", ".join(named), named[0]))
+    extra = [(where[p], p) for p in ck.points if p not in joints_spec]
+    return _Frame(links, pivots, blocks, guides, [], joints, extra,
+                  labels + [(xy, p, p) for xy, p in extra], [], [])
+
+
+# ------------------------------------------------------------------------------ rendering
+@dataclass
+class _Style:
+    size: float  # the characteristic symbol size (data units)
+    lo: np.ndarray
+    hi: np.ndarray
+    pivot_dir: dict  # pivot key -> unit vector towards the ground
+    guide_side: dict  # guide key -> unit normal of the hatched side
+    guide_span: dict  # guide key -> (s_min, s_max) along the guide through its reference point
+    lever_len: dict  # lever key -> drawn length
+
+
+def _style(frames: list[_Frame]) -> _Style:
+    pts = []
+    for f in frames:
+        for _, xy, _ in f.links:
+            pts += list(xy)
+        pts += [p for p, _ in f.pivots] + [p for p, _ in f.blocks] + list(f.joints) + [p for p, _ in f.points]
+        pts += [p for pair in f.ground_lines for p in pair]
+        pts += [t for t, h, _ in f.arrows] + [h for t, h, _ in f.arrows]
+        for v, tail, d, block in f.levers:
+            pts.append(tail)
+    pts = np.array(pts, dtype=float).reshape(-1, 2)
+    lo, hi = pts.min(axis=0), pts.max(axis=0)
+    span = float(max(hi - lo)) or 1.0
+    size = 0.045 * span
+    centre = pts.mean(axis=0)
+    # a pivot's ground symbol points away from the links it carries (averaged over all frames)
+    # a pivot's ground symbol goes where nothing is attached: of the four axis directions, the
+    # one with the largest clearance from its links and frame lines (averaged over all frames;
+    # pointing down when free)
+    choices = [np.array(c, dtype=float) for c in ((0, -1), (0, 1), (-1, 0), (1, 0))]
+    clearance: dict = {}
+    for f in frames:
+        for p, key in f.pivots:
+            dirs = []
+            for _, xy, _ in f.links:
+                if any(np.allclose(q, p, atol=1e-9 * span) for q in xy):
+                    dirs += [_unit(np.asarray(r) - p) for r in xy if not np.allclose(r, p, atol=1e-9 * span)]
+            dirs += [d for v, tail, d, _ in f.levers if np.allclose(tail, p, atol=1e-9 * span)]
+            for a, b in f.ground_lines:
+                if np.allclose(a, p, atol=1e-9 * span):
+                    dirs.append(_unit(np.asarray(b) - a))
+                elif np.allclose(b, p, atol=1e-9 * span):
+                    dirs.append(_unit(np.asarray(a) - b))
+            score = clearance.setdefault(key, np.zeros(len(choices)))
+            for i, c in enumerate(choices):
+                clear = min((math.acos(max(-1.0, min(1.0, float(c @ d)))) for d in dirs), default=math.pi)
+                score[i] += min(clear, 0.5 * math.pi)  # a right angle is clear enough
+    snapped = {}
+    for key, score in clearance.items():
+        score = score / len(frames) + np.array([0.3, 0.1, 0.0, 0.0])
+        snapped[key] = choices[int(np.argmax(score))]
+    guide_side, guide_span, guide_ref = {}, {}, {}
+    for f in frames:
+        for key, p, d, ground, tail in f.guides:
+            ref = guide_ref.setdefault(key, np.asarray(p, dtype=float))
+            n = np.array([-d[1], d[0]])
+            side = guide_side.setdefault(key, np.zeros(2))
+            side += -(n @ (centre - p)) * n
+            s = float((p - ref) @ d)
+            cand = [s - 3.0 * size, s + 3.0 * size]
+            s_lo, s_hi = guide_span.get(key, (math.inf, -math.inf))
+            guide_span[key] = (min(s_lo, *cand), max(s_hi, *cand))
+    for key, side in guide_side.items():
+        guide_side[key] = _unit(side) if np.hypot(*side) > 1e-12 else np.array([0.0, -1.0])
+    extra = [guide_ref[k] + d * s for f in frames[:1] for k, _, d, _, _ in f.guides for s in guide_span[k]]
+    # a slotted lever is drawn from its pivot to beyond the farthest position of its block
+    lever_len = {}
+    for f in frames:
+        for v, tail, d, block in f.levers:
+            lever_len[v] = max(lever_len.get(v, 0.0), float((np.asarray(block) - tail) @ d))
+    lever_len = {v: L + 2.5 * size for v, L in lever_len.items()}
+    for f in frames:
+        extra += [tail + d * lever_len[v] for v, tail, d, _ in f.levers]
+    if extra:
+        pts = np.vstack([pts, np.array(extra)])
+    lo, hi = pts.min(axis=0), pts.max(axis=0)
+    return _Style(size, lo, hi, snapped, guide_side, guide_span, lever_len)
+
+
+def _ground_symbol(ax, p, u, size, zorder=2):
+    from matplotlib.patches import Polygon
+
+    n = np.array([-u[1], u[0]])
+    a, b = 1.1 * size, 0.75 * size
+    base0, base1 = p + u * a - n * b, p + u * a + n * b
+    out = [ax.add_patch(Polygon([p, base0, base1], closed=True, facecolor="white", edgecolor="k", lw=1.2,
+                                zorder=zorder))]
+    w = 1.45 * b
+    strip = [p + u * a - n * w, p + u * a + n * w, p + u * (a + 0.45 * size) + n * w,
+             p + u * (a + 0.45 * size) - n * w]
+    out.append(ax.add_patch(Polygon(strip, closed=True, fill=False, hatch="////", lw=0, edgecolor="0.25",
+                                    zorder=zorder)))
+    out += ax.plot(*np.array([p + u * a - n * w, p + u * a + n * w]).T, color="k", lw=1.6, zorder=zorder)
+    return out
+
+
+def _render_static(ax, frame: _Frame, style: _Style):
+    """Ground: hatched pivots, hatched guides and the (dashed) fixed vectors."""
+    from matplotlib.patches import Polygon
+
+    size = style.size
+    out = []
+    for p0, p1 in frame.ground_lines:
+        out += ax.plot(*np.array([p0, p1]).T, color="0.55", lw=1.0, ls=(0, (6, 3)), zorder=1)
+    for p, key in frame.pivots:
+        out += _ground_symbol(ax, np.asarray(p), style.pivot_dir.get(key, np.array([0.0, -1.0])), size)
+    ref = {g[0]: np.asarray(g[1], dtype=float) for g in frame.guides}
+    for key, p, d, ground, tail in frame.guides:
+        if not ground:
+            continue
+        lo_s, hi_s = style.guide_span[key]
+        side = style.guide_side[key]
+        h = 0.5 * size
+        base = ref[key] + side * h
+        g0, g1 = base + d * lo_s, base + d * hi_s
+        out += ax.plot(*np.array([ref[key] + d * lo_s, ref[key] + d * hi_s]).T, color="0.5", lw=0.8,
+                       ls=(0, (8, 3, 2, 3)), zorder=1)
+        out += ax.plot(*np.array([g0, g1]).T, color="k", lw=1.6, zorder=2)
+        if ground:
+            strip = [g0, g1, g1 + side * 0.45 * size, g0 + side * 0.45 * size]
+            out.append(ax.add_patch(Polygon(strip, closed=True, fill=False, hatch="////", lw=0,
+                                            edgecolor="0.25", zorder=1)))
+    return out
+
+
+def _render_moving(ax, frame: _Frame, style: _Style, *, label_fixed: bool = True):
+    from matplotlib.patches import Circle, Polygon
+
+    size = style.size
+    out = []
+    for v, tail, d, _ in frame.levers:
+        end = tail + d * style.lever_len[v]
+        out += ax.plot(*np.array([tail, end]).T, color="#444444", lw=7.5, solid_capstyle="round", zorder=3,
+                       alpha=0.9)
+        out += ax.plot(*np.array([tail, end]).T, color="white", lw=2.0, zorder=3)  # the slot
+    for key, xy, i in frame.links:
+        color = _LINK_COLORS[i % len(_LINK_COLORS)]
+        xy = np.asarray(xy, dtype=float)
+        if len(xy) >= 3 and _area(xy) > 1e-6 * (style.size / 0.045) ** 2:
+            order = _hull_order(xy)
+            out.append(ax.add_patch(Polygon(xy[order], closed=True, facecolor=color, alpha=0.35, edgecolor=color,
+                                            lw=2.5, joinstyle="round", zorder=4)))
+        else:
+            for a in range(len(xy)):
+                for b in range(a + 1, len(xy)):
+                    out += ax.plot(*xy[[a, b]].T, color=color, lw=4.5, solid_capstyle="round", zorder=4)
+    for key, p, d, ground, tail in frame.guides:
+        if not ground:  # a guide that moves (on a translating body): a line through the block
+            ends = np.array([p - d * 3.0 * size, p + d * 3.0 * size])
+            out += ax.plot(*ends.T, color="k", lw=1.6, zorder=3)
+    for p, angle in frame.blocks:
+        d = np.array([math.cos(angle), math.sin(angle)])
+        n = np.array([-d[1], d[0]])
+        a, b = 0.95 * size, 0.5 * size
+        corners = [p - d * a - n * b, p + d * a - n * b, p + d * a + n * b, p - d * a + n * b]
+        out.append(ax.add_patch(Polygon(corners, closed=True, facecolor="#f4d03f", edgecolor="k", lw=1.4,
+                                        zorder=5)))
+    for p in frame.joints:
+        out.append(ax.add_patch(Circle(p, 0.22 * size, facecolor="white", edgecolor="k", lw=1.3, zorder=6)))
+    for p, _ in frame.points:
+        out.append(ax.add_patch(Circle(p, 0.16 * size, facecolor="k", edgecolor="k", zorder=6)))
+    for tail, head, name in frame.arrows:
+        out.append(ax.annotate("", xy=head, xytext=tail, zorder=7,
+                               arrowprops=dict(arrowstyle="-|>", color="tab:blue", lw=1.4, shrinkA=0, shrinkB=0,
+                                               mutation_scale=14)))
+        d = _unit(np.asarray(head) - tail)
+        n = np.array([-d[1], d[0]])
+        mid = (np.asarray(tail) + head) / 2
+        out.append(ax.annotate(tex_name(name), mid, xytext=tuple(9 * n), textcoords="offset points",
+                               ha="center", va="center", color="tab:blue", fontsize=10, zorder=8))
+    out += _labels(ax, frame, style)
+    return out
+
+
+def _labels(ax, frame: _Frame, style: _Style):
+    """Joint and point names, each in the freest direction around its joint (data units)."""
+    out = []
+    span = float(max(style.hi - style.lo)) or 1.0
+    tol = 1e-9 * span
+    segs = []
+    for _, xy, _ in frame.links:
+        xy = [np.asarray(q, dtype=float) for q in xy]
+        segs += [(a, b) for i, a in enumerate(xy) for b in xy[i + 1:]]
+    segs += [(np.asarray(a), np.asarray(b)) for a, b in frame.ground_lines]
+    for v, tail, d, _ in frame.levers:
+        segs.append((tail, tail + d * style.lever_len[v]))
+    for tail, head, _ in frame.arrows:
+        segs.append((np.asarray(tail), np.asarray(head)))
+    pivots = {key: style.pivot_dir.get(key, np.array([0.0, -1.0])) for _, key in frame.pivots}
+    blocks = [(np.asarray(p), a) for p, a in frame.blocks]
+    sides = {g[0]: style.guide_side.get(g[0]) for g in frame.guides}
+    candidates = [np.array([math.cos(t), math.sin(t)]) for t in np.linspace(0, 2 * math.pi, 24, endpoint=False)]
+    for p, text, key in frame.labels:
+        p = np.asarray(p, dtype=float)
+        dirs = []
+        for a, b in segs:
+            if np.linalg.norm(a - p) < tol and np.linalg.norm(b - p) > tol:
+                dirs.append(_unit(b - a))
+            elif np.linalg.norm(b - p) < tol and np.linalg.norm(a - p) > tol:
+                dirs.append(_unit(a - b))
+        if key in pivots:
+            u = pivots[key]
+            dirs += [u, _unit(u + np.array([-u[1], u[0]])), _unit(u - np.array([-u[1], u[0]]))]
+        radius = 0.75 * style.size
+        for bp, angle in blocks:
+            if np.linalg.norm(bp - p) < tol:
+                d = np.array([math.cos(angle), math.sin(angle)])
+                dirs += [d, -d]
+                radius = 1.0 * style.size
+                for g in frame.guides:
+                    if np.linalg.norm(np.asarray(g[1]) - p) < tol and sides.get(g[0]) is not None:
+                        dirs.append(sides[g[0]])
+        want = -_unit(np.sum(dirs, axis=0)) if dirs else np.array([0.6, 0.8])
+
+        def score(c):
+            clear = min((math.acos(max(-1.0, min(1.0, float(c @ d)))) for d in dirs), default=math.pi)
+            return clear + 0.25 * float(c @ want) + 0.05 * c[1]
+
+        c = max(candidates, key=score)
+        ha = "left" if c[0] > 0.35 else "right" if c[0] < -0.35 else "center"
+        va = "bottom" if c[1] > 0.35 else "top" if c[1] < -0.35 else "center"
+        out.append(ax.text(*(p + c * radius), text, fontsize=11, fontweight="bold", ha=ha, va=va, zorder=9,
+                           bbox=dict(boxstyle="round,pad=0.12", fc="white", ec="none", alpha=0.75)))
+    return out
+
+
+def _area(xy) -> float:
+    c = xy - xy.mean(axis=0)
+    order = _hull_order(xy)
+    q = c[order]
+    return 0.5 * abs(float(np.sum(q[:, 0] * np.roll(q[:, 1], -1) - np.roll(q[:, 0], -1) * q[:, 1])))
+
+
+def _hull_order(xy) -> np.ndarray:
+    c = xy - xy.mean(axis=0)
+    return np.argsort(np.arctan2(c[:, 1], c[:, 0]))
+
+
+def _frame_axes(ax, style: _Style, mech) -> None:
+    pad = 2.6 * style.size
+    lo, hi = style.lo - pad, style.hi + pad
+    ax.set_xlim(lo[0], hi[0])
+    ax.set_ylim(lo[1], hi[1])
+    ax.set_aspect("equal", adjustable="box")
+    unit = mech.units.length
+    ax.set_xlabel(f"x [{unit}]")
+    ax.set_ylabel(f"y [{unit}]")
+    ax.grid(True, alpha=0.25)
+
+
+def _pose_title(state) -> str:
+    ck = state.compiled
+    name = ck.inputs[0]
+    unit = state.units()[name]
+    alias = {v: k for k, v in getattr(ck.mechanism, "mode_aliases", {}).items()}.get(state.mode)
+    mode = f", mode {state.mode}" + (f" ({alias})" if alias else "") if state.mode else ""
+    return f"{ck.mechanism.name}\n{tex_name(name)} = {state.input_value:.4g} {_pretty_unit(unit)}{mode}"
+
+
+def _figsize(style: _Style, width: float = 7.0) -> tuple[float, float]:
+    w, h = (style.hi - style.lo) + 5.2 * style.size
+    ratio = float(h / w) if w > 0 else 1.0
+    height = width * ratio + 1.0
+    if height > 9.0:  # a tall mechanism: narrower figure rather than empty margins
+        height = 9.0
+        width = max(4.5, (height - 1.0) / ratio + 1.2)
+    return width, float(max(height, 3.5))
+
+
+def draw(mech, at=None, *, input=None, mode=None, vectors=False, output=None, ax=None, **solve_kwargs):
+    """The kinematic diagram at one input value.
+
+    Ground pivots are hatched, links are bars (a link with three or more joints is a filled
+    polygon), sliders are blocks on their guides (hatched when the guide is fixed), joints
+    are circles, points are labelled; with ``vectors=True`` the loop vectors are drawn as
+    arrows with their names. Both axes have the same scale.
+
+    Parameters
+    ----------
+    mech : Mechanism or State
+        The mechanism (solved here at ``at``), or an already solved state.
+    at : float or str, optional
+        Input value (model units, or with a unit). Default: the input's guess.
+    input : str, optional
+        Drive this variable instead of the declared input.
+    mode : str, optional
+        Assembly mode (signature or alias).
+    vectors : bool
+        Draw the loop vectors as named arrows.
+    output : str or Path, optional
+        Also write the figure to this file (``.png``, ``.svg`` or ``.pdf``).
+    ax : matplotlib.axes.Axes, optional
+        Draw into these axes instead of a new figure.
+    **solve_kwargs
+        Passed on to :func:`loopsolve.solve` (``guess=``, ``speed=``...).
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+
+    Examples
+    --------
+    >>> from loopsolve.plotting import draw
+    >>> mech = ls.load(ls.models_dir() / "thesis_crank_rocker.toml")
+    >>> fig = draw(mech, 60, vectors=True)
+    >>> ax = fig.axes[0]
+    >>> sorted(t.get_text() for t in ax.texts if t.get_text() in ("B", "C", "O2", "O4"))
+    ['B', 'C', 'O2', 'O4']
+    """
+    from .results import State
+
+    if isinstance(mech, State):
+        state = mech
+    else:
+        state = mech.solve(at, input=input, mode=mode, **solve_kwargs)
+    frames, _ = _frames([state], vectors=vectors)
+    style = _style(frames)
+    if ax is None:
+        fig = _new_figure(_figsize(style))
+        ax = fig.add_subplot()
+    else:
+        _matplotlib()
+        fig = ax.figure
+    _render_static(ax, frames[0], style)
+    _render_moving(ax, frames[0], style)
+    _frame_axes(ax, style, state.mechanism)
+    ax.set_title(_pose_title(state), fontsize=11)
+    if output is not None:
+        _save(fig, output)
+    return fig
+
+
+# ------------------------------------------------------------------------------- animation
+def _write_gif(fig, ax, render, n: int, output: Path, fps: float, dpi: int, bar) -> None:
+    """Render ``n`` frames by blitting the moving artists over the static background; save with Pillow.
+
+    The static part (axes, ground, dotted paths, legend) is drawn once; every frame restores it
+    and draws only what moves. All frames share the palette of the first one (no flicker).
+    """
+    from PIL import Image
+
+    fig.set_dpi(dpi)
+    canvas = fig.canvas
+    ax.title.set_animated(True)
+    canvas.draw()  # lays out the figure once; the title is drawn per frame
+    fig.set_layout_engine("none")
+    background = canvas.copy_from_bbox(fig.bbox)
+    images = []
+    palette = None
+    for i in range(n):
+        canvas.restore_region(background)
+        live = render(i, blit=True)
+        rgb = Image.fromarray(np.asarray(canvas.buffer_rgba())[..., :3].copy())
+        if palette is None:
+            palette = rgb.quantize(colors=255, method=Image.Quantize.MEDIANCUT)
+            images.append(palette)
+        else:
+            images.append(rgb.quantize(palette=palette, dither=Image.Dither.NONE))
+        for artist in live:
+            artist.remove()
+        if bar is not None:
+            bar.update(1)
+    images[0].save(output, format="GIF", save_all=True, append_images=images[1:], loop=0,
+                   duration=max(1, int(round(1000.0 / fps))), disposal=1)
+
+
+def _progress_bar(total: int, progress):
+    if progress is False or (progress is None and not sys.stderr.isatty()):
+        return None
+    try:
+        from tqdm import tqdm
+    except ImportError:
+        return None
+    return tqdm(total=total, unit="frame", desc="rendering", file=sys.stderr, leave=False)
+
+
+def animate(sweep, *, output, fps: float = 20, progress=None, vectors: bool = False, dpi: int = 100) -> Path:
+    """The linkage moving over a sweep: one frame per output row, with the traces of the points.
+
+    Writes a GIF with Pillow, or an MP4 with matplotlib's ffmpeg writer when the ``ffmpeg``
+    program is on the PATH. A progress bar (tqdm) shows while frames render on a terminal.
+
+    Parameters
+    ----------
+    sweep : Sweep
+    output : str or Path
+        ``.gif`` or ``.mp4`` file.
+    fps : float
+        Frames per second.
+    progress : bool, optional
+        Show a progress bar; default: when standard error is a terminal.
+    vectors : bool
+        Draw the loop vectors as named arrows in every frame.
+    dpi : int
+        Resolution of the frames (the figure is 7 inches wide).
+
+    Returns
+    -------
+    pathlib.Path
+        The file written.
+
+    Raises
+    ------
+    MissingDependencyError
+        matplotlib or Pillow is missing, or ffmpeg for an MP4.
+    ModelError
+        The suffix is not ``.gif``/``.mp4``, ``fps`` is not positive, or the sweep is empty.
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> from loopsolve.plotting import animate
+    >>> sw = ls.load(ls.models_dir() / "thesis_crank_rocker.toml").sweep(0, 360, 60)
+    >>> out = pathlib.Path(tempfile.mkdtemp()) / "crank.gif"
+    >>> animate(sw, output=out, fps=5).name
+    'crank.gif'
+    >>> from PIL import Image
+    >>> Image.open(out).n_frames == len(sw)
+    True
+    """
+    fmt = check_output(output, "animation")
+    if not (isinstance(fps, (int, float)) and fps > 0 and math.isfinite(fps)):
+        raise ModelError(f"fps must be a positive number of frames per second, not {fps!r}")
+    if not len(sweep):
+        raise ModelError("cannot animate an empty sweep (no solved positions)")
+    frames, _ = _frames(list(sweep.states), vectors=vectors)
+    style = _style(frames)
+    fig = _new_figure(_figsize(style))
+    ax = fig.add_subplot()
+    _render_static(ax, frames[0], style)
+    _frame_axes(ax, style, sweep.mechanism)
+    # traces of every point that moves: the whole path dotted, the path so far solid
+    ck = sweep.compiled
+    paths = np.array([s.points[0] for s in sweep.states])  # (N, P, 2)
+    moving = [j for j in range(paths.shape[1]) if np.ptp(paths[:, j, :], axis=0).max() > 1e-9 * ck.scale]
+    for k, j in enumerate(moving):
+        ax.plot(paths[:, j, 0], paths[:, j, 1], color=f"C{k}", lw=1.6, ls=":", alpha=0.8, zorder=1,
+                label=f"path of {ck.points[j]}")
+    if moving:
+        ax.legend(loc="best", fontsize=8, framealpha=0.85)
+    ax.set_title(_pose_title(sweep.states[0]), fontsize=11)
+    bar = _progress_bar(len(frames), progress)
+    output = Path(output)
+
+    def render(i, blit: bool):
+        artists = _render_moving(ax, frames[i], style)
+        for k, j in enumerate(moving):
+            artists += ax.plot(paths[: i + 1, j, 0], paths[: i + 1, j, 1], color=f"C{k}", lw=1.8, zorder=2)
+        ax.set_title(_pose_title(sweep.states[i]), fontsize=11)
+        if blit:
+            for artist in artists + [ax.title]:
+                ax.draw_artist(artist)
+        return artists
+
+    try:
+        if fmt == "gif":
+            _write_gif(fig, ax, render, len(frames), output, fps, dpi, bar)
+        else:
+            from matplotlib.animation import FFMpegWriter
+
+            writer = FFMpegWriter(fps=fps)
+            with writer.saving(fig, str(output), dpi):
+                for i in range(len(frames)):
+                    live = render(i, blit=False)
+                    writer.grab_frame()
+                    if i == 0:  # freeze the layout: every frame has the same axes box
+                        fig.set_layout_engine("none")
+                    for artist in live:
+                        artist.remove()
+                    if bar is not None:
+                        bar.update(1)
+    except OSError as exc:
+        raise LoopsolveError(f"cannot write {str(output)!r}: {exc.strerror or exc}") from None
+    finally:
+        if bar is not None:
+            bar.close()
+    return output

@@ -1,0 +1,396 @@
+"""Pictures: sweep plots, kinematic diagrams and animations (loopsolve.plotting and the CLI).
+
+Every shipped model goes through each picture command of the command line in a subprocess
+(the console script as a user runs it); a few more go through ``cli.main`` in-process, which
+is the same code without the interpreter start-up. The console runs rotate the figure format over the models, so each command
+writes every format several times. The images are checked for being
+real pictures: the requested format, not blank (many colours / many drawn paths), and for
+the GIF one frame per output row of the sweep.
+"""
+
+from __future__ import annotations
+
+import os
+import shutil
+import subprocess
+import sys
+import xml.etree.ElementTree as ET
+from concurrent.futures import ThreadPoolExecutor
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import loopsolve as ls
+from loopsolve import cli, plotting
+from loopsolve.errors import MissingDependencyError, ModelError
+from loopsolve.results import Event, EventKind, Sweep
+
+PIL = pytest.importorskip("PIL", reason="the plot extra (Pillow) is not installed")
+pytest.importorskip("matplotlib", reason="the plot extra (matplotlib) is not installed")
+from PIL import Image  # noqa: E402
+
+MODELS = sorted(ls.models_dir().glob("*.toml"))
+MODEL_IDS = [p.stem for p in MODELS]
+FIGURE_FORMATS = ("png", "svg", "pdf")
+STEP = "45"  # coarse sweeps keep the suite fast (9 rows over a turn)
+
+
+# ----------------------------------------------------------------------------- image checks
+def assert_picture(path: Path, fmt: str) -> None:
+    """``path`` holds a non-blank picture in format ``fmt``."""
+    assert path.is_file() and path.stat().st_size > 0, f"{path} was not written"
+    data = path.read_bytes()
+    if fmt == "png":
+        assert data[:8] == b"\x89PNG\r\n\x1a\n"
+        _assert_colourful(Image.open(path))
+    elif fmt == "gif":
+        assert data[:6] in (b"GIF87a", b"GIF89a")
+        _assert_colourful(Image.open(path))
+    elif fmt == "svg":
+        root = ET.fromstring(data)
+        assert root.tag.endswith("svg")
+        paths = [e for e in root.iter() if e.tag.endswith("path")]
+        assert len(paths) > 20, f"{path}: only {len(paths)} <path> elements"
+    elif fmt == "pdf":
+        assert data[:5] == b"%PDF-" and data.rstrip().endswith(b"%%EOF")
+        assert len(data) > 8000, f"{path}: {len(data)} bytes is too small for a drawing"
+    else:  # pragma: no cover - a bad parametrization
+        raise AssertionError(fmt)
+
+
+def _assert_colourful(im) -> None:
+    rgb = im.convert("RGB")
+    colours = rgb.getcolors(maxcolors=1 << 20)  # [(count, colour)], counted by Pillow in C
+    assert len(colours) > 16, f"only {len(colours)} colours: a blank picture"
+    background = max(colours)[0] / (rgb.width * rgb.height)
+    assert background < 0.97, f"{background:.1%} of the pixels are the background colour"
+
+
+def rows_of(model: Path, *args: str) -> int:
+    """Number of output rows of the sweep the picture commands make with the same options."""
+    mech = ls.load(model)
+    sw = mech.sweep("0", "360", STEP, **dict(zip(args[::2], args[1::2])))
+    return len(sw)
+
+
+# ------------------------------------------------------------------- the console script
+def _commands(tmp: Path):
+    """One subprocess per model and command; the figure format rotates over the models."""
+    jobs = []
+    for i, model in enumerate(MODELS):
+        fmt = FIGURE_FORMATS[i % 3]
+        jobs.append(("plot", model, fmt, ["plot", str(model), "--step", STEP, "-q"]))
+        jobs.append(("draw", model, FIGURE_FORMATS[(i + 1) % 3], ["draw", str(model), "--vectors"]))
+        jobs.append(("animate", model, "gif", ["animate", str(model), "--step", STEP, "--fps", "8", "-q"]))
+    out = []
+    for command, model, fmt, argv in jobs:
+        target = tmp / f"{model.stem}-{command}.{fmt}"
+        out.append((command, model, fmt, target, argv + ["-o", str(target)]))
+    return out
+
+
+@pytest.fixture(scope="module")
+def console_runs(tmp_path_factory):
+    tmp = tmp_path_factory.mktemp("cli")
+    jobs = _commands(tmp)
+    exe = shutil.which("loopsolve")
+    env = dict(os.environ, MPLBACKEND="Agg")
+
+    def run(job):
+        command, model, fmt, target, argv = job
+        cmd = [exe, *argv] if exe else [sys.executable, "-m", "loopsolve.cli", *argv]
+        proc = subprocess.run(cmd, capture_output=True, text=True, env=env)
+        return (command, model.stem), (proc, fmt, target, model)
+
+    with ThreadPoolExecutor(max_workers=max(2, os.cpu_count() or 2)) as pool:
+        return dict(pool.map(run, jobs))
+
+
+@pytest.mark.parametrize("command", ["plot", "draw", "animate"])
+@pytest.mark.parametrize("model", MODEL_IDS)
+def test_console_command_writes_picture(console_runs, command, model):
+    proc, fmt, target, path = console_runs[(command, model)]
+    assert proc.returncode == 0, proc.stderr
+    assert f"wrote {target}" in proc.stderr
+    assert_picture(target, fmt)
+    if command == "animate":
+        with Image.open(target) as im:
+            assert im.n_frames == rows_of(path)
+
+
+# ------------------------------------------- every format, in-process (same code, no start-up)
+@pytest.mark.parametrize("fmt", FIGURE_FORMATS)
+@pytest.mark.parametrize("model", ["thesis_crank_rocker", "crank_shaper"])
+def test_cli_draw_every_format(model, fmt, tmp_path, capsys):
+    out = tmp_path / f"d.{fmt}"
+    assert cli.main(["draw", str(ls.models_dir() / f"{model}.toml"), "--at", "30", "-o", str(out)]) == 0
+    assert_picture(out, fmt)
+
+
+@pytest.mark.parametrize("fmt", FIGURE_FORMATS)
+def test_cli_plot_every_format(fmt, tmp_path, capsys):
+    out = tmp_path / f"p.{fmt}"
+    model = ls.models_dir() / "example1_slider_crank.toml"
+    assert cli.main(["plot", str(model), "--step", "30", "-q", "--vars", "theta3", "r1", "C", "-o", str(out)]) == 0
+    assert_picture(out, fmt)
+
+
+def test_cli_animate_inverted_input(tmp_path, capsys):
+    """Driving the slider of Example #1 (--input r1): one frame per row of that sweep."""
+    model = ls.models_dir() / "example1_slider_crank.toml"
+    out = tmp_path / "inv.gif"
+    argv = ["animate", str(model), "--input", "r1", "--mode", "-", "--from", "4", "--to", "12", "--step", "1",
+            "-q", "-o", str(out)]
+    assert cli.main(argv) == 0
+    sw = ls.load(model).sweep(4, 12, 1, input="r1", mode="-")
+    with Image.open(out) as im:
+        assert im.n_frames == len(sw) == 9
+    assert_picture(out, "gif")
+
+
+@pytest.mark.parametrize("command, name", [("plot", "x.jpg"), ("draw", "x.gif"), ("animate", "x.png")])
+def test_cli_rejects_bad_suffix_before_solving(command, name, tmp_path, capsys):
+    model = ls.models_dir() / "thesis_crank_rocker.toml"
+    assert cli.main([command, str(model), "-o", str(tmp_path / name)]) == 2
+    err = capsys.readouterr().err
+    assert "ModelError" in err and name in err
+    assert not (tmp_path / name).exists()
+
+
+def test_cli_missing_directory_is_one_line_error(tmp_path, capsys):
+    model = ls.models_dir() / "thesis_crank_rocker.toml"
+    assert cli.main(["draw", str(model), "-o", str(tmp_path / "no" / "such" / "d.png")]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "cannot write" in err
+
+
+# --------------------------------------------------------------------------- plot_sweep
+@pytest.fixture(scope="module")
+def thesis():
+    return ls.load(ls.models_dir() / "thesis_crank_rocker.toml")
+
+
+def test_plot_panels_units_and_lines(thesis):
+    sw = thesis.sweep(0, 360, 10)
+    fig = plotting.plot_sweep(sw, ["theta3", "theta4"])
+    axes = fig.axes
+    assert [ax.get_ylabel() for ax in axes] == ["angle [deg]", "angular velocity [rad/s]",
+                                              "angular acceleration [rad/s²]"]
+    assert axes[-1].get_xlabel() == r"$\theta_{2}$ [deg]"
+    for ax, col in zip(axes, ("theta4", "theta4_vel", "theta4_acc")):
+        lines = [ln for ln in ax.get_lines() if ln.get_label() == r"$\theta_{4}$"]
+        assert len(lines) == 1
+        np.testing.assert_allclose(lines[0].get_ydata(), sw[col])
+    assert "open" in fig.get_suptitle()
+
+
+def test_plot_groups_by_unit_and_unwraps_angles():
+    mech = ls.load(ls.models_dir() / "example1_slider_crank.toml")
+    sw = mech.sweep(0, 360, 15)
+    fig = sw.plot(["theta3", "r1", "C"])
+    labels = sorted(ax.get_ylabel() for ax in fig.axes)
+    assert labels == sorted(["angle [deg]", "angular velocity [rad/s]", "angular acceleration [rad/s²]",
+                             "position [in]", "velocity [in/s]", "acceleration [in/s²]"])
+    length_top = next(ax for ax in fig.axes if ax.get_ylabel() == "position [in]")
+    assert [ln.get_label() for ln in length_top.get_lines() if not ln.get_label().startswith("_")] == \
+        ["$r_{1}$", "$C_{x}$", "$C_{y}$"]
+    # an output that turns fully (a drag link) is plotted without the table's 360-degree jumps
+    drag = ls.fourbar(20, 60, 50, 60).sweep(0, 360, 10)
+    assert np.max(np.abs(np.diff(drag["theta4"]))) > 300  # the table wraps to (-180, 180]
+    top = drag.plot(["theta4"]).axes[0]
+    y = [ln for ln in top.get_lines() if ln.get_label() == r"$\theta_{4}$"][0].get_ydata()
+    assert np.max(np.abs(np.diff(y))) < 30 and np.ptp(y) > 300
+
+
+def test_plot_marks_events(thesis):
+    sw = thesis.sweep(0, 180, 30)
+    marked = Sweep(sw.compiled, sw.states, (Event(EventKind.LIMIT, 95.0, "a limit"),
+                                           Event(EventKind.SINGULAR, 125.0, "dead centre")), sw.mode)
+    fig = plotting.plot_sweep(marked)
+    for ax in fig.axes:
+        xs = sorted(ln.get_xdata()[0] for ln in ax.get_lines() if ln.get_xdata()[0] == ln.get_xdata()[-1]
+                    and len(ln.get_xdata()) == 2)
+        assert xs == [95.0, 125.0]
+    legend = [t.get_text() for t in fig.axes[0].get_legend().get_texts()]
+    assert "limit at 95" in legend and "singular at 125" in legend
+
+
+def test_plot_rejects_unknown_variable(thesis):
+    with pytest.raises(ModelError, match="theta9.*theta3"):
+        plotting.plot_sweep(thesis.sweep(0, 60, 30), ["theta9"])
+
+
+# -------------------------------------------------------------------------------- draw
+def _texts(fig):
+    return {t.get_text() for ax in fig.axes for t in ax.texts}
+
+
+def _hatched(fig):
+    return [p for p in fig.axes[0].patches if p.get_hatch()]
+
+
+def test_draw_fourbar(thesis):
+    fig = thesis.draw(90, vectors=True)
+    ax = fig.axes[0]
+    assert ax.get_aspect() == 1.0
+    assert {"B", "C", "O2", "O4"} <= _texts(fig)
+    assert {"$r_{1}$", "$r_{2}$", "$r_{3}$", "$r_{4}$"} <= _texts(fig)
+    assert len(_hatched(fig)) == 2  # two ground pivots
+    assert ax.get_xlabel() == "x [mm]" and ax.get_ylabel() == "y [mm]"
+    # the joint circles sit on the solved points
+    state = thesis.solve(90)
+    centres = {tuple(np.round(p.center, 9)) for p in ax.patches if hasattr(p, "center")}
+    for name in ("B", "C"):
+        assert (round(state[name + "_x"], 9), round(state[name + "_y"], 9)) in centres
+
+
+def test_draw_slider_blocks_and_guides():
+    prob2 = ls.load(ls.models_dir() / "prob2_offset_slider_crank.toml")
+    state = prob2.solve(40)
+    fig = plotting.draw(state)
+    ax = fig.axes[0]
+    blocks = [p for p in ax.patches if p.get_facecolor()[:3] == pytest.approx((0xF4 / 255, 0xD0 / 255, 0x3F / 255))]
+    assert len(blocks) == 1
+    centre = blocks[0].get_xy()[:4].mean(axis=0)
+    # the block sits at the slider pin B (on the offset line y = e), not at the tip of r1
+    np.testing.assert_allclose(centre, [state["B_x"], state["B_y"]], atol=1e-9)
+    assert len(_hatched(fig)) == 2  # the crank pivot and the fixed guide
+    assert {"O2", "A", "B"} <= _texts(fig)
+
+
+def test_draw_ternary_link_is_a_triangle():
+    spec = {
+        "name": "four-bar with a coupler point", "units": {"length": "mm", "angle": "deg"},
+        "parameters": {"r1": 60, "r2": 25, "r3": 70, "r4": 45, "r5": 40},
+        "variables": {"theta2": {"input": True, "guess": 90}, "theta3": {"guess": 20}, "theta4": {"guess": 80}},
+        "vectors": {"r1": {"length": "r1", "angle": 0}, "r2": {"length": "r2", "angle": "theta2"},
+                    "r3": {"length": "r3", "angle": "theta3"}, "r4": {"length": "r4", "angle": "theta4"},
+                    "r5": {"length": "r5", "angle": "theta3", "offset": 40}},
+        "loops": [{"equation": "r2 + r3 = r1 + r4"}],
+        "points": {"B": "r2", "C": "r2 + r3", "P": "r2 + r5"},
+    }
+    mech = ls.build_mechanism(spec)
+    fig = mech.draw(60)
+    state = mech.solve(60)
+    from matplotlib.patches import Polygon
+
+    polys = [p for p in fig.axes[0].patches if isinstance(p, Polygon) and not p.get_hatch()
+             and len(p.get_xy()) == 4 and p.get_alpha() == pytest.approx(0.35)]
+    assert len(polys) == 1  # the coupler B-C-P (closed polygon: 3 corners + repeat)
+    corners = {tuple(np.round(c, 6)) for c in polys[0].get_xy()[:3]}
+    assert corners == {tuple(np.round([state[f"{n}_x"], state[f"{n}_y"]], 6)) for n in "BCP"}
+    assert "P" in _texts(fig)
+
+
+def test_draw_second_loop_anchored_on_shared_vector():
+    """A loop starting at O4 (not the origin) is placed from the vector it shares with loop 1."""
+    spec = {
+        "name": "two loops", "units": {"length": "mm", "angle": "deg"},
+        "parameters": {"r1": 60, "r2": 25, "r3": 70, "r4": 45, "r5": 50, "r6": 40, "r7": 60},
+        "variables": {"theta2": {"input": True, "guess": 90}, "theta3": {"guess": 20}, "theta4": {"guess": 80},
+                      "theta5": {"guess": 10}, "theta7": {"guess": 75}},
+        "vectors": {"r1": {"length": "r1", "angle": 0}, "r2": {"length": "r2", "angle": "theta2"},
+                    "r3": {"length": "r3", "angle": "theta3"}, "r4": {"length": "r4", "angle": "theta4"},
+                    "r5": {"length": "r5", "angle": "theta5"}, "r6": {"length": "r6", "angle": 0},
+                    "r7": {"length": "r7", "angle": "theta7"}},
+        "loops": [{"equation": "r2 + r3 = r1 + r4"}, {"equation": "r4 + r5 = r6 + r7"}],
+        "points": {"C": "r2 + r3", "E": "r1 + r4 + r5", "F": "r1 + r6"},
+    }
+    mech = ls.build_mechanism(spec)
+    state = mech.solve(90)
+    st = plotting._structure(state.compiled)
+    pos, _, _ = plotting._positions(st, state.compiled, state.z)
+    for name, node in st.point_node.items():
+        np.testing.assert_allclose(pos[node], [state[name + "_x"], state[name + "_y"]], atol=1e-9)
+    assert st.point_node["F"] in st.fixed  # O4 + r6 is a ground pivot
+    fig = mech.draw(90)
+    assert len(_hatched(fig)) == 3
+
+
+@pytest.mark.parametrize("model", MODELS, ids=MODEL_IDS)
+def test_geometry_matches_solved_points(model):
+    mech = ls.load(model)
+    state = mech.solve()
+    st = plotting._structure(state.compiled)
+    pos, tails, disp = plotting._positions(st, state.compiled, state.z)
+    for name, node in st.point_node.items():
+        np.testing.assert_allclose(pos[node], [state[name + "_x"], state[name + "_y"]], atol=1e-8)
+    for loop in mech.loops:  # walking each loop from its start meets every vector where it was placed
+        seq = plotting._walk_sequence(loop)
+        sign, first = seq[0]
+        start = tails[first] if sign > 0 else tails[first] + disp[first]
+        cur = start.copy()
+        for sign, v in seq:
+            if sign > 0:
+                np.testing.assert_allclose(tails[v], cur, atol=1e-8)
+                cur = cur + disp[v]
+            else:
+                cur = cur - disp[v]
+                np.testing.assert_allclose(tails[v], cur, atol=1e-8)
+        np.testing.assert_allclose(cur, start, atol=1e-8)
+
+
+def test_draw_into_given_axes(thesis):
+    import matplotlib.figure
+
+    fig = matplotlib.figure.Figure()
+    axes = fig.subplots(1, 2)
+    assert thesis.draw(0, ax=axes[1]) is fig
+    assert axes[1].get_title().startswith("Crank-rocker") and not axes[0].get_title()
+
+
+# ------------------------------------------------------------------------------ animate
+def test_animate_frames_traces_and_progress(thesis, tmp_path, capsys):
+    sw = thesis.sweep(0, 360, 30)
+    out = plotting.animate(sw, output=tmp_path / "a.gif", fps=10, progress=True)
+    assert out == tmp_path / "a.gif"
+    with Image.open(out) as im:
+        assert im.n_frames == len(sw) == 13
+        assert im.info["duration"] == 100
+        frames = []
+        for k in (0, 6):
+            im.seek(k)
+            frames.append(np.asarray(im.convert("RGB")).astype(int))
+    assert np.abs(frames[0] - frames[1]).sum() > 0  # the linkage moves
+    assert "rendering" in capsys.readouterr().err  # the tqdm bar
+
+
+def test_animate_rejects_bad_arguments(thesis, tmp_path):
+    sw = thesis.sweep(0, 60, 30)
+    with pytest.raises(ModelError, match=r"\.gif, \.mp4"):
+        plotting.animate(sw, output=tmp_path / "a.avi")
+    with pytest.raises(ModelError, match="fps"):
+        plotting.animate(sw, output=tmp_path / "a.gif", fps=0)
+    with pytest.raises(ModelError, match="empty"):
+        plotting.animate(Sweep(sw.compiled, ()), output=tmp_path / "a.gif")
+
+
+def test_mp4_needs_ffmpeg(thesis, tmp_path, monkeypatch):
+    monkeypatch.setattr(plotting.shutil, "which", lambda name: None)
+    with pytest.raises(MissingDependencyError, match="ffmpeg"):
+        plotting.animate(thesis.sweep(0, 60, 30), output=tmp_path / "a.mp4")
+    assert not (tmp_path / "a.mp4").exists()
+
+
+@pytest.mark.skipif(shutil.which("ffmpeg") is None, reason="environment: the ffmpeg program is not installed")
+def test_mp4_with_ffmpeg(thesis, tmp_path):
+    out = plotting.animate(thesis.sweep(0, 360, 30), output=tmp_path / "a.mp4", fps=10)
+    data = out.read_bytes()
+    assert data[4:8] == b"ftyp" and len(data) > 5000
+
+
+# ----------------------------------------------------------------- missing plot extra
+@pytest.mark.parametrize("missing", ["matplotlib", "PIL"])
+def test_missing_extra_names_it(missing, thesis, monkeypatch, tmp_path, capsys):
+    for name in list(sys.modules):
+        if name == missing or name.startswith(missing + "."):
+            monkeypatch.delitem(sys.modules, name)
+    monkeypatch.setitem(sys.modules, missing, None)  # `import missing` now raises ImportError
+    with pytest.raises(MissingDependencyError, match=r"loopsolve\[plot\]"):
+        thesis.draw(90)
+    with pytest.raises(ImportError):  # also an ImportError, for callers that catch that
+        plotting.plot_sweep(thesis.sweep(0, 60, 30))
+    code = cli.main(["draw", str(ls.models_dir() / "thesis_crank_rocker.toml"), "-o", str(tmp_path / "d.png")])
+    assert code == 2
+    assert "loopsolve[plot]" in capsys.readouterr().err
