@@ -290,12 +290,13 @@ def plot_sweep(sweep, vars=None, *, output=None):
                 ax.axhline(0.0, color="0.6", lw=0.6, zorder=0)
             _mark_events(ax, sweep.events, legend=(r == 0 and c == 0))
             if r == 0:
-                ax.legend(loc="best", fontsize=9, ncols=min(3, len(members) + len(sweep.events)))
+                entries = len(members) + len({e.kind for e in sweep.events})
+                ax.legend(loc="best", fontsize=9, ncols=1 if entries <= 3 else 2, framealpha=0.85)
         axes[-1, c].set_xlabel(f"{tex_name(ck.inputs[0])} [{_pretty_unit(x_unit)}]")
         if len(x):
             _angle_ticks(axes[-1, c], float(np.nanmin(x)), float(np.nanmax(x)), x_unit)
-    alias = {v: k for k, v in getattr(ck.mechanism, "mode_aliases", {}).items()}.get(sweep.mode)
-    mode = (f", mode {sweep.mode}" + (f" ({alias})" if alias else "")) if sweep.mode else ""
+    modes = [m for m in dict.fromkeys([sweep.mode] + [st.mode for st in sweep.states]) if m]
+    mode = (", mode " + " → ".join(_mode_label(ck.mechanism, m) for m in modes)) if modes else ""
     fig.suptitle(f"{ck.mechanism.name}{mode}\n{_rate_note(sweep)}", fontsize=11)
     if output is not None:
         _save(fig, output)
@@ -309,7 +310,8 @@ def _mark_events(ax, events, *, legend: bool) -> None:
         color, ls = _EVENT_STYLE.get(kind, ("k", "--"))
         label = f"{kind} at {ev.input:.4g}" if legend and kind not in seen else None
         seen.add(kind)
-        ax.axvline(ev.input, color=color, ls=ls, lw=1.3, label=label)
+        ax.axvline(ev.input, color=color, ls=ls, lw=2.6 if kind == "limit" else 1.3, label=label,
+                   zorder=1.5 if kind == "limit" else 2)
 
 
 # ------------------------------------------------------------------------- diagram geometry
@@ -926,12 +928,17 @@ def _frame_axes(ax, style: _Style, mech) -> None:
     ax.grid(True, alpha=0.25)
 
 
+def _mode_label(mech, signature: str) -> str:
+    """``-`` → ``- (open)`` when the model names the mode."""
+    alias = {v: k for k, v in getattr(mech, "mode_aliases", {}).items()}.get(signature)
+    return f"{signature} ({alias})" if alias else signature
+
+
 def _pose_title(state) -> str:
     ck = state.compiled
     name = ck.inputs[0]
     unit = state.units()[name]
-    alias = {v: k for k, v in getattr(ck.mechanism, "mode_aliases", {}).items()}.get(state.mode)
-    mode = f", mode {state.mode}" + (f" ({alias})" if alias else "") if state.mode else ""
+    mode = f", mode {_mode_label(ck.mechanism, state.mode)}" if state.mode else ""
     return f"{ck.mechanism.name}\n{tex_name(name)} = {state.input_value:.4g} {_pretty_unit(unit)}{mode}"
 
 
