@@ -32,6 +32,7 @@ import math
 import numpy as np
 
 from .results import Event, EventKind
+from .units import Kind
 
 __all__ = ["rates_v", "block_solve_v", "block_dets_v", "solve_rows", "SINGULAR_COND"]
 
@@ -84,11 +85,15 @@ def block_solve_v(ck, J, B):
 
 
 def block_dets_v(ck, J):
-    """``(nblocks, N)`` determinants of the diagonal blocks and their regularity (≈ 2/cond; 0 = singular)."""
+    """``(nblocks, N)`` determinants of the diagonal blocks and their regularity (≈ 2/cond; 0 = singular).
+
+    Length columns are scaled by the model's length scale (signs unchanged), as in the tracker.
+    """
     n = len(ck.unknowns)
+    cs = [1.0 if ck.kinds[int(i)] is Kind.ANGLE else float(ck.scale) for i in ck.unknown_idx]
     dets, had = [], []
     for eqs, cols in _blocks(ck):
-        M = np.stack([np.stack([J[e * n + c] for c in cols], axis=-1) for e in eqs], axis=-2)  # (N, k, k)
+        M = np.stack([np.stack([J[e * n + c] * cs[c] for c in cols], axis=-1) for e in eqs], axis=-2)  # (N, k, k)
         if len(cols) == 1:
             d = M[:, 0, 0]
             h = (d != 0).astype(float)

@@ -113,6 +113,9 @@ def build_parser() -> argparse.ArgumentParser:
     _rate_args(p)
     p.add_argument("--through-limits", action="store_true",
                    help="at a limit position, continue around the fold onto the other mode")
+    p.add_argument("--method", choices=("auto", "tracked", "batched"), default="auto",
+                   help="tracked: continuation to every output point; batched: vectorized Newton warm-started "
+                   "from a coarse tracked pass (same results); auto: batched for dense grids (default)")
     p.add_argument("--format", choices=("table", "csv", "json"), default="table")
     p.add_argument("-o", "--output", help="write to this file instead of standard output")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
@@ -181,7 +184,7 @@ def _sweep_for(args):
     mech = _load(args.model)
     return sweep(mech, args.start, args.stop, args.step, speed=args.speed, accel=args.accel, jerk=args.jerk,
                  input=args.input, mode=args.mode, through_limits=args.through_limits,
-                 progress=None if not args.quiet else False)
+                 progress=None if not args.quiet else False, method=getattr(args, "method", "auto"))
 
 
 def cmd_modes(args) -> int:

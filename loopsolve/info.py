@@ -131,7 +131,16 @@ def info(mech: Mechanism, *, input=None) -> dict:
                 "input_range": [[conv(a), conv(b)] for a, b in ranges],
                 "transmission_angle_range": [conv(mu[0]), conv(mu[1])],
             })
+    data["reachable_input_ranges"] = _reachable_ranges(ck)
     return data
+
+
+def _reachable_ranges(ck) -> list[list[float]]:
+    """Assemblable intervals of the driving input found by the tracker (display units)."""
+    from .solve import display_value
+    from .tracking import reachable_ranges
+
+    return [[display_value(ck, a), display_value(ck, b)] for a, b in reachable_ranges(ck)]
 
 
 def _expr_uses(mech: Mechanism, vector: str, var: str) -> bool:
@@ -398,6 +407,10 @@ def format_info(data: dict) -> str:
         lines.append(f"  points: {', '.join(data['points'])}")
     if data.get("modes"):
         lines.append("  mode names: " + ", ".join(f"{k} = {v}" for k, v in data["modes"].items()))
+    if "reachable_input_ranges" in data:
+        rr = data["reachable_input_ranges"]
+        lines.append(f"  reachable range(s) of {data['inputs'][0]} (tracked to the limit positions): "
+                     + (", ".join(f"[{a:.10g}, {b:.10g}]" for a, b in rr) if rr else "none found"))
     for fb in data.get("fourbars", []):
         ln = fb["links"]
         lines.append(f"  four-bar loop {fb['loop']}: ground {ln['ground']}, crank {ln['crank']}, coupler "

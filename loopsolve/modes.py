@@ -105,9 +105,52 @@ def _sense(probe_quarter: complex, amp: complex) -> int | None:
     return None
 
 
+def _single_roots(ck, z, block) -> list[tuple[float]] | None:
+    """Roots of a one-equation, one-unknown block in closed form, or None if not of a known form.
+
+    An angle: ``f(a) = P cos a + Q sin a + R`` (one or more vectors turning with ``a``) gives
+    ``a = φ ± acos(−R / hypot(P, Q))``; a length: ``f(b) = D b + R``.
+    """
+    e = block.eqs[0]
+    iz = int(ck.unknown_idx[block.unknowns[0]])
+    zz = np.array(z, dtype=float)
+    s = float(ck.scale)
+    tol = 1e-9 * (s + 1.0)
+
+    def f(v):
+        zz[iz] = v
+        return float(ck.phi(zz)[e])
+
+    rng = np.random.default_rng(11)
+    if ck.kinds[iz] is Kind.ANGLE:
+        f0, fp, fh = f(0.0), f(math.pi), f(math.pi / 2)
+        R = (f0 + fp) / 2
+        P, Q = f0 - R, fh - R
+        tests = rng.uniform(-math.pi, math.pi, 3)
+        if any(abs(f(t) - (P * math.cos(t) + Q * math.sin(t) + R)) > tol for t in tests):
+            return None
+        A = math.hypot(P, Q)
+        if A <= tol:
+            return None
+        c = -R / A
+        if abs(c) > 1.0:
+            return []
+        ph = math.atan2(Q, P)
+        ac = math.acos(c)
+        return [(ph + ac,), (ph - ac,)] if ac > 0 else [(ph,)]
+    f0 = f(0.0)
+    D = (f(s) - f0) / s
+    tests = rng.uniform(-2, 2, 3) * s
+    if D == 0 or any(abs(f(t) - (D * t + f0)) > tol for t in tests):
+        return None
+    return [(-f0 / D,)]
+
+
 def _dyad_roots(ck, z, block) -> list[tuple[float, float]] | None:
     """All real roots of a two-unknown block in closed form, or None if it is not a dyad."""
     eqs, cols = block.eqs, block.unknowns
+    if len(cols) == 1 and len(eqs) == 1:
+        return _single_roots(ck, z, block)
     if len(cols) != 2 or len(eqs) != 2 or eqs[0] % 2 or eqs[1] != eqs[0] + 1:
         return None
     kinds = [ck.kinds[int(ck.unknown_idx[c])] for c in cols]

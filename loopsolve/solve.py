@@ -25,6 +25,9 @@ __all__ = ["solve", "solve_position", "solve_rates", "initial_z", "input_value",
 
 #: a Jacobian block whose condition number exceeds this is treated as singular
 SINGULAR_COND = 1e10
+#: ... and so is one where the position uncertainty exceeds this fraction of the distance to
+#: the nearest singular configuration (see :func:`solve_rates`)
+SINGULAR_RATIO = 1e-2
 
 
 def input_value(ck: CompiledKinematics, value, name: str | None = None) -> float:
@@ -155,11 +158,23 @@ def solve_rates(ck: CompiledKinematics, z: np.ndarray, rates: Sequence[float], *
     """Velocities, accelerations and jerks of every variable at position ``z``.
 
     ``rates`` = (speed, accel, jerk) of the driving input; other inputs are held (zero rates).
-    Raises :class:`SingularPositionError` when Φ_q is singular there.
+    Raises :class:`SingularPositionError` when Φ_q is singular there: its condition number
+    exceeds :data:`SINGULAR_COND`, or the position is indistinguishable from a singular one.
+    The second test matters at toggles, dead centres and change points: there Newton converges
+    only linearly and stops a distance e ≈ sqrt(residual) from the singular root, where
+    cond(Φ_q) ≈ 1/e is merely ~1e6 and the rates would be huge and meaningless. The position
+    uncertainty residual/σ_min is compared with the distance to singularity σ_min/σ_max:
+    ``cond² · residual/σ_max > SINGULAR_RATIO`` means the rates cannot be trusted.
     """
     J = ck.jac(z)
-    cond = float(np.linalg.cond(J)) if J.size else 1.0
-    if not math.isfinite(cond) or cond > SINGULAR_COND:
+    if J.size:
+        sv = np.linalg.svd(J, compute_uv=False) if np.all(np.isfinite(J)) else np.array([np.inf, 0.0])
+        cond = float(sv[0] / sv[-1]) if sv[-1] > 0 else math.inf
+        residual = float(np.max(np.abs(ck.phi(z))))
+        indistinct = math.isfinite(cond) and cond * cond * residual / float(sv[0]) > SINGULAR_RATIO
+    else:
+        cond, indistinct = 1.0, False
+    if not math.isfinite(cond) or cond > SINGULAR_COND or indistinct:
         name = ck.inputs[0]
         at = f"{name} = {display_input:g}{_input_unit(ck)}" if display_input is not None else "this input"
         pos = ", ".join(
@@ -167,7 +182,8 @@ def solve_rates(ck: CompiledKinematics, z: np.ndarray, rates: Sequence[float], *
         )
         raise SingularPositionError(
             f"{ck.mechanism.source or ck.mechanism.name}: singular position at {at} ({pos}): the "
-            f"coefficient matrix Φ_q is singular (condition number {cond:.3g}), so the rates are "
+            f"coefficient matrix Φ_q is singular{' within the accuracy of the position' if indistinct else ''} "
+            f"(condition number {cond:.3g}), so the rates are "
             "undefined there (dead centre, toggle or change point); move the input away from it",
             input_value=display_input, cond=cond, result=z.copy(),
         )
@@ -238,7 +254,12 @@ def solve(mech: Mechanism, at=None, *, speed=None, accel=None, jerk=None, input:
     else:
         z0 = initial_z(ck, guess=guess)
         z0[ck.input_idx[0]] = x
-    z, residual, n_iter = solve_position(ck, z0, settings=settings, display_input=disp)
+    try:
+        z, residual, n_iter = solve_position(ck, z0, settings=settings, display_input=disp)
+    except AssemblyError as exc:  # name the nearest assemblable inputs (or the modes, if the guesses were poor)
+        from .tracking import assembly_failure
+
+        raise assembly_failure(ck, x, exc) from None
     sig = ck.signature(z)
     z1, z2, z3, pts, cond = solve_rates(ck, z, input_rates(ck, speed, accel, jerk), display_input=disp)
     return State(ck, z, z1, z2, z3, pts, sig, residual, n_iter, cond)

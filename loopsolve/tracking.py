@@ -57,6 +57,10 @@ AUTO_BATCH = 720
 #: nodes whose Jacobian blocks have a Hadamard ratio below this are not accepted: the step
 #: is retried so that it straddles the singular position, which is then located exactly
 _NEAR_SINGULAR = 1e-7
+#: Newton stops when its correction is at round-off level: this times (1 + |scaled unknowns|)
+_ROUNDOFF = 8 * 2.220446049250313e-16
+#: a sweep does not start where the regularity (≈ 2/cond of the scaled blocks) is below this
+_START_REGULAR = 1e-5
 
 
 @dataclass(frozen=True, slots=True)
@@ -132,6 +136,8 @@ class _Kernel:
         self.angle_x = ck.kinds[self.ix] is Kind.ANGLE
         self.wx = 1.0 if self.angle_x else 1.0 / sc
         self.w = self.wu + [self.wx]
+        self.colscale = [1.0 / w for w in self.wu]
+        self.any_length = not all(self.angle_u)
         self.tol = 1e-11 * sc
         self.x_tol = 1e-9 if self.angle_x else 1e-9 * sc
         ex = [0.0] * self.nv
@@ -169,8 +175,14 @@ class _Kernel:
             return None
 
     def dets(self, J):
-        """Determinant and regularity |det| / (‖B‖_F² / k)^(k/2) (≈ 2/cond for 2×2; 0 = singular) per block."""
+        """Determinant and regularity |det| / (‖B‖_F² / k)^(k/2) (≈ 2/cond for 2×2; 0 = singular) per block.
+
+        Columns of length unknowns are scaled by the model's length scale first (positive
+        factors: the signs are those of Φ_q), so the regularity does not depend on the unit.
+        """
         n = self.n
+        cs = self.colscale
+        J = [J[i] * cs[i % n] for i in range(n * n)] if self.any_length else J
         out, had = [], []
         for eqs, cols in self.blocks:
             k = len(cols)
@@ -202,6 +214,7 @@ class _Kernel:
         phi, jac, p, iu, wu = self.phi_f, self.jac_f, self.p, self.iu, self.wu
         prev = None
         first = None
+        tiny = _ROUNDOFF * (1.0 + max((abs(z[i]) * w for i, w in zip(iu, wu)), default=0.0))
         for it in range(1, max_iter + 1):
             f = phi(z, p)
             dx = self.solve(jac(z, p), [-v for v in f])
@@ -214,7 +227,7 @@ class _Kernel:
                 z[i] += dx[k]
             if first is None:
                 first = st
-            if st <= 1e-15 or (prev is not None and st * (st / prev) ** 2 <= 1e-17):
+            if st <= tiny or (prev is not None and st * (st / prev) ** 2 <= tiny):
                 return z, it, True, first
             prev = st
         return z, max_iter, False, first
@@ -257,6 +270,7 @@ class _Kernel:
         n, iu, ix, w = self.n, self.iu, self.ix, self.w
         prev = None
         first = None
+        tiny = _ROUNDOFF * (1.0 + max(abs(v) for v in self.yhat(z)))
         for it in range(1, max_iter + 1):
             f = self.phi_f(z, self.p)
             J = self.jac_f(z, self.p)
@@ -274,7 +288,7 @@ class _Kernel:
             z[ix] += float(dy[n])
             if first is None:
                 first = st
-            if st <= 1e-15 or (prev is not None and st * (st / prev) ** 2 <= 1e-17):
+            if st <= tiny or (prev is not None and st * (st / prev) ** 2 <= tiny):
                 return z, it, True, first
             prev = st
         return z, max_iter, False, first
@@ -318,13 +332,27 @@ class _Path:
 
 
 class _Grid:
-    """Output grid values ``start + k·step`` for k in [kmin, kmax], and the input bounds."""
+    """Output grid values ``start + k·step`` for k in [kmin, kmax], and the input bounds.
 
-    def __init__(self, start, step, kmin, kmax, lo, hi):
+    ``deg`` = (start, step) in degrees for a degree-unit angle input: the internal value of
+    grid point k is then the radian value whose display is exactly ``start + k·step`` degrees.
+    """
+
+    def __init__(self, start, step, kmin, kmax, lo, hi, deg=None):
         self.start, self.step, self.kmin, self.kmax, self.lo, self.hi = start, step, kmin, kmax, lo, hi
+        self.deg = deg
 
     def value(self, k: int) -> float:
-        return self.start + self.step * k
+        if self.deg is None:
+            return self.start + self.step * k
+        v = self.deg[0] + self.deg[1] * k
+        x = math.radians(v)
+        for _ in range(4):
+            d = float(np.degrees(x))
+            if d == v:
+                break
+            x = math.nextafter(x, math.inf if d < v else -math.inf)
+        return x
 
     def crossed(self, xa: float, xb: float) -> list[int]:
         """Grid indices strictly after ``xa`` up to ``xb`` inclusive, in the order from xa to xb."""
@@ -879,19 +907,19 @@ def assembly_failure(ck, x: float, exc: SolveError) -> SolveError:
 
 
 def _first_node(kern: _Kernel, z, d: float) -> _Node:
-    from .solve import SINGULAR_COND, display_value
+    from .solve import display_value
 
     z = [float(v) for v in z]
     J = kern.jac_f(z, kern.p)
     dets, had = kern.dets(J)
     du = kern.dudx(z, J)
-    if du is None or min(had, default=1.0) < 1.0 / SINGULAR_COND:
+    if du is None or min(had, default=1.0) < _START_REGULAR:
         name = kern.ck.inputs[0]
         disp = display_value(kern.ck, z[kern.ix], name)
         raise SingularPositionError(
             f"{kern.ck.mechanism.source or kern.ck.mechanism.name}: the sweep starts at a singular position "
-            f"({name} = {disp:g}: limit, dead centre or change point, where the mode is ambiguous); start the "
-            "sweep slightly away from it", input_value=disp, result=np.array(z))
+            f"({name} = {disp:g}: limit, dead centre or change point, where the mode is ambiguous, or within "
+            "about 1e-5 of one); start the sweep slightly away from it", input_value=disp, result=np.array(z))
     t = kern.natural_tangent(du, d)
     return _Node(z, t, kern.sig(dets), grid=0, residual=kern.residual(z), J=J)
 
@@ -913,14 +941,20 @@ def _parse_range(ck, start, stop, step):
         h = float(step)
     if h == 0 or not math.isfinite(h):
         raise ModelError("--step must be a nonzero number")
-    return x0, x1, h, kind
+    deg = None
+    if kind is Kind.ANGLE and ck.mechanism.units.angle == "deg":
+        d0 = float(start) if not isinstance(start, str) else math.degrees(x0)
+        dh = float(step) if not isinstance(step, str) else math.degrees(h)
+        deg = (d0, math.copysign(abs(dh), x1 - x0) if x1 != x0 else abs(dh))
+    return x0, x1, h, kind, deg
 
 
-def _make_grid(x0, x1, h, kind, through_limits) -> _Grid:
+def _make_grid(x0, x1, h, kind, through_limits, deg=None) -> _Grid:
     h = math.copysign(abs(h), x1 - x0) if x1 != x0 else abs(h)
     n = max(int(math.floor((x1 - x0) / h + 1e-9)), 0)
-    xn = x0 + h * n
-    lo, hi = min(x0, xn), max(x0, xn)
+    g = _Grid(x0, h, 0, n, x0, x0, deg)
+    xs, xn = g.value(0), g.value(n)
+    lo, hi = min(xs, xn), max(xs, xn)
     kmin, kmax = 0, n
     if through_limits and kind is Kind.ANGLE and abs(x1 - x0) >= 2 * math.pi - 1e-9:
         # a full turn of the input: every angle is in range; the path may go back past the start
@@ -930,7 +964,7 @@ def _make_grid(x0, x1, h, kind, through_limits) -> _Grid:
             lo = x0 - 2 * math.pi
         else:
             hi = x0 + 2 * math.pi
-    return _Grid(x0, h, kmin, kmax, lo, hi)
+    return _Grid(x0, h, kmin, kmax, lo, hi, deg)
 
 
 def sweep(mech, start, stop, step, *, speed=None, accel=None, jerk=None, input: str | None = None,
@@ -995,8 +1029,8 @@ def sweep(mech, start, stop, step, *, speed=None, accel=None, jerk=None, input: 
     if method not in ("auto", "tracked", "batched"):
         raise ModelError(f"method {method!r}: expected 'auto', 'tracked' or 'batched'")
     ck = compiled if compiled is not None else mech.compile(input)
-    x0, x1, h, kind = _parse_range(ck, start, stop, step)
-    g = _make_grid(x0, x1, h, kind, through_limits)
+    x0, x1, h, kind, deg = _parse_range(ck, start, stop, step)
+    g = _make_grid(x0, x1, h, kind, through_limits, deg)
     rates = input_rates(ck, speed, accel, jerk)
     z0 = start_position(ck, x0, mode=mode, guess=guess, settings=settings)
     kern = _Kernel(ck)
@@ -1143,6 +1177,8 @@ def reachable_ranges(ck, *, samples: int | None = None) -> list[tuple[float, flo
 def nearest_assemblable(ck, x: float) -> tuple[float, ...]:
     """The nearest assemblable input values below and above ``x`` (display units).
 
+    ``(x,)`` when ``x`` itself is inside a reachable range.
+
     Examples
     --------
     >>> ck = ls.fourbar(4, 3, 3.5, 5).compile()
@@ -1155,9 +1191,10 @@ def nearest_assemblable(ck, x: float) -> tuple[float, ...]:
     kern = _Kernel(ck)
     below, above = None, None
     for lo, hi in ranges:
-        cands = [lo, hi]
-        if kern.angle_x:
-            cands = [v + 2 * math.pi * j for v in (lo, hi) for j in range(-2, 3)]
+        shifts = [2 * math.pi * j for j in range(-2, 3)] if kern.angle_x else [0.0]
+        if any(lo + sh <= x <= hi + sh for sh in shifts):
+            return (display_value(ck, x, ck.inputs[0]),)
+        cands = [v + sh for v in (lo, hi) for sh in shifts]
         for v in cands:
             if v <= x and (below is None or v > below):
                 below = v

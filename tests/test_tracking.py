@@ -1,0 +1,361 @@
+"""Sweeps with branch tracking: modes kept, limits located, through-limits, change points, errors."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pytest
+from hypothesis import assume, given, settings
+from hypothesis import strategies as st
+
+import loopsolve as ls
+from loopsolve import classic as C
+from loopsolve.cli import main
+from loopsolve.solve import solve_position
+from loopsolve.tracking import StepControl, _progress, grid, nearest_assemblable, reachable_ranges
+
+TWO_PI = 2 * math.pi
+RAD = math.radians
+
+
+def wrap(a):
+    return (np.asarray(a) + math.pi) % TWO_PI - math.pi
+
+
+def closure(sw):
+    """Largest loop-closure residual of a sweep's rows, relative to the model's length scale."""
+    ck = sw.compiled
+    return max((float(np.max(np.abs(ck.phi(z)))) for z in sw.z), default=0.0) / ck.scale
+
+
+def kinds(sw):
+    return [e.kind.value for e in sw.events]
+
+
+# ----------------------------------------------------------------------------- strategies
+
+
+@st.composite
+def crank_rockers(draw):
+    """Grashof crank-rockers (crank r2 shortest), many close to the change point S + L = P + Q."""
+    s = draw(st.floats(0.5, 1.5))
+    big = draw(st.floats(3.0, 5.0))
+    p = draw(st.floats(s + 0.3, big - 0.2))
+    eps = 10 ** draw(st.floats(-5, -0.5))
+    q = s + big - p + eps
+    perm = draw(st.permutations([big, p, q]))
+    r1, r3, r4 = perm
+    assume(C.grashof(r1, s, r3, r4) is C.GrashofClass.CRANK_ROCKER and s == min(r1, s, r3, r4))
+    return r1, s, r3, r4
+
+
+@st.composite
+def triple_rockers(draw):
+    """Non-Grashof four-bars whose crank rocks between two toggle positions."""
+    r = [draw(st.floats(1.0, 5.0)) for _ in range(4)]
+    assume(C.grashof(*r) is C.GrashofClass.TRIPLE_ROCKER)
+    rng = C.fourbar_input_range(*r)
+    assume(len(rng) == 1 and 0.1 < rng[0][1] - rng[0][0] < TWO_PI - 0.1)
+    return tuple(r)
+
+
+def fd_check(mech, x0, mode, *, h=1e-3):
+    """Velocities and accelerations at x0 against 5-point finite differences of positions (unit speed)."""
+    sw = mech.sweep(x0 - 2 * h, x0 + 2 * h, h, mode=mode, method="tracked")
+    assert len(sw) == 5
+    hr = RAD(h)
+    iu = sw.compiled.unknown_idx
+    z = np.unwrap(sw.z[:, iu], axis=0)
+    d1 = (z[0] - 8 * z[1] + 8 * z[3] - z[4]) / (12 * hr)
+    d2 = (-z[0] + 16 * z[1] - 30 * z[2] + 16 * z[3] - z[4]) / (12 * hr * hr)
+    scale = 1 + np.max(np.abs(sw.z1[2, iu]))
+    assert np.max(np.abs(d1 - sw.z1[2, iu])) < 1e-7 * scale
+    assert np.max(np.abs(d2 - sw.z2[2, iu])) < 1e-4 * (1 + np.max(np.abs(sw.z2[2, iu])))
+
+
+# ----------------------------------------------------------------------------- Grashof linkages
+
+
+class TestGrashofFullCycles:
+    @settings(max_examples=25, deadline=None)
+    @given(r=crank_rockers(), mode=st.sampled_from(["open", "crossed"]), t0=st.floats(0, 360))
+    def test_crank_rocker_cycle_keeps_its_mode(self, r, mode, t0):
+        mech = ls.fourbar(*r, theta2=t0, mode=mode)
+        sig = "-" if mode == "open" else "+"
+        coarse = mech.sweep(t0, t0 + 360, 45, method="tracked")
+        fine = mech.sweep(t0, t0 + 360, 1, method="tracked")
+        for sw, n in ((coarse, 9), (fine, 361)):
+            assert len(sw) == n and sw.events == ()
+            assert set(sw.modes) == {sig} and sw.mode == sig
+            assert closure(sw) <= 1e-10
+            t3, t4 = C.fourbar_position(*r, np.radians(sw["theta2"]), 1 if mode == "open" else -1)
+            assert np.max(np.abs(wrap(np.radians(sw["theta3"]) - t3))) < 1e-9
+            assert np.max(np.abs(wrap(np.radians(sw["theta4"]) - t4))) < 1e-9
+        # the coarse grid lands on the same branch as the fine one
+        assert np.max(np.abs(coarse.z - fine.z[::45])) < 1e-9
+        fd_check(mech, t0 + 100, sig)
+
+    @settings(max_examples=25, deadline=None)
+    @given(r2=st.floats(0.5, 2.0), extra=st.floats(0.1, 5.0), e=st.floats(-1.0, 1.0),
+           mode=st.sampled_from(["right", "left"]), t0=st.floats(0, 360))
+    def test_slider_crank_cycle_keeps_its_mode(self, r2, extra, e, mode, t0):
+        r3 = r2 + abs(e) + extra
+        mech = ls.slider_crank(r2, r3, offset=e, theta2=t0, mode=mode)
+        coarse = mech.sweep(t0, t0 + 360, 45, method="tracked")
+        fine = mech.sweep(t0, t0 + 360, 1.5, method="tracked")
+        sig = coarse.mode
+        for sw, n in ((coarse, 9), (fine, 241)):
+            assert len(sw) == n and sw.events == ()
+            assert set(sw.modes) == {sig}
+            assert closure(sw) <= 1e-10
+            x, t3 = C.slider_crank_position(r2, r3, np.radians(sw["theta2"]), e, 1 if mode == "right" else -1)
+            assert np.max(np.abs(sw["x"] - x)) < 1e-9 * (1 + r3)
+            assert np.max(np.abs(wrap(np.radians(sw["theta3"]) - t3))) < 1e-9
+        assert np.max(np.abs(coarse.z - fine.z[::30])) < 1e-9
+        fd_check(mech, t0 + 200, sig)
+
+    @pytest.mark.parametrize("r", [(2, 1, 3, 2.001), (3, 2, 5, 4.01)])
+    def test_near_change_point_where_warm_started_newton_flips(self, r):
+        mech = ls.fourbar(*r, theta2=0)
+        ck = mech.compile()
+        # the naive sweep: each point's Newton starts from the previous solution
+        z = mech.solve(0, compiled=ck).z
+        naive = []
+        for t in range(45, 361, 45):
+            z0 = z.copy()
+            z0[0] = RAD(t)
+            z, _, _ = solve_position(ck, z0)
+            naive.append(ck.signature(z))
+        assert "+" in naive  # it jumps to the crossed mode somewhere
+        sw = mech.sweep(0, 360, 45)
+        assert set(sw.modes) == {"-"} and sw.events == ()
+        t3, t4 = C.fourbar_position(*r, np.radians(sw["theta2"]), 1)
+        assert np.max(np.abs(wrap(np.radians(sw["theta4"]) - t4))) < 1e-9
+
+    def test_thesis_reference_cycle(self):
+        sw = ls.load(ls.models_dir() / "thesis_crank_rocker.toml").sweep(0, 360, 30)
+        assert len(sw) == 13 and set(sw.modes) == {"-"}
+        assert sw["theta4"][3] == pytest.approx(80.7225, abs=1e-4)
+        assert sw["theta2"][-1] == 360
+
+    def test_sweep_backwards_and_with_units(self):
+        mech = ls.fourbar(60, 25, 70, 45)
+        fwd = mech.sweep(0, 90, 10)
+        back = mech.sweep("90deg", "0deg", "10deg")
+        assert np.allclose(back["theta4"][::-1], fwd["theta4"], atol=1e-12)
+        assert np.allclose(back["theta4_vel"][::-1], fwd["theta4_vel"], atol=1e-12)
+
+
+# ----------------------------------------------------------------------------- limits
+
+
+class TestLimits:
+    @settings(max_examples=25, deadline=None)
+    @given(r=triple_rockers(), frac=st.floats(0.2, 0.8))
+    def test_limits_equal_the_toggle_angles_and_the_circuit_closes(self, r, frac):
+        (lo, hi), = C.fourbar_input_range(*r)
+        t0 = math.degrees(lo + frac * (hi - lo))
+        mech = ls.fourbar(*r, theta2=t0)
+        toggles = C.fourbar_toggle_angles(*r)
+
+        def near_toggle(x):
+            return np.min(np.abs(wrap(RAD(x) - toggles)))
+
+        stop = mech.sweep(t0, t0 + 360, 5)
+        assert kinds(stop) == ["limit"]
+        assert near_toggle(stop.events[0].input) < 1e-8
+        assert RAD(stop.events[0].input) == pytest.approx(hi, abs=1e-8)
+        assert np.all(np.diff(stop["theta2"]) > 0) and set(stop.modes) == {"-"}
+
+        sw = mech.sweep(t0, t0 + 360, 5, through_limits=True)
+        assert kinds(sw) == ["limit", "mode-change", "limit", "mode-change"]
+        assert all(near_toggle(e.input) < 1e-8 for e in sw.events)
+        # the circuit closes: back at the start in the start mode
+        assert sw["theta2"][-1] == pytest.approx(t0, abs=1e-9) and sw.modes[-1] == "-"
+        assert np.allclose(sw.z[-1], sw.z[0], atol=1e-9)
+        modes = np.array([1 if s == "-" else -1 for s in sw.modes])
+        assert set(modes) == {1, -1}
+        t3, t4 = C.fourbar_position(*r, np.radians(sw["theta2"]), modes)
+        assert np.max(np.abs(wrap(np.radians(sw["theta3"]) - t3))) < 1e-9
+        assert np.max(np.abs(wrap(np.radians(sw["theta4"]) - t4))) < 1e-9
+        assert closure(sw) <= 1e-10
+        # the input turns back on the same grid: rows at start + k * 5
+        k = (sw["theta2"] - t0) / 5
+        assert np.allclose(k, np.round(k), atol=1e-9)
+        # every grid value inside the range is visited once per mode, plus the closing row
+        vals = np.radians(t0 + 5 * np.arange(-72, 73))
+        assert len(sw) == 1 + 2 * int(np.sum((vals > lo) & (vals < hi)))
+
+    def test_through_limits_within_a_partial_range_stops_at_its_end(self):
+        mech = ls.fourbar(4, 3, 3.5, 5, theta2=300)
+        sw = mech.sweep(300, 350, 10, through_limits=True)
+        assert kinds(sw) == ["limit", "mode-change"]
+        assert list(sw["theta2"]) == [300, 310, 320, 330, 340, 340, 330, 320, 310, 300]
+        assert sw.modes == ("-",) * 5 + ("+",) * 5
+
+    def test_slider_as_input_stops_at_the_dead_centre(self):
+        mech = ls.load(ls.models_dir() / "example1_slider_crank.toml")
+        sw = mech.sweep(5, 14, 1, input="r1")
+        assert kinds(sw) == ["limit"] and sw.events[0].input == pytest.approx(13.0, abs=1e-9)
+        assert list(sw["r1"]) == [5, 6, 7, 8, 9, 10, 11, 12]
+
+    def test_cli_limit_exits_zero_with_rows_and_event(self, tmp_path, capsys):
+        path = tmp_path / "tr.toml"
+        path.write_text(ls.dumps(ls.fourbar(4, 3, 3.5, 5, theta2=300)))
+        assert main(["sweep", str(path), "--from", "300", "--to", "400", "--step", "10", "--format", "json"]) == 0
+        doc = json.loads(capsys.readouterr().out)
+        assert [r["theta2"] for r in doc["rows"]] == [300, 310, 320, 330, 340]
+        assert doc["events"][0]["kind"] == "limit"
+        assert doc["events"][0]["input"] == pytest.approx(341.42665028, abs=1e-7)
+        assert main(["sweep", str(path), "--from", "300", "--to", "660", "--step", "10", "--through-limits",
+                     "--format", "json", "--method", "tracked"]) == 0
+        doc = json.loads(capsys.readouterr().out)
+        assert [e["kind"] for e in doc["events"]] == ["limit", "mode-change", "limit", "mode-change"]
+        assert doc["rows"][-1]["theta2"] == 300
+
+
+class TestChangePoints:
+    @pytest.mark.parametrize("method", ["tracked", "batched"])
+    def test_change_point_is_a_singular_event_and_the_only_mode_change(self, method):
+        # S + L = P + Q: 2 + 5 = 4 + 3; the branches touch at theta2 = 180
+        mech = ls.fourbar(5, 2, 4, 3, theta2=10)
+        sw = mech.sweep(10, 370, 10, method=method)
+        assert kinds(sw) == ["singular"]
+        assert sw.events[0].input == pytest.approx(180, abs=1e-5)
+        assert "change point" in sw.events[0].message
+        x = sw["theta2"]
+        assert set(np.array(sw.modes)[x < 180]) == {"-"} and set(np.array(sw.modes)[x > 180]) == {"+"}
+        assert 180 not in list(x) and len(sw) == 36  # the row at the change point has no defined rates
+        assert closure(sw) <= 1e-10
+
+    def test_parallelogram(self):
+        sw = ls.fourbar(4, 2, 4, 2, theta2=10).sweep(10, 370, 10)
+        assert kinds(sw) == ["singular", "singular"]
+        assert [e.input for e in sw.events] == pytest.approx([180, 360], abs=1e-5)
+
+
+# ----------------------------------------------------------------------------- errors and start
+
+
+class TestOutsideTheRange:
+    def test_assembly_error_names_the_nearest_inputs(self):
+        mech = ls.fourbar(4, 3, 3.5, 5, theta2=90)
+        with pytest.raises(ls.AssemblyError) as exc:
+            mech.sweep(0, 90, 10)
+        tog = math.degrees(C.fourbar_toggle_angles(4, 3, 3.5, 5)[1])
+        assert exc.value.nearest == pytest.approx((-tog, tog), abs=1e-8)
+        assert exc.value.input_value == 0
+        assert f"{tog:.10g}" in str(exc.value)
+
+    def test_slider_input_nearest(self):
+        mech = ls.load(ls.models_dir() / "example1_slider_crank.toml")
+        with pytest.raises(ls.AssemblyError) as exc:
+            mech.sweep(14, 20, 1, input="r1")
+        assert exc.value.nearest == pytest.approx((13.0,), abs=1e-9)
+
+    def test_cli_exit_3_one_line(self, tmp_path, capsys):
+        path = tmp_path / "tr.toml"
+        path.write_text(ls.dumps(ls.fourbar(4, 3, 3.5, 5, theta2=90)))
+        assert main(["sweep", str(path), "--from", "0", "--to", "90", "--step", "10"]) == 3
+        err = capsys.readouterr().err
+        assert err.count("\n") == 1 and err.startswith("loopsolve: AssemblyError:")
+        assert "18.57334972" in err
+
+    def test_bad_guesses_are_not_reported_as_unassemblable(self):
+        # with r5 = 40 the second loop of this six-bar only closes on the first loop's crossed mode;
+        # the guesses pick the open one, so Newton stalls in the second block
+        from test_modes import watt_sixbar
+
+        mech = watt_sixbar().with_parameters(r5=40)
+        with pytest.raises(ls.ConvergenceError, match=r"assembles there in mode\(s\) \+\+, \+-.*--mode"):
+            mech.solve(60)
+        assert mech.solve(60, mode="+-").mode == "+-"
+
+    def test_start_on_a_singular_position(self):
+        with pytest.raises(ls.SingularPositionError):
+            ls.fourbar(4, 2, 4, 2, theta2=10).sweep(0, 90, 10)
+
+    def test_bad_method_and_step(self):
+        mech = ls.fourbar(60, 25, 70, 45)
+        with pytest.raises(ls.ModelError):
+            mech.sweep(0, 10, 1, method="fast")
+        with pytest.raises(ls.ModelError):
+            mech.sweep(0, 10, 0)
+
+
+class TestRanges:
+    def test_reachable_ranges(self):
+        ck = ls.fourbar(4, 3, 3.5, 5).compile()
+        (lo, hi), = reachable_ranges(ck)
+        (a, b), = C.fourbar_input_range(4, 3, 3.5, 5)
+        assert (lo, hi) == pytest.approx((a, b), abs=1e-9)
+        assert reachable_ranges(ls.fourbar(60, 25, 70, 45).compile()) == [(-math.pi, math.pi)]
+
+    def test_double_rocker_ranges_both_arcs(self):
+        r = (2.0, 3.0, 1.0, 3.5)  # Grashof, coupler shortest: double rocker
+        assert C.grashof(*r) is C.GrashofClass.DOUBLE_ROCKER
+        ck = ls.fourbar(*r, theta2=math.degrees(np.mean(C.fourbar_input_range(*r)[0]))).compile()
+        ours = reachable_ranges(ck)
+        ref = C.fourbar_input_range(*r)
+        assert len(ours) == len(ref)
+        for (p, q), (a, b) in zip(sorted(ours), sorted((wrap(a), wrap(a) + (b - a)) for a, b in ref)):
+            assert (p, q) == pytest.approx((a, b), abs=1e-9)
+
+    def test_info_prints_the_reachable_range(self):
+        d = ls.fourbar(4, 3, 3.5, 5).info()
+        assert d["reachable_input_ranges"] == [pytest.approx([18.57334972, 341.4266503], abs=1e-7)]
+        from loopsolve.info import format_info
+
+        assert "reachable range(s) of theta2" in format_info(d)
+
+    def test_nearest_for_a_fully_rotating_input_is_the_input_itself(self):
+        ck = ls.fourbar(60, 25, 70, 45).compile()
+        assert nearest_assemblable(ck, 0.3) == pytest.approx((math.degrees(0.3),))
+
+
+# ----------------------------------------------------------------------------- multi-loop, results
+
+
+def test_sixbar_cycle_keeps_both_block_signs():
+    from test_modes import watt_sixbar
+
+    mech = watt_sixbar()
+    for sig in ("--", "+-", "-+", "++"):
+        sw = mech.sweep(60, 420, 10, mode=sig)
+        if sw.events:  # some modes of this six-bar meet limits: they must be located, not jumped over
+            assert sw.events[0].kind.value in ("limit", "singular")
+        assert set(sw.modes) == {sig} or sw.events
+        assert closure(sw) <= 1e-10
+
+
+def test_sweep_result_is_immutable_and_consistent():
+    sw = ls.fourbar(60, 25, 70, 45).sweep(0, 90, 30)
+    with pytest.raises(AttributeError):
+        sw.mode = "+"
+    with pytest.raises(ValueError):
+        sw.z[0, 0] = 1.0
+    assert [s.row() for s in sw.states] == sw.rows
+    assert sw.states[1]["theta4"] == pytest.approx(sw["theta4"][1])
+    doc = json.loads(sw.to_json())
+    assert doc["mode"] == "-" and len(doc["rows"]) == 4 and doc["events"] == []
+    assert sw.to_csv().splitlines()[0].startswith("theta2 [deg]")
+    rebuilt = ls.Sweep(sw.compiled, sw.states, sw.events, sw.mode)
+    assert np.array_equal(rebuilt["C_x_acc"], sw["C_x_acc"])
+
+
+def test_grid_and_progress():
+    assert grid(0, 360, 45).tolist() == [0, 45, 90, 135, 180, 225, 270, 315, 360]
+    assert grid(0, 100, 30).tolist() == [0, 30, 60, 90]
+    assert _progress(1000, None) is None  # not a terminal under pytest
+    bar = _progress(1000, True)
+    assert bar is not None
+    bar.close()
+
+
+def test_step_control_bounds_the_internal_step():
+    mech = ls.fourbar(60, 25, 70, 45)
+    a = mech.sweep(0, 360, 90, control=StepControl(max_step=RAD(0.5)), method="tracked")
+    b = mech.sweep(0, 360, 90, method="tracked")
+    assert np.allclose(a.z, b.z, atol=1e-12)
