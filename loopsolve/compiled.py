@@ -228,6 +228,27 @@ def _load_source(source: str, key: str, path: Path | None) -> ModuleType:
     return module
 
 
+_FUNCTIONS = ("phi", "jac", "rhs1", "rhs2", "rhs3", "points0", "points1", "points2", "points3",
+              "vectors0", "vectors1", "vectors2")
+
+
+def _fits(module: ModuleType, mech: Mechanism, inputs: tuple[str, ...]) -> bool:
+    """Whether a cached module has the full generated layout for this declaration."""
+    try:
+        return (
+            tuple(module.VARIABLES) == tuple(v.name for v in mech.variables)
+            and tuple(module.INPUTS) == tuple(inputs)
+            and tuple(module.PARAMS) == tuple(p.name for p in mech.parameters)
+            and tuple(module.POINTS) == tuple(p.name for p in mech.points)
+            and tuple(module.VECTORS) == tuple(v.name for v in mech.vectors)
+            and all(hasattr(module, a) for a in ("KINDS", "UNKNOWNS", "SLIDING", "BLOCKS", "N_EQ"))
+            and all(callable(getattr(module, f, None)) and callable(getattr(module, f + "_v", None))
+                    for f in _FUNCTIONS)
+        )
+    except Exception:  # attributes of the wrong type in a foreign file
+        return False
+
+
 def _cached_module(mech: Mechanism, inputs: tuple[str, ...], cache: bool) -> ModuleType:
     key = structure_key(mech, inputs)
     with _LOCK:
@@ -241,6 +262,8 @@ def _cached_module(mech: Mechanism, inputs: tuple[str, ...], cache: bool) -> Mod
             module = _load_source("", key, path)
         except Exception:  # a corrupt or foreign cache file: regenerate it
             module = None
+        if module is not None and not _fits(module, mech, inputs):
+            module = None  # loads, but is truncated or not ours: regenerate it
     if module is None:
         from .symbolic import derive
 
@@ -287,22 +310,32 @@ class CompiledKinematics:
     scale: float
 
     # scalar evaluations ---------------------------------------------------------------
+    # The generated scalar code uses `math`, which raises where numpy gives NaN (sqrt of a
+    # negative, 0.0**-1, overflow of **): such points are returned as NaN, so callers see a
+    # non-finite residual (Newton backtracks) instead of a bare ValueError/ZeroDivisionError.
+    def _call(self, fname: str, size: int, *args) -> np.ndarray:
+        try:
+            return np.array(getattr(self.module, fname)(*args, self.p), dtype=float)
+        except (ArithmeticError, ValueError):
+            return np.full(size, np.nan)
+
     def phi(self, z) -> np.ndarray:
-        return np.array(self.module.phi(z, self.p), dtype=float)
+        return self._call("phi", self.module.N_EQ, z)
 
     def jac(self, z) -> np.ndarray:
-        return np.array(self.module.jac(z, self.p), dtype=float).reshape(len(self.unknowns), -1)
+        n = len(self.unknowns)
+        return self._call("jac", n * n, z).reshape(n, -1)
 
     def rhs(self, order: int, *zs) -> np.ndarray:
-        return np.array(getattr(self.module, f"rhs{order}")(*zs, self.p), dtype=float)
+        return self._call(f"rhs{order}", self.module.N_EQ, *zs)
 
     def point_values(self, order: int, *zs) -> np.ndarray:
         """``(P, 2)`` array of point positions (order 0) or derivatives."""
-        return np.array(getattr(self.module, f"points{order}")(*zs, self.p), dtype=float).reshape(-1, 2)
+        return self._call(f"points{order}", 2 * len(self.points), *zs).reshape(-1, 2)
 
     def vector_values(self, order: int, *zs) -> np.ndarray:
         """``(V, 2)`` array of (length, angle) of every vector, or their derivatives."""
-        return np.array(getattr(self.module, f"vectors{order}")(*zs, self.p), dtype=float).reshape(-1, 2)
+        return self._call(f"vectors{order}", 2 * len(self.vectors), *zs).reshape(-1, 2)
 
     # vectorized evaluations: z has shape (nvar, N) ----------------------------------------
     def phi_v(self, z) -> np.ndarray:

@@ -362,10 +362,62 @@ def _parse_expr(value: Any, key: str, problems: _Problems) -> _expr.Node | None:
         problems.add(key, f"{value!r} is not a finite number")
         return None
     try:
-        return _expr.parse(value)
+        node = _expr.parse(value)
     except ModelError as exc:
         problems.add(key, str(exc))
         return None
+    try:
+        _constant_size(node)
+    except _TooLarge as exc:
+        problems.add(key, f"{exc} in {value!r}: constants must stay finite and constant exponents within "
+                     f"±{MAX_EXPONENT} (the symbolic derivation would otherwise try to expand them)")
+        return None
+    return node
+
+
+#: largest |exponent| accepted when the exponent is a constant (x**2, sqrt via **0.5, ...)
+MAX_EXPONENT = 64
+
+
+class _TooLarge(Exception):
+    pass
+
+
+def _constant_size(node) -> float | None:
+    """Float value of a name-free subtree (``None`` if it has names or calls).
+
+    Raises :class:`_TooLarge` for a constant exponent beyond ``MAX_EXPONENT`` or a constant that
+    overflows: sympy evaluates integer powers such as ``10**10**10`` exactly (and expands
+    ``(a + b)**1000000``), which would hang the derivation.
+    """
+    if isinstance(node, _expr.Num):
+        return float(node.value)
+    if isinstance(node, _expr.Const):
+        return math.pi
+    if isinstance(node, _expr.Unary):
+        v = _constant_size(node.operand)
+        return None if v is None else (-v if node.op == "-" else v)
+    if isinstance(node, _expr.Call):
+        for a in node.args:
+            _constant_size(a)
+        return None
+    if isinstance(node, _expr.Binary):
+        a, b = _constant_size(node.left), _constant_size(node.right)
+        if node.op == "**" and b is not None and abs(b) > MAX_EXPONENT:
+            raise _TooLarge(f"exponent {b:g} is too large")
+        if a is None or b is None:
+            return None
+        try:
+            v = {"+": lambda: a + b, "-": lambda: a - b, "*": lambda: a * b,
+                 "/": lambda: a / b if b else math.nan, "**": lambda: math.pow(a, b)}[node.op]()
+        except OverflowError:
+            raise _TooLarge(f"the constant {_expr.to_text(node)} overflows") from None
+        except ValueError:
+            raise _TooLarge(f"the constant {_expr.to_text(node)} is not a real number") from None
+        if math.isinf(v):
+            raise _TooLarge(f"the constant {_expr.to_text(node)} overflows")
+        return None if math.isnan(v) else v
+    return None
 
 
 def _collect_kinds(node, ctx: str, key: str, out: dict[str, set], pi_uses: list, angle_unit: str):
@@ -515,9 +567,16 @@ def build_mechanism(spec: Mapping[str, Any], *, source: str | None = None) -> Me
         problems.add(key, "`pi` in an angle of a model whose angles are in degrees would mean "
                           "pi degrees: write the angle in degrees (180 for pi), or set "
                           "units.angle = \"rad\"")
-    for nm, uses in seen.items():
+    # every name used anywhere (also inside sqrt(), abs(), exponents, where no kind is inferred)
+    used: dict[str, str] = {}
+    for v in vectors:
+        for f_ in ("length", "angle", "offset", "x", "y"):
+            n = getattr(v, f_)
+            if n is not None:
+                for nm in sorted(_expr.names(n)):
+                    used.setdefault(nm, f"vectors.{v.name}.{f_}")
+    for nm, where in used.items():
         if nm not in param_spec and nm not in var_spec:
-            where = sorted(k for _, k in uses)[0]
             problems.add(where, f"unknown name {nm!r} (not a parameter or variable); declared: "
                          + ", ".join(list(param_spec) + list(var_spec)))
 
@@ -558,7 +617,7 @@ def build_mechanism(spec: Mapping[str, Any], *, source: str | None = None) -> Me
             if qkind is None:
                 value = float(pval) if not isinstance(pval, str) else float(pval.strip())
             else:
-                value = parse_quantity(pval, qkind, angle_unit=angle_unit, length_unit=length_unit, where=key)
+                value = parse_quantity(pval, qkind, angle_unit=angle_unit, length_unit=length_unit)
         except (ValueError, ModelError) as exc:
             problems.add(key, str(exc))
             continue
@@ -588,8 +647,11 @@ def build_mechanism(spec: Mapping[str, Any], *, source: str | None = None) -> Me
                 problems.add(f"{key}.kind", f"declared {declared_kind} but used as a {kind.name.lower()}")
             kind = dk or kind
         if kind is None:
-            if vname not in seen:
+            if vname not in used:
                 problems.add(key, f"variable {vname!r} is not used by any vector")
+            elif vname not in seen:
+                problems.add(key, f"cannot tell whether {vname!r} is an angle or a length from its use in "
+                             f"{used[vname]}: add kind = \"angle\" or kind = \"length\"")
             continue
         inp = vdef.get("input", False)
         if not isinstance(inp, bool):
@@ -608,8 +670,8 @@ def build_mechanism(spec: Mapping[str, Any], *, source: str | None = None) -> Me
                 vals[fname] = None
                 continue
             try:
-                vals[fname] = parse_quantity(raw, fkind, angle_unit=angle_unit, length_unit=length_unit,
-                                             where=f"{key}.{fname}")
+                # the problem list prefixes the key itself (no `where=`, or it would appear twice)
+                vals[fname] = parse_quantity(raw, fkind, angle_unit=angle_unit, length_unit=length_unit)
             except (ModelError, ValueError, TypeError) as exc:
                 problems.add(f"{key}.{fname}", str(exc))
                 vals[fname] = None
@@ -679,7 +741,10 @@ def build_mechanism(spec: Mapping[str, Any], *, source: str | None = None) -> Me
                 "variables",
                 f"{n_unknown} unknown variable(s) ({', '.join(v.name for v in variables if not v.input)}) "
                 f"but {n_eq} scalar loop equations from {len(loops)} loop(s): each loop gives two "
-                "equations (x and y), so the unknowns must number twice the loops",
+                "equations (x and y), so the unknowns must number twice the loops; "
+                f"{n_inputs} input(s) declared ({', '.join(v.name for v in variables if v.input)}) "
+                f"where these {len(variables)} variables and {len(loops)} loop(s) leave a mobility of "
+                f"{len(variables) - n_eq}",
             )
     # ---- assembly-mode aliases: name -> signature ("open" = "-" for a four-bar)
     modes_spec = spec.get("modes", {})

@@ -75,7 +75,8 @@ def loads(text: str, *, source: str = "<string>") -> Mechanism:
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
-        raise ModelFileError(f"{source}: malformed TOML: {exc}", path=source) from None
+        hint = " (a key or table is declared twice)" if "overwrite" in str(exc).lower() else ""
+        raise ModelFileError(f"{source}: malformed TOML: {exc}{hint}", path=source) from None
     if "joints" in data or "links" in data:
         if "vectors" in data or "loops" in data:
             raise ModelFileError(

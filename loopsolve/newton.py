@@ -71,6 +71,7 @@ def newton(fun: Callable[[np.ndarray], np.ndarray], jac: Callable[[np.ndarray], 
     >>> r.status.name, round(float(r.x[0]), 12)
     ('CONVERGED', 1.414213562373)
     """
+    fun, jac = _guarded(fun), _guarded(jac, matrix=True)
     x = np.array(x0, dtype=float)
     f = fun(x)
     fn = float(np.max(np.abs(f))) if f.size else 0.0
@@ -108,6 +109,24 @@ def newton(fun: Callable[[np.ndarray], np.ndarray], jac: Callable[[np.ndarray], 
     if fn <= tol:
         return NewtonResult(x, fn, settings.max_iter, NewtonStatus.CONVERGED)
     return NewtonResult(x, fn, settings.max_iter, NewtonStatus.MAX_ITER)
+
+
+def _guarded(fn: Callable[[np.ndarray], np.ndarray], *, matrix: bool = False) -> Callable[[np.ndarray], np.ndarray]:
+    """``fn`` with math errors (``sqrt`` of a negative, ``0.0**-1``, overflow) turned into NaN.
+
+    Generated scalar code uses :mod:`math`, which raises where numpy would give NaN/inf; Newton
+    then backtracks (line search) or reports ``NOT_FINITE`` instead of leaking a bare error.
+    The system is square, so the NaN result has shape ``(n,)`` or ``(n, n)`` for ``x`` of size n.
+    """
+
+    def wrapped(x: np.ndarray) -> np.ndarray:
+        try:
+            return fn(x)
+        except (ArithmeticError, ValueError):
+            n = len(x)
+            return np.full((n, n) if matrix else n, np.nan)
+
+    return wrapped
 
 
 def _step(J: np.ndarray, f: np.ndarray) -> np.ndarray:
