@@ -130,10 +130,12 @@ def _cond_v(ck, J):
         return np.linalg.cond(M)
 
 
-def rates_v(ck, Z, rates):
+def rates_v(ck, Z, rates, J=None, derivatives: int = 3):
     """Velocities, accelerations, jerks and condition numbers at the positions ``Z`` ``(nvar, N)``.
 
-    ``rates`` = (speed, accel, jerk) of the driving input (internal units). Returns
+    ``rates`` = (speed, accel, jerk) of the driving input (internal units); ``J``, the raw
+    ``(n*n, N)`` Jacobians at ``Z`` when already known; ``derivatives`` the highest order
+    computed (the unknowns' higher rates are NaN). Returns
     ``Z1, Z2, Z3`` ``(nvar, N)`` and ``cond`` ``(N,)``; rows whose Jacobian is singular get
     NaN rates and an infinite ``cond``.
 
@@ -151,17 +153,21 @@ def rates_v(ck, Z, rates):
     if N == 0:
         e = np.zeros((nv, 0))
         return e, e.copy(), e.copy(), np.zeros(0)
-    J = ck.module.jac_v(Z, ck.p)
-    J = np.broadcast_to(J.reshape(J.shape[0], -1), (J.shape[0], N)) if J.size else J
+    if J is None:
+        J = ck.module.jac_v(Z, ck.p)
+        J = np.broadcast_to(J.reshape(J.shape[0], -1), (J.shape[0], N)) if J.size else J
     cond = _cond_v(ck, J)
     out = [Z]
     with np.errstate(divide="ignore", invalid="ignore"):
         for order in (1, 2, 3):
             Zk = np.zeros((nv, N))
             Zk[ix] = rates[order - 1]
-            b = ck.rhs_v(order, *out, Zk)
-            b = np.broadcast_to(np.asarray(b).reshape(len(iu), -1), (len(iu), N))
-            Zk[iu] = block_solve_v(ck, J, b)
+            if order <= derivatives:
+                b = ck.rhs_v(order, *out, Zk)
+                b = np.broadcast_to(np.asarray(b).reshape(len(iu), -1), (len(iu), N))
+                Zk[iu] = block_solve_v(ck, J, b)
+            else:
+                Zk[iu] = np.nan
             out.append(Zk)
     bad = ~(cond <= SINGULAR_COND)
     if np.any(bad):
@@ -171,110 +177,123 @@ def rates_v(ck, Z, rates):
     return out[1], out[2], out[3], cond
 
 
-def _newton_v(ck, Z, n_chord: int = 1):
-    """One Newton step and ``n_chord`` chord steps on the stacked systems (Z modified in place).
+def _newton_v(ck, Z):
+    """One Newton step on the stacked systems (``Z`` modified in place), then the chord check.
 
-    Returns the scaled size of the last correction per point.
+    Returns the residuals ``F`` at the new ``Z`` and the scaled size of the next (chord) correction
+    ``J0⁻¹ F``: the error left in ``Z``. From a guess within ~1e-8 one step reaches round-off.
     """
     iu = ck.unknown_idx
-    J = ck.module.jac_v(Z, ck.p)
-    last = None
-    for it in range(1 + n_chord):
-        F = ck.module.phi_v(Z, ck.p)
-        dU = block_solve_v(ck, J, -F)
-        Z[iu] += dU
-        last = dU
-    return last
+    J0 = ck.module.jac_v(Z, ck.p)
+    F = ck.module.phi_v(Z, ck.p)
+    Z[iu] -= block_solve_v(ck, J0, F)
+    F = ck.module.phi_v(Z, ck.p)
+    return F, block_solve_v(ck, J0, F)
+
+
+def _sign_dets_v(ck, J):
+    """Signs of the diagonal-block determinants, ``(nblocks, N)`` (fast path for 1x1 and 2x2 blocks)."""
+    n = len(ck.unknowns)
+    out = []
+    for eqs, cols in _blocks(ck):
+        if len(cols) == 1:
+            d = J[eqs[0] * n + cols[0]]
+        elif len(cols) == 2:
+            e0, e1 = eqs
+            c0, c1 = cols
+            d = J[e0 * n + c0] * J[e1 * n + c1] - J[e0 * n + c1] * J[e1 * n + c0]
+        else:
+            M = np.stack([np.stack([J[e * n + c] for c in cols], axis=-1) for e in eqs], axis=-2)
+            d = np.linalg.det(M)
+        out.append(np.sign(d))
+    return np.array(out).reshape(len(out), -1)
 
 
 def solve_rows(tracer, path, rows, g):
     """Positions of the output rows: vectorized where the path is regular, tracked elsewhere.
 
-    Same return value as the tracked solver: ``(Z list, signatures, residuals, iterations,
-    grid indices, events)``.
+    Returns the tracker's row solution (positions, mode codes, residuals, iterations) with the
+    Jacobians of the vectorized rows kept for the rates.
     """
-    from .tracking import _Kernel  # noqa: F401  (documentation of the tracer's kernel)
+    from .tracking import _fill_node_rows, _RowSolution, _solve_rows_scalar
 
     kern = tracer.k
     ck = kern.ck
-    n, ix = kern.n, kern.ix
+    n, ix, nv = kern.n, kern.ix, kern.nv
     nodes = path.nodes
-    nrow = len(rows)
-    nv = kern.nv
-    Zout = np.empty((nrow, nv))
-    sigs = [""] * nrow
-    res = np.zeros(nrow)
-    its = np.zeros(nrow, dtype=int)
-    ks = np.array([r[0] for r in rows], dtype=int)
-    ok = np.zeros(nrow, dtype=bool)
-    # rows on nodes
-    vec_rows, vec_seg = [], []
-    for r, (kk, seg, node) in enumerate(rows):
-        if node is not None:
-            Zout[r] = node.z
-            sigs[r] = node.sig
-            res[r] = node.residual
-            its[r] = node.n_iter
-            ok[r] = True
-            continue
-        a, b = nodes[seg], nodes[seg + 1]
-        sigs[r] = path.seg_sig[seg]
-        if (a.kind in ("regular", "end") and b.kind in ("regular", "end") and a.sig == b.sig == sigs[r]
-                and abs(a.t[n]) >= 0.1 and abs(b.t[n]) >= 0.1 and (a.t[n] > 0) == (b.t[n] > 0)):
-            vec_rows.append(r)
-            vec_seg.append(seg)
-    if vec_rows:
-        vr = np.array(vec_rows)
-        seg_idx = np.array(vec_seg)
-        used = np.unique(seg_idx)
-        # per-node data for the segments in use
-        nid = np.unique(np.concatenate([used, used + 1]))
-        pos = {int(v): i for i, v in enumerate(nid)}
-        NZ = np.array([nodes[i].z for i in nid], dtype=float)  # (m, nv)
-        T = np.array([nodes[i].t for i in nid], dtype=float)  # (m, n+1)
+    N = len(rows)
+    sol = _RowSolution(N, nv)
+    other = _fill_node_rows(path, rows, sol)
+    sol.J = np.empty((n * n, N))
+    sol.J_ok = np.zeros(N, dtype=bool)
+    # segments on which a cubic in the input is a reliable warm start
+    nseg = len(nodes) - 1
+    seg_ok = np.zeros(max(nseg, 0), dtype=bool)
+    seg_code = np.zeros(max(nseg, 0), dtype=np.int64)
+    for i in range(nseg):
+        a, b = nodes[i], nodes[i + 1]
+        s = path.seg_sig[i]
+        seg_code[i] = sol.code_of(s)
+        seg_ok[i] = (a.kind in ("regular", "end") and b.kind in ("regular", "end") and a.sig == b.sig == s
+                     and abs(a.t[n]) >= 0.1 and abs(b.t[n]) >= 0.1 and (a.t[n] > 0) == (b.t[n] > 0))
+    vec_mask = other.copy()
+    vec_mask[other] = seg_ok[rows.seg[other]]
+    redo_mask = other & ~vec_mask
+    vec = np.flatnonzero(vec_mask)
+    if len(vec):
+        seg = rows.seg[vec]
+        sol.code[vec] = seg_code[seg]
+        # cubic Hermite in the input on each segment, in Horner form: coefficients per segment
+        NZ = np.array([nd.z for nd in nodes], dtype=float)  # (nodes, nv)
+        T = np.array([nd.t for nd in nodes], dtype=float)  # (nodes, n+1)
         w = np.array(kern.wu)
-        slope = (T[:, :n] / w) / (T[:, n:] / kern.wx)  # dq/dx at the nodes
-        ia = np.array([pos[int(s)] for s in seg_idx])
-        ib = np.array([pos[int(s) + 1] for s in seg_idx])
-        xa, xb = NZ[ia, ix], NZ[ib, ix]
-        x = g.start + g.step * ks[vr]
-        hseg = xb - xa
-        s = (x - xa) / hseg
-        s2, s3 = s * s, s * s * s
-        h00, h10, h01, h11 = 2 * s3 - 3 * s2 + 1, s3 - 2 * s2 + s, -2 * s3 + 3 * s2, s3 - s2
-        Z = np.empty((nv, len(vr)))
-        Z[:] = NZ[ia].T
-        Z[ix] = x
         iu = ck.unknown_idx
-        Z[iu] = (h00 * NZ[ia][:, iu].T + h10 * hseg * slope[ia].T + h01 * NZ[ib][:, iu].T + h11 * hseg * slope[ib].T)
-        last = _newton_v(ck, Z)
-        step = np.max(np.abs(last * w[:, None]), axis=0) if n else np.zeros(len(vr))
-        F = ck.module.phi_v(Z, ck.p)
-        resid = np.max(np.abs(F.reshape(F.shape[0], -1)), axis=0) if n else np.zeros(len(vr))
-        J = ck.module.jac_v(Z, ck.p)
-        dets, _ = block_dets_v(ck, J.reshape(J.shape[0], -1))
-        want = np.array([[1.0 if ch == "+" else -1.0 for ch in sigs[r]] for r in vr]).T.reshape(dets.shape)
-        good = (step <= 1e-11) & (resid <= kern.tol) & np.all(np.sign(dets) == want, axis=0) & np.all(
-            np.isfinite(Z), axis=0)
-        Zout[vr[good]] = Z[:, good].T
-        res[vr[good]] = resid[good]
-        its[vr[good]] = 2
-        ok[vr[good]] = True
-    events = []
-    keep = np.ones(nrow, dtype=bool)
-    for r in np.flatnonzero(~ok):
-        kk, seg, _ = rows[r]
-        a, b = nodes[seg], nodes[seg + 1]
-        sol = tracer.solve_at(a, b, g.value(int(kk)), sigs[r])
-        if sol is None:
-            x = tracer._display(g.value(int(kk)))
-            events.append(Event(EventKind.SINGULAR, x, f"no converged solution at {ck.inputs[0]} = {x:.10g} on "
-                                f"mode {sigs[r]}; row left out"))
-            keep[r] = False
-            continue
-        z, rr, it = sol
-        Zout[r] = z
-        res[r] = rr
-        its[r] = it
-    idx = np.flatnonzero(keep)
-    return (Zout[idx], [sigs[i] for i in idx], res[idx].tolist(), its[idx].tolist(), ks[idx].tolist(), events)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            slope = (T[:, :n] / w) / (T[:, n:] / kern.wx)  # dq/dx at the nodes
+        xa_s = NZ[:-1, ix]
+        dx_s = NZ[1:, ix] - xa_s
+        ua, ub = NZ[:-1][:, iu], NZ[1:][:, iu]
+        ma, mb = slope[:-1] * dx_s[:, None], slope[1:] * dx_s[:, None]
+        c2 = 3 * (ub - ua) - 2 * ma - mb
+        c3 = 2 * (ua - ub) + ma + mb
+        x = rows.x[vec]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            inv = 1.0 / dx_s
+        t = (x - xa_s[seg]) * inv[seg]
+        Z = np.empty((nv, len(vec)))
+        Z[ix] = x
+        for j in range(len(ck.inputs)):
+            if j:  # inputs held during the sweep
+                Z[ck.input_idx[j]] = NZ[0, ck.input_idx[j]]
+        for j in range(n):
+            Z[iu[j]] = ua[seg, j] + t * (ma[seg, j] + t * (c2[seg, j] + t * c3[seg, j]))
+        F, dU = _newton_v(ck, Z)
+        if kern.any_length:
+            dU *= w[:, None]
+        err = np.max(np.abs(dU), axis=0) if n else np.zeros(len(vec))
+        resid = np.max(np.abs(F.reshape(F.shape[0], -1)), axis=0) if n else np.zeros(len(vec))
+        J = ck.module.jac_v(Z, ck.p).reshape(n * n, -1)
+        J = np.broadcast_to(J, (n * n, len(vec)))
+        signs = _sign_dets_v(ck, J)
+        codes = np.array([[1.0 if ch == "+" else -1.0 for ch in sg] for sg in sol.sigs]).reshape(len(sol.sigs), -1)
+        vcode = sol.code[vec]
+        if vcode.min() == vcode.max():
+            same = np.all(signs == codes[vcode[0]][:, None], axis=0)
+        else:
+            same = np.all(signs == codes[vcode].T, axis=0)
+        ymax = float(np.max(np.abs(NZ[:, iu] * w))) if n else 0.0
+        good = (err <= 1e-13 * (1 + ymax)) & (resid <= kern.tol) & same
+        if len(vec) == N and good.all():  # the common case: no scatter copies
+            sol.Z, sol.res, sol.J = Z, resid, np.ascontiguousarray(J)
+            sol.its[:] = 1
+            sol.J_ok[:] = True
+        else:
+            gv = vec[good]
+            sol.Z[:, gv] = Z[:, good]
+            sol.res[gv] = resid[good]
+            sol.its[gv] = 1
+            sol.J[:, gv] = J[:, good]
+            sol.J_ok[gv] = True
+        redo_mask[vec[~good]] = True
+    _solve_rows_scalar(tracer, path, rows, g, sol, np.flatnonzero(redo_mask))
+    return sol

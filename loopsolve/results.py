@@ -220,12 +220,12 @@ class Sweep:
             self._cache["states"] = states
             self._cache["points"] = np.array([s.points for s in states], dtype=float)
 
-    def _init(self, compiled, z, z1, z2, z3, modes, residual, n_iter, cond, events, mode, method):
+    def _init(self, compiled, z, z1, z2, z3, modes, residual, n_iter, cond, events, mode, method, copy=True):
         put = object.__setattr__
         put(self, "compiled", compiled)
         for name, a in (("z", z), ("z1", z1), ("z2", z2), ("z3", z3), ("residual", residual),
                         ("n_iter", n_iter), ("cond", cond)):
-            a = np.array(a, copy=True)
+            a = np.array(a, copy=True) if copy else np.asarray(a)
             a.setflags(write=False)
             put(self, name, a)
         put(self, "modes", tuple(modes))
@@ -236,15 +236,19 @@ class Sweep:
 
     @classmethod
     def from_arrays(cls, compiled, z, z1, z2, z3, *, modes, residual=None, n_iter=None, cond=None, events=(),
-                    mode: str = "", method: str = "tracked") -> "Sweep":
-        """A sweep from ``(N, nvar)`` arrays of positions and rates (internal units)."""
+                    mode: str = "", method: str = "tracked", copy: bool = True) -> "Sweep":
+        """A sweep from ``(N, nvar)`` arrays of positions and rates (internal units).
+
+        ``copy=False`` takes the arrays as they are (the caller hands them over and must not
+        keep writing to them); they are made read-only either way.
+        """
         self = cls.__new__(cls)
         z = np.asarray(z, dtype=float).reshape(-1, len(compiled.variables))
         n = z.shape[0]
         self._init(compiled, z, z1, z2, z3, modes,
                    np.zeros(n) if residual is None else residual,
                    np.zeros(n, dtype=int) if n_iter is None else n_iter,
-                   np.ones(n) if cond is None else cond, events, mode, method)
+                   np.ones(n) if cond is None else cond, events, mode, method, copy)
         return self
 
     def __setattr__(self, key, value):

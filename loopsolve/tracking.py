@@ -348,25 +348,38 @@ class _Grid:
         v = self.deg[0] + self.deg[1] * k
         x = math.radians(v)
         for _ in range(4):
-            d = float(np.degrees(x))
+            d = math.degrees(x)  # the same product x * (180/pi) as np.degrees
             if d == v:
                 break
             x = math.nextafter(x, math.inf if d < v else -math.inf)
         return x
 
-    def crossed(self, xa: float, xb: float) -> list[int]:
+    def values(self, ks: np.ndarray) -> np.ndarray:
+        """Vectorized :meth:`value`."""
+        ks = np.asarray(ks)
+        if self.deg is None:
+            return self.start + self.step * ks
+        v = self.deg[0] + self.deg[1] * ks
+        x = np.radians(v)
+        for _ in range(4):
+            d = np.degrees(x)
+            off = d != v
+            if not off.any():
+                break
+            x[off] = np.nextafter(x[off], np.where(d[off] < v[off], np.inf, -np.inf))
+        return x
+
+    def crossed(self, xa: float, xb: float) -> range:
         """Grid indices strictly after ``xa`` up to ``xb`` inclusive, in the order from xa to xb."""
         if xb == xa:
-            return []
+            return range(0)
         fa = (xa - self.start) / self.step
         fb = (xb - self.start) / self.step
         if fb > fa:
             k0, k1 = math.floor(fa + 1e-9) + 1, math.floor(fb + 1e-9)
-            ks = range(max(k0, self.kmin), min(k1, self.kmax) + 1)
-        else:
-            k0, k1 = math.ceil(fa - 1e-9) - 1, math.ceil(fb - 1e-9)
-            ks = range(min(k0, self.kmax), max(k1, self.kmin) - 1, -1)
-        return list(ks)
+            return range(max(k0, self.kmin), min(k1, self.kmax) + 1)
+        k0, k1 = math.ceil(fa - 1e-9) - 1, math.ceil(fb - 1e-9)
+        return range(min(k0, self.kmax), max(k1, self.kmin) - 1, -1)
 
     def next_after(self, x: float, d: float) -> int | None:
         """First grid index beyond ``x`` in input direction ``d`` (None past the ends)."""
@@ -396,6 +409,7 @@ class _Tracer:
         self.x_start = x_start
         self.bar = bar
         self.cos_turn = math.cos(control.max_turn)
+        self.cos_grow = math.cos(control.max_turn / 3)
 
     # ------------------------------------------------------------------ helpers
     def _display(self, x):
@@ -433,28 +447,35 @@ class _Tracer:
         return _Node(z, t, k.sig(dets), residual=res, n_iter=it, J=J), dets, had
 
     # ------------------------------------------------------------------ steps
-    def _natural_step(self, a: _Node, a_prev: _Node | None, h: float, land: bool = True):
-        k = self.k
-        n = k.n
-        d = 1.0 if a.t[n] > 0 else -1.0
-        xa = a.z[k.ix]
-        dx = h * abs(a.t[n]) / k.wx
+    def _natural_target(self, xa: float, d: float, dx: float, land: bool):
+        """Input value of the next natural step: the grid point when within reach, the range end."""
         target = xa + d * dx
         gidx = None
+        g = self.g
         if self.land and land:
-            kn = self.g.next_after(xa, d)
+            kn = g.next_after(xa, d)
             if kn is not None:
-                gx = self.g.value(kn)
+                gx = g.value(kn)
                 if d * (gx - target) <= 1e-12 * (1 + abs(gx)):
                     target, gidx = gx, kn
-        bound = self.g.hi if d > 0 else self.g.lo
+        bound = g.hi if d > 0 else g.lo
         at_bound = False
         if d * (target - bound) >= 0:
             target, at_bound = bound, True
-            kb = round((bound - self.g.start) / self.g.step)
-            gidx = kb if abs(self.g.value(kb) - bound) <= 1e-12 * (1 + abs(bound)) else None
+            kb = round((bound - g.start) / g.step)
+            gidx = kb if abs(g.value(kb) - bound) <= 1e-12 * (1 + abs(bound)) else None
             if gidx is not None:
-                target = self.g.value(gidx)
+                target = g.value(gidx)
+        return target, gidx, at_bound
+
+    def _natural_step(self, a: _Node, a_prev: _Node | None, h: float, land: bool = True):
+        k = self.k
+        if k.single2:
+            return self._natural_step_2x2(a, a_prev, h, land)
+        n = k.n
+        d = 1.0 if a.t[n] > 0 else -1.0
+        xa = a.z[k.ix]
+        target, gidx, at_bound = self._natural_target(xa, d, h * abs(a.t[n]) / k.wx, land)
         delta = target - xa
         if delta == 0:
             return None, at_bound
@@ -486,6 +507,85 @@ class _Tracer:
         corr = max(abs(p - q) for p, q in zip(pred, y))
         if corr > 0.25 * step_len + 1e-12:
             return None, at_bound
+        return node, at_bound
+
+    def _natural_step_2x2(self, a: _Node, a_prev: _Node | None, h: float, land: bool = True):
+        """:meth:`_natural_step` written out for one 2×2 block (four-bars and the like): same
+        predictor, corrector, checks and node, on plain floats."""
+        k = self.k
+        i0, i1 = k.iu
+        ix = k.ix
+        w0, w1 = k.wu
+        wx = k.wx
+        t0, t1, tx = a.t
+        d = 1.0 if tx > 0 else -1.0
+        az = a.z
+        xa = az[ix]
+        target, gidx, at_bound = self._natural_target(xa, d, h * abs(tx) / wx, land)
+        delta = target - xa
+        if delta == 0:
+            return None, at_bound
+        r = wx / tx
+        du0, du1 = t0 / w0 * r, t1 / w1 * r
+        p0 = az[i0] + delta * du0
+        p1 = az[i1] + delta * du1
+        if a_prev is not None and a_prev.sig == a.sig and abs(a_prev.t[2]) > 0.1:
+            xp = a_prev.z[ix]
+            if (xa - xp) * d > 0:
+                q0, q1, qx = a_prev.t
+                rq = wx / qx
+                c = 0.5 * delta * delta / (xa - xp)
+                p0 += c * (du0 - q0 / w0 * rq)
+                p1 += c * (du1 - q1 / w1 * rq)
+        z = list(az)
+        z[ix] = target
+        z[i0] = p0
+        z[i1] = p1
+        phi, jac, p = k.phi_f, k.jac_f, k.p
+        tiny = _ROUNDOFF * (1.0 + abs(p0) * w0 + abs(p1) * w1)
+        prev = 0.0
+        f0, f1 = phi(z, p)
+        for it in range(1, self.c.max_iter + 1):
+            J = jac(z, p)
+            A, B, C, D = J
+            det = A * D - B * C
+            if det == 0:
+                return None, at_bound
+            s0 = (B * f1 - D * f0) / det
+            s1 = (C * f0 - A * f1) / det
+            z[i0] += s0
+            z[i1] += s1
+            st = max(abs(s0) * w0, abs(s1) * w1)
+            f0, f1 = phi(z, p)
+            if st <= tiny or (prev and st * (st / prev) ** 2 <= tiny):
+                break
+            if not st < math.inf:
+                return None, at_bound
+            prev = st
+        else:
+            return None, at_bound
+        res = max(abs(f0), abs(f1))
+        if not res <= k.tol:
+            return None, at_bound
+        # Φ_q from the last iteration: z moved by a round-off-sized correction since (the tangent
+        # and the mode need no better; the rates are computed afresh at every row)
+        cs0, cs1 = 1.0 / w0, 1.0 / w1
+        nr = 0.5 * ((A * A + C * C) * cs0 * cs0 + (B * B + D * D) * cs1 * cs1)
+        if not abs(det) * cs0 * cs1 >= _NEAR_SINGULAR * nr:
+            return None, at_bound
+        b0, b1 = k.rhs1_f(z, k.ex, p)
+        n0 = (D * b0 - B * b1) / det * w0 * d
+        n1 = (A * b1 - C * b0) / det * w1 * d
+        nx = wx * d
+        nrm = math.sqrt(n0 * n0 + n1 * n1 + nx * nx)
+        t = [n0 / nrm, n1 / nrm, nx / nrm]
+        u0, u1 = z[i0], z[i1]
+        corr = max(abs(u0 - p0) * w0, abs(u1 - p1) * w1)
+        step_len = math.sqrt(((u0 - az[i0]) * w0) ** 2 + ((u1 - az[i1]) * w1) ** 2 + (delta * wx) ** 2)
+        if corr > 0.25 * step_len + 1e-12:
+            return None, at_bound
+        node = _Node(z, t, "+" if det > 0 else "-", residual=res, n_iter=it, J=J)
+        node.grid = gidx
         return node, at_bound
 
     def _arc_step(self, a: _Node, h: float):
@@ -661,7 +761,8 @@ class _Tracer:
                     b, at_bound = self._natural_step(a, prev_natural, h, land=False)
             else:
                 b = self._arc_step(a, h)
-            if b is not None and sum(p * q for p, q in zip(a.t, b.t)) < self.cos_turn:
+            dot = sum(p * q for p, q in zip(a.t, b.t)) if b is not None else 0.0
+            if b is not None and dot < self.cos_turn:
                 b = None
             if b is None:
                 h *= 0.5
@@ -757,7 +858,7 @@ class _Tracer:
                 prev_natural = None
             elif not natural and abs(b.t[n]) > c.natural_back:
                 natural = True
-            if b.n_iter <= 3 and sum(p * q for p, q in zip(a.t, b.t)) > math.cos(c.max_turn / 3):
+            if b.n_iter <= 3 and dot > self.cos_grow and h < c.max_step:
                 h = min(h * 1.6, c.max_step)
         return path
 
@@ -792,53 +893,157 @@ class _Tracer:
 # ============================================================================= rows
 
 
-def _enumerate_rows(kern: _Kernel, path: _Path, g: _Grid):
-    """(grid index, segment index or None, node or None) for every output row, in path order."""
+class _Rows:
+    """The output rows in path order: grid index ``ks``; ``node`` (index of the path node that is
+    the row, or -1) and ``seg`` (index of the segment to solve it on, or -1); ``x`` the input values."""
+
+    __slots__ = ("ks", "seg", "node", "x")
+
+    def __init__(self, ks, seg, node, x):
+        self.ks, self.seg, self.node, self.x = ks, seg, node, x
+
+    def __len__(self) -> int:
+        return len(self.ks)
+
+
+def _enumerate_rows(kern: _Kernel, path: _Path, g: _Grid) -> _Rows:
+    """Every output grid value crossed by the path, in the order traversed.
+
+    Grid values within the input tolerance of a fold (or within 1e3 times it of a change
+    point) are left out: the rates are undefined there and the event reports the position.
+    """
     ix = kern.ix
     nodes = path.nodes
-    out = []
+    chunks = []
+    sk, ss, sn = [], [], []
+
+    def flush():
+        if sk:
+            kk = np.array(sk, dtype=np.int64)
+            chunks.append((kk, np.array(ss, dtype=np.int64), np.array(sn, dtype=np.int64), g.values(kk)))
+            sk.clear(), ss.clear(), sn.clear()
+
     first = nodes[0]
     if first.grid is not None:
-        out.append((first.grid, None, first))
+        sk.append(first.grid), ss.append(-1), sn.append(0)
     for i in range(len(nodes) - 1):
         a, b = nodes[i], nodes[i + 1]
         xa, xb = a.z[ix], b.z[ix]
-        for kk in g.crossed(xa, xb):
-            x = g.value(kk)
-            if any((nd.kind == "fold" and abs(x - nd.z[ix]) <= kern.x_tol)
-                   or (nd.kind == "singular" and abs(x - nd.z[ix]) <= 1e3 * kern.x_tol) for nd in (a, b)):
-                continue
-            if b.kind == "regular" or b.kind == "end":
-                if b.grid == kk or abs(x - xb) <= 1e-12 * (1 + abs(x)):
-                    out.append((kk, None, b))
+        rng = g.crossed(xa, xb)
+        if not rng:
+            continue
+        if len(rng) == 1 and b.grid == rng[0] and b.kind == "regular" and a.kind == "regular":
+            sk.append(b.grid), ss.append(-1), sn.append(i + 1)  # a node landed on the grid: the usual case
+            continue
+        sing = [(nd.z[ix], kern.x_tol if nd.kind == "fold" else 1e3 * kern.x_tol)
+                for nd in (a, b) if nd.kind in ("fold", "singular")]
+        land_ok = b.kind in ("regular", "end")
+        if len(rng) <= 32:
+            for kk in rng:
+                x = g.value(kk)
+                if any(abs(x - xs) <= tol for xs, tol in sing):
                     continue
-            out.append((kk, i, None))
-    return out
-
-
-def _solve_rows_tracked(tracer: _Tracer, path: _Path, rows, g: _Grid):
-    """Positions of every row: nodes as they are, other crossings by a corrector from the segment."""
-    kern = tracer.k
-    Z, sigs, res, its, ks, events = [], [], [], [], [], []
-    for kk, seg, node in rows:
-        if node is not None:
-            z, s, r, it = node.z, node.sig, node.residual, node.n_iter
+                if land_ok and (b.grid == kk or abs(x - xb) <= 1e-12 * (1 + abs(x))):
+                    sk.append(kk), ss.append(-1), sn.append(i + 1)
+                else:
+                    sk.append(kk), ss.append(i), sn.append(-1)
+            continue
+        flush()
+        kk = np.arange(rng.start, rng.stop, rng.step, dtype=np.int64)
+        x = g.values(kk)
+        keep = np.ones(len(kk), dtype=bool)
+        for xs, tol in sing:
+            keep &= np.abs(x - xs) > tol
+        seg = np.full(len(kk), i, dtype=np.int64)
+        node = np.full(len(kk), -1, dtype=np.int64)
+        if land_ok:
+            landed = (kk == (b.grid if b.grid is not None else -(2**62))) | (np.abs(x - xb) <= 1e-12 * (1 + np.abs(x)))
+            seg[landed] = -1
+            node[landed] = i + 1
+        if keep.all():
+            chunks.append((kk, seg, node, x))
         else:
-            a, b = path.nodes[seg], path.nodes[seg + 1]
-            s = path.seg_sig[seg]
-            sol = tracer.solve_at(a, b, g.value(kk), s)
-            if sol is None:
-                x = tracer._display(g.value(kk))
-                events.append(Event(EventKind.SINGULAR, x, f"no converged solution at {kern.ck.inputs[0]} = "
+            chunks.append((kk[keep], seg[keep], node[keep], x[keep]))
+    flush()
+    if not chunks:
+        e = np.zeros(0, dtype=np.int64)
+        return _Rows(e, e.copy(), e.copy(), np.zeros(0))
+    if len(chunks) == 1:
+        return _Rows(*chunks[0])
+    return _Rows(*(np.concatenate(c) for c in zip(*chunks)))
+
+
+class _RowSolution:
+    """Positions of the rows (``Z`` (nvar, N)) with their mode codes, residuals, iterations, and
+    which rows could be solved (``ok``); ``sigs`` lists the signature of each code."""
+
+    def __init__(self, n, nv):
+        self.Z = np.empty((nv, n))
+        self.code = np.zeros(n, dtype=np.int64)
+        self.res = np.zeros(n)
+        self.its = np.zeros(n, dtype=np.int64)
+        self.ok = np.ones(n, dtype=bool)
+        self.sigs: list[str] = []
+        self._codes: dict[str, int] = {}
+        self.events: list[Event] = []
+        self.J = None  # raw Jacobians (n*n, N) where known (batched path)
+        self.J_ok = None
+
+    def code_of(self, sig: str) -> int:
+        c = self._codes.get(sig)
+        if c is None:
+            c = self._codes[sig] = len(self.sigs)
+            self.sigs.append(sig)
+        return c
+
+
+def _fill_node_rows(path: _Path, rows: _Rows, sol: _RowSolution) -> np.ndarray:
+    """Rows that are path nodes: copy them. Returns the mask of the other rows."""
+    is_node = rows.node >= 0
+    if is_node.any():
+        nodes = path.nodes
+        mark = np.zeros(len(nodes), dtype=bool)
+        mark[rows.node[is_node]] = True
+        used = np.flatnonzero(mark)
+        pos = np.full(len(nodes), -1, dtype=np.int64)
+        pos[used] = np.arange(len(used))
+        NZ = np.array([nodes[i].z for i in used], dtype=float)
+        ref = pos[rows.node[is_node]]
+        sol.Z[:, is_node] = NZ[ref].T
+        sol.res[is_node] = np.array([nodes[i].residual for i in used])[ref]
+        sol.its[is_node] = np.array([nodes[i].n_iter for i in used], dtype=np.int64)[ref]
+        sol.code[is_node] = np.array([sol.code_of(nodes[i].sig) for i in used], dtype=np.int64)[ref]
+    return ~is_node
+
+
+def _solve_rows_scalar(tracer: _Tracer, path: _Path, rows: _Rows, g: _Grid, sol: _RowSolution, which) -> None:
+    """Solve the given rows one by one with the tracker's corrector on their segment."""
+    kern = tracer.k
+    for r in which:
+        seg = int(rows.seg[r])
+        kk = int(rows.ks[r])
+        a, b = path.nodes[seg], path.nodes[seg + 1]
+        s = path.seg_sig[seg]
+        res = tracer.solve_at(a, b, g.value(kk), s)
+        sol.code[r] = sol.code_of(s)
+        if res is None:
+            x = tracer._display(g.value(kk))
+            sol.events.append(Event(EventKind.SINGULAR, x, f"no converged solution at {kern.ck.inputs[0]} = "
                                     f"{x:.10g} on mode {s}; row left out"))
-                continue
-            z, r, it = sol
-        Z.append(z)
-        sigs.append(s)
-        res.append(r)
-        its.append(it)
-        ks.append(kk)
-    return Z, sigs, res, its, ks, events
+            sol.ok[r] = False
+            continue
+        z, rr, it = res
+        sol.Z[:, r] = z
+        sol.res[r] = rr
+        sol.its[r] = it
+
+
+def _solve_rows_tracked(tracer: _Tracer, path: _Path, rows: _Rows, g: _Grid) -> _RowSolution:
+    """Positions of every row: nodes as they are, other crossings by a corrector from the segment."""
+    sol = _RowSolution(len(rows), tracer.k.nv)
+    other = _fill_node_rows(path, rows, sol)
+    _solve_rows_scalar(tracer, path, rows, g, sol, np.flatnonzero(other))
+    return sol
 
 
 def _progress(total: int, enabled: bool | None):
@@ -970,7 +1175,7 @@ def _make_grid(x0, x1, h, kind, through_limits, deg=None) -> _Grid:
 def sweep(mech, start, stop, step, *, speed=None, accel=None, jerk=None, input: str | None = None,
           mode: str | None = None, guess: dict | None = None, compiled=None,
           through_limits: bool = False, progress: bool | None = None, method: str = "auto",
-          control: StepControl = StepControl(), settings: Newton = Newton()) -> Sweep:
+          derivatives: int = 3, control: StepControl = StepControl(), settings: Newton = Newton()) -> Sweep:
     """Sweep the input from ``start`` to ``stop`` by ``step`` (display units), tracking the mode.
 
     Parameters
@@ -996,6 +1201,10 @@ def sweep(mech, start, stop, step, *, speed=None, accel=None, jerk=None, input: 
         ``"tracked"`` solves every output point by continuation; ``"batched"`` traces the curve
         at the internal step and solves all output points at once with vectorized Newton
         (see :mod:`loopsolve.batch`); ``"auto"`` is batched from ``AUTO_BATCH`` points on.
+    derivatives : {1, 2, 3}
+        Highest time derivative computed: velocities, accelerations, jerks (default). The
+        unknowns' higher rates are NaN (empty in CSV, null in JSON); for speed when they are
+        not needed.
     control : StepControl
         Internal step control.
 
@@ -1028,6 +1237,8 @@ def sweep(mech, start, stop, step, *, speed=None, accel=None, jerk=None, input: 
 
     if method not in ("auto", "tracked", "batched"):
         raise ModelError(f"method {method!r}: expected 'auto', 'tracked' or 'batched'")
+    if derivatives not in (1, 2, 3):
+        raise ModelError(f"derivatives={derivatives!r}: expected 1 (velocities), 2 (accelerations) or 3 (jerks)")
     ck = compiled if compiled is not None else mech.compile(input)
     x0, x1, h, kind, deg = _parse_range(ck, start, stop, step)
     g = _make_grid(x0, x1, h, kind, through_limits, deg)
@@ -1039,37 +1250,49 @@ def sweep(mech, start, stop, step, *, speed=None, accel=None, jerk=None, input: 
     n_grid = g.kmax - g.kmin + 1
     use_batch = method == "batched" or (method == "auto" and n_grid >= AUTO_BATCH)
     bar = _progress(n_grid, progress)
+    if use_batch:  # a denser coarse pass keeps the cubic warm start at ~1e-9
+        control = StepControl(**{**{f: getattr(control, f) for f in control.__slots__},
+                                 "max_step": min(control.max_step, math.radians(1.0))})
     try:
         tracer = _Tracer(kern, g, control, land=not use_batch, through_limits=through_limits, x_start=x0,
                          bar=None if use_batch else bar)
         path = tracer.trace(first)
         rows = _enumerate_rows(kern, path, g)
         if use_batch:
-            Z, sigs, res, its, ks, extra = batch.solve_rows(tracer, path, rows, g)
+            sol = batch.solve_rows(tracer, path, rows, g)
         else:
-            Z, sigs, res, its, ks, extra = _solve_rows_tracked(tracer, path, rows, g)
+            sol = _solve_rows_tracked(tracer, path, rows, g)
     finally:
         if bar is not None:
             bar.close()
-    events = list(path.events) + extra
-    Z = np.array(Z, dtype=float).reshape(-1, len(ck.variables)).T
-    if Z.shape[1]:
-        Z[ck.input_idx[0]] = [g.value(k) for k in ks]
-    Z1, Z2, Z3, cond = batch.rates_v(ck, Z, rates)
+    events = list(path.events) + sol.events
+    ok = sol.ok
+    every = bool(ok.all())
+    ix = ck.input_idx[0]
+    Z = sol.Z if every else sol.Z[:, ok]
+    Z[ix] = rows.x if every else rows.x[ok]
+    J = None
+    if sol.J is not None:
+        J = sol.J if every else sol.J[:, ok]
+        missing = ~(sol.J_ok if every else sol.J_ok[ok])
+        if missing.any():
+            J[:, missing] = ck.module.jac_v(Z[:, missing], ck.p).reshape(J.shape[0], -1)
+    Z1, Z2, Z3, cond = batch.rates_v(ck, Z, rates, J=J, derivatives=derivatives)
+    code, res, its = (sol.code, sol.res, sol.its) if every else (sol.code[ok], sol.res[ok], sol.its[ok])
     bad = ~(cond <= batch.SINGULAR_COND)
     if np.any(bad):
         for i in np.flatnonzero(bad):
-            x = display_value(ck, Z[ck.input_idx[0], i])
+            x = display_value(ck, Z[ix, i])
             events.append(Event(EventKind.SINGULAR, x, f"singular position at {ck.inputs[0]} = {x:.10g}: Φ_q is "
                                 "singular (rates undefined); row left out"))
         keep = ~bad
         Z, Z1, Z2, Z3, cond = Z[:, keep], Z1[:, keep], Z2[:, keep], Z3[:, keep], cond[keep]
-        sigs = [s for s, k_ in zip(sigs, keep) if k_]
-        res = [r for r, k_ in zip(res, keep) if k_]
-        its = [i for i, k_ in zip(its, keep) if k_]
-    return Sweep.from_arrays(ck, Z.T, Z1.T, Z2.T, Z3.T, modes=tuple(sigs), residual=np.array(res, dtype=float),
-                             n_iter=np.array(its, dtype=int), cond=cond, events=tuple(events), mode=first.sig,
-                             method="batched" if use_batch else "tracked")
+        code, res, its = code[keep], res[keep], its[keep]
+    names = np.empty(len(sol.sigs), dtype=object)
+    names[:] = sol.sigs
+    return Sweep.from_arrays(ck, Z.T, Z1.T, Z2.T, Z3.T, modes=tuple(names[code]), residual=res, n_iter=its,
+                             cond=cond, events=tuple(events), mode=first.sig,
+                             method="batched" if use_batch else "tracked", copy=False)
 
 
 # ============================================================================= reachable ranges

@@ -76,13 +76,14 @@ class TestVerification:
         """Points the vectorized Newton gets wrong (here: sent to the other mode) are redone by tracking."""
         real = batch._newton_v
 
-        def sabotaged(ck, Z, n_chord=1):
-            last = real(ck, Z, n_chord)
-            # every 7th point: replace by the crossed solution (a valid root, wrong mode)
+        def sabotaged(ck, Z):
+            out = real(ck, Z)
+            # every 7th point: replace by the crossed solution (a valid root with a tiny residual
+            # and correction, only its mode is wrong: the signature check must catch it)
             idx = np.arange(0, Z.shape[1], 7)
             t3, t4 = C.fourbar_position(60, 25, 70, 45, Z[0, idx], -1)
             Z[1, idx], Z[2, idx] = t3, t4
-            return last
+            return out
 
         monkeypatch.setattr(batch, "_newton_v", sabotaged)
         bt = THESIS.sweep(0, 360, 0.25, method="batched")
@@ -129,3 +130,15 @@ class TestRates:
         Z1, _, _, cond = batch.rates_v(ck, Z, (1.0, 0.0, 0.0))
         assert np.isnan(Z1[1, 0]) and np.isinf(cond[0])
         assert np.all(np.isfinite(Z1[:, 1]))
+
+
+def test_derivatives_option_skips_the_higher_rates():
+    full = THESIS.sweep(0, 360, 0.5, method="batched")
+    acc = THESIS.sweep(0, 360, 0.5, method="batched", derivatives=2)
+    assert np.array_equal(acc.z2, full.z2) and np.array_equal(acc.z1, full.z1)
+    assert np.all(np.isnan(acc["theta3_jerk"])) and np.all(acc["theta2_jerk"] == 0)
+    assert acc.rows[0]["theta4_jerk"] is None
+    vel = THESIS.sweep(0, 360, 30, method="tracked", derivatives=1)
+    assert np.all(np.isnan(vel["theta4_acc"])) and np.all(np.isfinite(vel["theta4_vel"]))
+    with pytest.raises(ls.ModelError):
+        THESIS.sweep(0, 360, 30, derivatives=4)
