@@ -31,7 +31,7 @@ import numpy as np
 
 from .units import Kind
 
-__all__ = ["rates_v", "block_solve_v", "block_dets_v", "solve_rows", "SINGULAR_COND"]
+__all__ = ["rates_v", "block_solve_v", "block_dets_v", "SINGULAR_COND"]
 
 #: a row whose Jacobian has a condition number above this is treated as singular
 SINGULAR_COND = 1e10
@@ -85,6 +85,14 @@ def block_dets_v(ck, J):
     """``(nblocks, N)`` determinants of the diagonal blocks and their regularity (≈ 2/cond; 0 = singular).
 
     Length columns are scaled by the model's length scale (signs unchanged), as in the tracker.
+
+    Examples
+    --------
+    >>> ck = ls.fourbar(60, 25, 70, 45).compile()
+    >>> Z = np.array([[math.pi / 2] * 2, [0.281, -1.071], [1.409, -2.198]])  # open, crossed
+    >>> dets, reg = block_dets_v(ck, ck.module.jac_v(Z, ck.p))
+    >>> np.sign(dets).tolist()
+    [[-1.0, 1.0]]
     """
     n = len(ck.unknowns)
     cs = [1.0 if ck.kinds[int(i)] is Kind.ANGLE else float(ck.scale) for i in ck.unknown_idx]
@@ -208,6 +216,8 @@ def _sign_dets_v(ck, J):
 
 def solve_rows(tracer, path, rows, g):
     """Positions of the output rows: vectorized where the path is regular, tracked elsewhere.
+
+    Internal to :func:`loopsolve.tracking.sweep` (``method="batched"``).
 
     Returns the tracker's row solution (positions, mode codes, residuals, iterations) with the
     Jacobians of the vectorized rows kept for the rates.

@@ -60,6 +60,12 @@ class Mode:
     ``signature`` is the mode's name (``"+"``, ``"-+"``...), ``aliases`` the model's names for
     it (``("open",)``), ``positions`` every variable in display units (unknown angles wrapped to
     (−180°, 180°]) and ``z`` all variables in internal units (declaration order).
+
+    Examples
+    --------
+    >>> m = ls.fourbar(60, 25, 70, 45).modes(90)[1]
+    >>> m.signature, m.aliases, round(m.positions["theta3"], 2)
+    ('-', ('open',), 16.1)
     """
 
     signature: str
@@ -306,6 +312,13 @@ def all_solutions(ck, z0) -> list[np.ndarray]:
 
     Angles are placed within π of the values in ``z0`` (the guesses); each solution is
     polished by Newton so its residual is at machine precision.
+
+    Examples
+    --------
+    >>> ck = ls.load(ls.models_dir() / "quick_return.toml").compile()
+    >>> z0 = np.array([0.0, 1.1, 220.0])
+    >>> sorted(round(float(z[2]), 3) for z in all_solutions(ck, z0))
+    [-223.607, 223.607]
     """
     sols = [np.array(z0, dtype=float)]
     for b in ck.blocks:

@@ -49,7 +49,8 @@ from .newton import Newton
 from .results import Event, EventKind, Sweep
 from .units import Kind
 
-__all__ = ["StepControl", "sweep", "grid", "reachable_ranges", "nearest_assemblable", "AUTO_BATCH"]
+__all__ = ["StepControl", "sweep", "grid", "reachable_ranges", "nearest_assemblable", "start_position",
+           "assembly_failure", "AUTO_BATCH"]
 
 #: ``method="auto"`` uses the batched path from this many output points on
 AUTO_BATCH = 720
@@ -85,6 +86,12 @@ class StepControl:
         natural steps above ``natural_back``.
     max_nodes : int
         Upper bound on the internal steps of one sweep.
+
+    Examples
+    --------
+    >>> fine = StepControl(max_step=math.radians(0.5))
+    >>> len(ls.fourbar(60, 25, 70, 45).sweep(0, 360, 90, control=fine))
+    5
     """
 
     max_step: float = math.radians(2.0)
@@ -1067,6 +1074,13 @@ def start_position(ck, x: float, *, mode=None, guess=None, settings: Newton = Ne
 
     Raises :class:`AssemblyError` naming the nearest assemblable inputs when the mechanism
     cannot be assembled at ``x``.
+
+    Examples
+    --------
+    >>> ck = ls.fourbar(60, 25, 70, 45).compile()
+    >>> z = start_position(ck, math.radians(90), mode="crossed")
+    >>> ck.signature(z)
+    '+'
     """
     from .solve import display_value, initial_z, solve_position
 
@@ -1091,6 +1105,13 @@ def assembly_failure(ck, x: float, exc: SolveError) -> SolveError:
 
     No real assembly mode at ``x``: :class:`AssemblyError` naming the nearest assemblable
     input values. Otherwise the guesses were poor: :class:`ConvergenceError` listing the modes.
+
+    Examples
+    --------
+    >>> ck = ls.fourbar(4, 3, 3.5, 5).compile()
+    >>> err = assembly_failure(ck, 0.0, ls.AssemblyError("stalled"))
+    >>> type(err).__name__, [round(v, 6) for v in err.nearest]
+    ('AssemblyError', [-18.57335, 18.57335])
     """
     from .modes import _mode_names, _modes_at, _nearest_text
     from .solve import display_value
