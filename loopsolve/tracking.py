@@ -653,9 +653,9 @@ class _Tracer:
         for _ in range(200):
             if (hi[0] - lo[0]) * L <= 1e-11 or lo[1] == 0 or hi[1] == 0:
                 break
-            s = (lo[0] * hi[1] - hi[0] * lo[1]) / (hi[1] - lo[1])
-            if not (lo[0] < s < hi[0]) or (hi[0] - lo[0]) > 0.5 and side == 0:
-                s = 0.5 * (lo[0] + hi[0]) if not (lo[0] < s < hi[0]) else s
+            s = (lo[0] * hi[1] - hi[0] * lo[1]) / (hi[1] - lo[1])  # regula falsi
+            if not lo[0] < s < hi[0]:
+                s = 0.5 * (lo[0] + hi[0])
             yl, yh = k.yhat(lo[2]), k.yhat(hi[2])
             fr = (s - lo[0]) / (hi[0] - lo[0])
             guess = None if (lo[0] == 0.0 and hi[0] == 1.0) else [p + fr * (q - p) for p, q in zip(yl, yh)]
