@@ -26,7 +26,6 @@ from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from functools import cached_property
 
-import networkx as nx
 import numpy as np
 
 from .errors import ModelError, TopologyError
@@ -90,6 +89,8 @@ def solve_order(incidence: Sequence[Sequence[bool]], *, unknown_names: Sequence[
     ...                                                [1, 0, 1, 1], [0, 1, 1, 1]])]
     [(0, 1), (2, 3)]
     """
+    import networkx as nx  # lazy: keeps `import loopsolve` light for the CLI
+
     m = len(incidence)
     n = len(incidence[0]) if m else 0
     unames = list(unknown_names) or [f"q{j}" for j in range(n)]
@@ -440,6 +441,8 @@ class Topology:
     @cached_property
     def graph(self) -> nx.Graph:
         """Bipartite graph: nodes ``("link", name)`` and ``("joint", name)``; edge = link carries joint."""
+        import networkx as nx  # lazy: keeps `import loopsolve` light for the CLI
+
         g = nx.Graph()
         for lk in self.links:
             g.add_node(_lnode(lk.name), kind="link")
@@ -460,6 +463,8 @@ class Topology:
                             problems=lines)
 
     def _validate(self) -> None:
+        import networkx as nx  # lazy: keeps `import loopsolve` light for the CLI
+
         problems: list[str] = []
         for kind, items in (("link", self.links), ("joint", self.joints)):
             seen: set[str] = set()
@@ -517,6 +522,8 @@ class Topology:
 
     def _check_p_groups(self) -> None:
         """A loop made only of prismatic joints (a wedge) is outside Gruebler's count: refuse it."""
+        import networkx as nx  # lazy: keeps `import loopsolve` light for the CLI
+
         pg = nx.MultiGraph()
         pg.add_nodes_from(lk.name for lk in self.links)
         for j in self.joints:
@@ -565,6 +572,8 @@ class Topology:
         The ground's group is represented by ``ground``; any other group by its link with the
         most joints (first in declaration order on a tie).
         """
+        import networkx as nx  # lazy: keeps `import loopsolve` light for the CLI
+
         uf = nx.utils.UnionFind(lk.name for lk in self.links)
         for j in self.joints:
             if isinstance(j, PrismaticJoint):
@@ -594,6 +603,8 @@ class Topology:
 
     @cached_property
     def _loops(self):
+        import networkx as nx  # lazy: keeps `import loopsolve` light for the CLI
+
         g = self.graph
         rank = {_lnode(GROUND): -1}
         for i, lk in enumerate(self.links):
