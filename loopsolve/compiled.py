@@ -29,7 +29,6 @@ from __future__ import annotations
 import hashlib
 import importlib.util
 import os
-import sys
 import tempfile
 import threading
 from collections.abc import Sequence

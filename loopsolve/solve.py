@@ -20,7 +20,7 @@ from .newton import Newton, NewtonStatus, newton
 from .results import State
 from .units import Kind, parse_quantity, to_display
 
-__all__ = ["solve", "solve_position", "solve_rates", "initial_z", "input_value", "input_rates",
+__all__ = ["solve", "start_position", "solve_position", "solve_rates", "initial_z", "input_value", "input_rates",
            "SINGULAR_COND"]
 
 #: a Jacobian block whose condition number exceeds this is treated as singular
@@ -199,6 +199,37 @@ def solve_rates(ck: CompiledKinematics, z: np.ndarray, rates: Sequence[float], *
     return zs[1], zs[2], zs[3], pts, cond
 
 
+def start_position(ck: CompiledKinematics, x: float, *, mode=None, guess: dict | None = None,
+                   settings: Newton = Newton()):
+    """Solved position at input ``x`` (internal units), in ``mode`` or the one the guesses pick.
+
+    The start of every solve and sweep. Returns ``(z, residual, n_iter)``; raises
+    :class:`AssemblyError` naming the nearest assemblable inputs when the mechanism cannot be
+    assembled at ``x``.
+
+    Examples
+    --------
+    >>> ck = ls.fourbar(60, 25, 70, 45).compile()
+    >>> z, residual, _ = ls.solve.start_position(ck, math.radians(90), mode="crossed")
+    >>> ck.signature(z), residual < 1e-12
+    ('+', True)
+    """
+    disp = display_value(ck, x, ck.inputs[0])
+    if mode is not None:
+        from .modes import select_mode
+
+        z0 = select_mode(ck.mechanism, x, mode, compiled=ck)
+    else:
+        z0 = initial_z(ck, guess=guess)
+        z0[ck.input_idx[0]] = x
+    try:
+        return solve_position(ck, z0, settings=settings, display_input=disp)
+    except AssemblyError as exc:  # name the nearest assemblable inputs (or the modes, if the guesses were poor)
+        from .tracking import assembly_failure
+
+        raise assembly_failure(ck, x, exc) from None
+
+
 def solve(mech: Mechanism, at=None, *, speed=None, accel=None, jerk=None, input: str | None = None,
           guess: dict | None = None, mode: str | None = None, compiled: CompiledKinematics | None = None,
           settings: Newton = Newton()) -> State:
@@ -247,19 +278,7 @@ def solve(mech: Mechanism, at=None, *, speed=None, accel=None, jerk=None, input:
     else:
         x = input_value(ck, at, name)
     disp = display_value(ck, x, name)
-    if mode is not None:
-        from .modes import select_mode
-
-        z0 = select_mode(mech, x, mode, compiled=ck)
-    else:
-        z0 = initial_z(ck, guess=guess)
-        z0[ck.input_idx[0]] = x
-    try:
-        z, residual, n_iter = solve_position(ck, z0, settings=settings, display_input=disp)
-    except AssemblyError as exc:  # name the nearest assemblable inputs (or the modes, if the guesses were poor)
-        from .tracking import assembly_failure
-
-        raise assembly_failure(ck, x, exc) from None
+    z, residual, n_iter = start_position(ck, x, mode=mode, guess=guess, settings=settings)
     sig = ck.signature(z)
     z1, z2, z3, pts, cond = solve_rates(ck, z, input_rates(ck, speed, accel, jerk), display_input=disp)
     return State(ck, z, z1, z2, z3, pts, sig, residual, n_iter, cond)

@@ -47,9 +47,10 @@ import numpy as np
 from .errors import AssemblyError, ConvergenceError, ModelError, SingularPositionError, SolveError
 from .newton import Newton
 from .results import Event, EventKind, Sweep
+from .solve import _input_unit, display_value, initial_z, input_rates, input_value, start_position
 from .units import Kind
 
-__all__ = ["StepControl", "sweep", "grid", "reachable_ranges", "nearest_assemblable", "start_position",
+__all__ = ["StepControl", "sweep", "grid", "reachable_ranges", "nearest_assemblable",
            "assembly_failure", "AUTO_BATCH"]
 
 #: ``method="auto"`` uses the batched path from this many output points on
@@ -420,12 +421,10 @@ class _Tracer:
 
     # ------------------------------------------------------------------ helpers
     def _display(self, x):
-        from .solve import display_value
 
         return display_value(self.k.ck, x, self.k.ck.inputs[0])
 
     def _unit(self):
-        from .solve import _input_unit
 
         return _input_unit(self.k.ck)
 
@@ -1069,37 +1068,6 @@ def _progress(total: int, enabled: bool | None):
 # ============================================================================= start
 
 
-def start_position(ck, x: float, *, mode=None, guess=None, settings: Newton = Newton()):
-    """Solved position ``z`` at input ``x`` (internal), picked by ``mode`` or the guesses.
-
-    Raises :class:`AssemblyError` naming the nearest assemblable inputs when the mechanism
-    cannot be assembled at ``x``.
-
-    Examples
-    --------
-    >>> ck = ls.fourbar(60, 25, 70, 45).compile()
-    >>> z = start_position(ck, math.radians(90), mode="crossed")
-    >>> ck.signature(z)
-    '+'
-    """
-    from .solve import display_value, initial_z, solve_position
-
-    mech = ck.mechanism
-    disp = display_value(ck, x, ck.inputs[0])
-    if mode is not None:
-        from .modes import select_mode
-
-        z0 = select_mode(mech, x, mode, compiled=ck)
-    else:
-        z0 = initial_z(ck, guess=guess)
-        z0[ck.input_idx[0]] = x
-    try:
-        z, _, _ = solve_position(ck, z0, settings=settings, display_input=disp)
-    except AssemblyError as exc:
-        raise assembly_failure(ck, x, exc) from None
-    return z
-
-
 def assembly_failure(ck, x: float, exc: SolveError) -> SolveError:
     """Turn a stalled Newton at input ``x`` into the error to raise.
 
@@ -1114,7 +1082,6 @@ def assembly_failure(ck, x: float, exc: SolveError) -> SolveError:
     ('AssemblyError', [-18.57335, 18.57335])
     """
     from .modes import _mode_names, _modes_at, _nearest_text
-    from .solve import display_value
 
     name = ck.inputs[0]
     disp = display_value(ck, x, name)
@@ -1133,7 +1100,6 @@ def assembly_failure(ck, x: float, exc: SolveError) -> SolveError:
 
 
 def _first_node(kern: _Kernel, z, d: float) -> _Node:
-    from .solve import display_value
 
     z = [float(v) for v in z]
     J = kern.jac_f(z, kern.p)
@@ -1154,7 +1120,6 @@ def _first_node(kern: _Kernel, z, d: float) -> _Node:
 
 
 def _parse_range(ck, start, stop, step):
-    from .solve import input_value
 
     name = ck.inputs[0]
     kind = ck.kinds[ck.index(name)]
@@ -1254,7 +1219,6 @@ def sweep(mech, start, stop, step, *, speed=None, accel=None, jerk=None, input: 
     (['limit'], 341.42665028, 5)
     """
     from . import batch
-    from .solve import display_value, input_rates
 
     if method not in ("auto", "tracked", "batched"):
         raise ModelError(f"method {method!r}: expected 'auto', 'tracked' or 'batched'")
@@ -1264,7 +1228,7 @@ def sweep(mech, start, stop, step, *, speed=None, accel=None, jerk=None, input: 
     x0, x1, h, kind, deg = _parse_range(ck, start, stop, step)
     g = _make_grid(x0, x1, h, kind, through_limits, deg)
     rates = input_rates(ck, speed, accel, jerk)
-    z0 = start_position(ck, x0, mode=mode, guess=guess, settings=settings)
+    z0, _, _ = start_position(ck, x0, mode=mode, guess=guess, settings=settings)
     kern = _Kernel(ck)
     d = 1.0 if g.step > 0 else -1.0
     first = _first_node(kern, z0, d)
@@ -1321,7 +1285,6 @@ def sweep(mech, start, stop, step, *, speed=None, accel=None, jerk=None, input: 
 
 def _assemblable_at(ck, x) -> list:
     from .modes import all_solutions
-    from .solve import initial_z
 
     z0 = initial_z(ck, warn=False)
     z0[ck.input_idx[0]] = x
@@ -1429,7 +1392,6 @@ def nearest_assemblable(ck, x: float) -> tuple[float, ...]:
     >>> [round(v, 6) for v in nearest_assemblable(ck, 0.0)]
     [-18.57335, 18.57335]
     """
-    from .solve import display_value
 
     ranges = reachable_ranges(ck)
     kern = _Kernel(ck)
