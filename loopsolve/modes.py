@@ -73,10 +73,11 @@ class Mode:
     positions: Mapping[str, float]
     z: np.ndarray = field(repr=False)
     residual: float = 0.0
+    units: Mapping[str, str] = field(default_factory=dict, repr=False)
 
     def to_dict(self) -> dict:
         return {"signature": self.signature, "aliases": list(self.aliases),
-                "positions": dict(self.positions), "residual": self.residual}
+                "positions": dict(self.positions), "units": dict(self.units), "residual": self.residual}
 
 
 # ----------------------------------------------------------------------------- dyad forms
@@ -358,10 +359,11 @@ def _input_internal(ck, at):
 
 
 def _modes_at(ck, x: float) -> tuple[Mode, ...]:
-    from .results import _display
+    from .results import _display, column_units
     from .solve import initial_z
 
     mech = ck.mechanism
+    units = column_units(ck)
     z0 = initial_z(ck, warn=False)
     z0[ck.input_idx[0]] = x
     out = []
@@ -370,7 +372,8 @@ def _modes_at(ck, x: float) -> tuple[Mode, ...]:
         sig = ck.signature(z)
         aliases = tuple(k for k, v in mech.mode_aliases.items() if v == sig)
         pos = {n: float(_display(ck, n, 0, z[ck.index(n)], wrap=n not in inputs)) for n in ck.variables}
-        out.append(Mode(sig, aliases, pos, z, float(np.max(np.abs(ck.phi(z))))))
+        out.append(Mode(sig, aliases, pos, z, float(np.max(np.abs(ck.phi(z)))),
+                        {n: units[n] for n in ck.variables}))
     out.sort(key=lambda m: (m.signature, tuple(round(v, 9) for v in m.positions.values())))
     return tuple(out)
 
@@ -496,18 +499,19 @@ def format_modes(modes) -> str:
     Examples
     --------
     >>> print(format_modes(ls.fourbar(60, 25, 70, 45).modes(90)), end="")
-    mode         theta2    theta3    theta4
-    + (crossed)      90  -61.3392  -125.962
-    - (open)         90   16.0994   80.7225
+    mode         theta2 [deg]  theta3 [deg]  theta4 [deg]
+    + (crossed)            90      -61.3392      -125.962
+    - (open)               90       16.0994       80.7225
     """
     if not modes:
         return "no real assembly mode at this input: the mechanism cannot be assembled there\n"
     names = list(modes[0].positions)
+    heads = [f"{n} [{modes[0].units[n]}]" if n in modes[0].units else n for n in names]
     labels = [m.signature + (f" ({', '.join(m.aliases)})" if m.aliases else "") for m in modes]
     cells = [[f"{m.positions[n]:.6g}" for n in names] for m in modes]
     w0 = max(len("mode"), *(len(s) for s in labels))
-    widths = [max(len(n), *(len(c[i]) for c in cells)) for i, n in enumerate(names)]
-    lines = ["  ".join(["mode".ljust(w0)] + [n.rjust(w) for n, w in zip(names, widths)])]
+    widths = [max(len(h), *(len(c[i]) for c in cells)) for i, h in enumerate(heads)]
+    lines = ["  ".join(["mode".ljust(w0)] + [h.rjust(w) for h, w in zip(heads, widths)])]
     for lab, c in zip(labels, cells):
         lines.append("  ".join([lab.ljust(w0)] + [v.rjust(w) for v, w in zip(c, widths)]))
     return "\n".join(lines) + "\n"

@@ -193,12 +193,13 @@ class TestOutput:
     def test_format_and_json(self):
         modes = THESIS.modes(90)
         text = format_modes(modes)
-        assert text.splitlines()[0].split() == ["mode", "theta2", "theta3", "theta4"]
+        assert text.splitlines()[0].split() == ["mode", "theta2", "[deg]", "theta3", "[deg]", "theta4", "[deg]"]
         assert "- (open)" in text and "+ (crossed)" in text
         data = json.loads(modes_to_json(modes))
         assert [d["signature"] for d in data] == ["+", "-"]
         assert data[1]["aliases"] == ["open"]
         assert data[1]["positions"]["theta4"] == pytest.approx(80.7225, abs=1e-4)
+        assert data[1]["units"]["theta4"] == "deg"
         assert isinstance(modes[0], Mode)
 
     def test_cli_modes(self, capsys):
