@@ -127,6 +127,11 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--format", choices=("table", "json"), default="table")
     p.set_defaults(func=cmd_info)
 
+    p = sub.add_parser("vectors", help="write a model (e.g. a kinematic diagram) as a vector-loop model file")
+    p.add_argument("model", help="model file (TOML)")
+    p.add_argument("-o", "--output", help="write to this file instead of standard output")
+    p.set_defaults(func=cmd_vectors)
+
     p = sub.add_parser("modes", help="every real assembly mode at one input value")
     p.add_argument("model", help="model file (TOML)")
     p.add_argument("--at", help="input value (default: the input's guess)")
@@ -185,6 +190,13 @@ def _sweep_for(args):
     return sweep(mech, args.start, args.stop, args.step, speed=args.speed, accel=args.accel, jerk=args.jerk,
                  input=args.input, mode=args.mode, through_limits=args.through_limits,
                  progress=None if not args.quiet else False, method=getattr(args, "method", "auto"))
+
+
+def cmd_vectors(args) -> int:
+    from .diagram import to_vector_model
+
+    _write(to_vector_model(_load(args.model)), args.output)
+    return EXIT_OK
 
 
 def cmd_modes(args) -> int:

@@ -333,3 +333,17 @@ def test_topology_of_needs_a_diagram():
     assert diagram.topology_of(ls.load(MODELS / "thesis_crank_rocker.toml")) is None
     top = diagram.topology_of(ls.load(MODELS / "watt2_sixbar.toml"))
     assert [lk.name for lk in top.links] == ["ground", "crank", "coupler", "rocker", "coupler2", "output"]
+
+
+@pytest.mark.parametrize("name", ["thesis_crank_rocker_diagram.toml", "stephenson3_sixbar.toml"])
+def test_cli_vectors_round_trip(tmp_path, name):
+    """`loopsolve vectors` writes the generated vector-loop file; it solves to the same numbers."""
+    src = ls.models_dir() / name
+    out = tmp_path / "vectors.toml"
+    assert main(["vectors", str(src), "-o", str(out)]) == 0
+    text = out.read_text()
+    assert "[[loops]]" in text and "[joints]" not in text
+    a, b = ls.load(src).solve(30), ls.load(out).solve(30)
+    assert a.row().keys() == b.row().keys()
+    for k, v in a.row().items():
+        assert b.row()[k] == pytest.approx(v, abs=1e-9), k
