@@ -259,7 +259,7 @@ def main(argv: list[str] | None = None) -> int:
     except LoopsolveError as exc:
         if os.environ.get("LOOPSOLVE_DEBUG"):
             raise
-        msg = str(exc).strip().replace("\n", "; ")
+        msg = "; ".join(line.strip() for line in str(exc).strip().splitlines() if line.strip()).replace(":; ", ": ")
         print(f"loopsolve: {type(exc).__name__}: {msg}", file=sys.stderr)
         return exc.exit_code
     except KeyboardInterrupt:

@@ -103,7 +103,13 @@ def _display(compiled, name: str, order: int, value, *, wrap: bool):
     kind = compiled.kinds[compiled.index(name)]
     if kind is Kind.ANGLE and order == 0:
         unit = compiled.mechanism.units.angle
-        v = np.degrees(value) if unit == "deg" else np.asarray(value, dtype=float)
+        if unit == "deg":
+            v = np.degrees(value)
+            # undo the round trip through radians (60 -> 59.99999999999999) and nothing else
+            r = np.round(v, 9)
+            v = np.where(np.abs(v - r) <= 1e-13 * np.maximum(1.0, np.abs(v)), r, v)
+        else:
+            v = np.asarray(value, dtype=float)
         return _wrap_deg(v, unit) if wrap else v
     return value
 
