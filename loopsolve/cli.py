@@ -175,8 +175,10 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def _sweep_args(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--from", dest="start", default="0", help="first input value (default 0)")
-    p.add_argument("--to", dest="stop", default="360", help="last input value (default 360)")
+    p.add_argument("--from", dest="start", help="first input value (default: 0, or where the mechanism "
+                   "can be assembled)")
+    p.add_argument("--to", dest="stop", help="last input value (default: a full turn, or the end of the "
+                   "reachable range, traced around its limits)")
     p.add_argument("--step", default="4", help="output step (default 4)")
     _rate_args(p)
     p.add_argument("--through-limits", action="store_true", help="continue around limit positions")
@@ -187,8 +189,19 @@ def _sweep_for(args):
     from .tracking import sweep
 
     mech = _load(args.model)
-    return sweep(mech, args.start, args.stop, args.step, speed=args.speed, accel=args.accel, jerk=args.jerk,
-                 input=args.input, mode=args.mode, through_limits=args.through_limits,
+    start, stop, through = args.start, args.stop, args.through_limits
+    if start is None or stop is None:
+        from .solve import display_value, input_value
+        from .tracking import default_range
+
+        ck = mech.compile(args.input)
+        step = display_value(ck, input_value(ck, args.step))
+        d_start, d_stop, d_through = default_range(ck, step, mode=args.mode)
+        start = d_start if start is None else start
+        stop = d_stop if stop is None else stop
+        through = through or d_through
+    return sweep(mech, start, stop, args.step, speed=args.speed, accel=args.accel, jerk=args.jerk,
+                 input=args.input, mode=args.mode, through_limits=through,
                  progress=None if not args.quiet else False, method=getattr(args, "method", "auto"))
 
 

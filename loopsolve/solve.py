@@ -14,7 +14,8 @@ from collections.abc import Sequence
 import numpy as np
 
 from .compiled import CompiledKinematics
-from .errors import AssemblyError, ConvergenceError, LoopsolveWarning, ModelError, SingularPositionError
+from .errors import (AssemblyError, ConvergenceError, LoopsolveWarning, ModelError, SingularPositionError,
+                     SolveError)
 from .model import Mechanism
 from .newton import Newton, NewtonStatus, newton
 from .results import State
@@ -199,11 +200,33 @@ def solve_rates(ck: CompiledKinematics, z: np.ndarray, rates: Sequence[float], *
     return zs[1], zs[2], zs[3], pts, cond
 
 
+def _guessed_mode(ck: CompiledKinematics, x: float, settings) -> str | None:
+    """The mode signature the guesses pick, when they describe another input value than ``x``.
+
+    Guesses describe the pose at the input's own guess. Newton started from them at a distant
+    input may converge to another assembly mode; so the pose at the guessed input is solved
+    first and its signature is what a solve at ``x`` keeps. ``None`` when the guesses are for
+    ``x`` itself (or cannot be solved where they were given).
+    """
+    x_guess = ck.mechanism.variable(ck.inputs[0]).guess
+    if x_guess is None or abs(x_guess - x) <= 1e-12 * max(1.0, abs(x)):
+        return None
+    z0 = initial_z(ck, warn=False)
+    z0[ck.input_idx[0]] = x_guess
+    try:
+        z, _, _ = solve_position(ck, z0, settings=settings)
+    except SolveError:
+        return None
+    sig = ck.signature(z)
+    return sig if "0" not in sig else None
+
+
 def start_position(ck: CompiledKinematics, x: float, *, mode=None, guess: dict | None = None,
                    settings: Newton = Newton()):
     """Solved position at input ``x`` (internal units), in ``mode`` or the one the guesses pick.
 
-    The start of every solve and sweep. Returns ``(z, residual, n_iter)``; raises
+    The start of every solve and sweep. Without ``mode`` or ``guess``, the mode is the one the
+    declared guesses pick at the input value they were given for. Returns ``(z, residual, n_iter)``; raises
     :class:`AssemblyError` naming the nearest assemblable inputs when the mechanism cannot be
     assembled at ``x``.
 
@@ -215,11 +238,19 @@ def start_position(ck: CompiledKinematics, x: float, *, mode=None, guess: dict |
     ('+', True)
     """
     disp = display_value(ck, x, ck.inputs[0])
-    if mode is not None:
-        from .modes import select_mode
+    from .modes import select_mode
 
+    z0 = None
+    if mode is not None:
         z0 = select_mode(ck.mechanism, x, mode, compiled=ck)
-    else:
+    elif guess is None:  # explicit guesses are for x itself
+        guessed = _guessed_mode(ck, x, settings)
+        if guessed is not None:
+            try:
+                z0 = select_mode(ck.mechanism, x, guessed, compiled=ck)
+            except (ModelError, SolveError):
+                z0 = None  # no such mode at x: let Newton from the guesses decide (and report)
+    if z0 is None:
         z0 = initial_z(ck, guess=guess)
         z0[ck.input_idx[0]] = x
     try:

@@ -50,7 +50,7 @@ from .results import Event, EventKind, Sweep
 from .solve import _input_unit, display_value, initial_z, input_rates, input_value, start_position
 from .units import Kind
 
-__all__ = ["StepControl", "sweep", "grid", "reachable_ranges", "nearest_assemblable",
+__all__ = ["StepControl", "sweep", "grid", "reachable_ranges", "default_range", "nearest_assemblable",
            "assembly_failure", "AUTO_BATCH"]
 
 #: ``method="auto"`` uses the batched path from this many output points on
@@ -1306,6 +1306,50 @@ def _limit_towards(ck, kern, z, x_to) -> float | None:
         if e.kind is EventKind.LIMIT:
             return path.nodes[-1].z[kern.ix]
     return None
+
+
+def default_range(ck, step: float, *, mode=None) -> tuple[float, float, bool]:
+    """Sensible sweep range when the user gives none: ``(start, stop, through_limits)``, display units.
+
+    A full turn from 0 when the mechanism can be assembled at 0 (a length input: ±4 length
+    scales around its guess); otherwise the reachable interval that holds the input's guess:
+    from its first grid point inside to beyond its far end, traced with ``through_limits`` so
+    the sweep turns at each limit position and follows the whole circuit.
+
+    Examples
+    --------
+    >>> default_range(ls.fourbar(60, 25, 70, 45).compile(), 4)
+    (0.0, 360.0, False)
+    >>> default_range(ls.load(ls.models_dir() / "double_rocker.toml").compile(), 4)
+    (28.0, 72.0, True)
+    """
+    i = ck.input_idx[0]
+    angle = ck.kinds[i] is Kind.ANGLE
+    if angle:
+        turn = display_value(ck, 2 * math.pi)
+        try:
+            start_position(ck, 0.0, mode=mode)
+            return 0.0, float(turn), False
+        except SolveError:
+            pass
+    ranges = reachable_ranges(ck)
+    if not ranges:
+        raise AssemblyError(f"{ck.mechanism.source or ck.mechanism.name}: no assemblable input value found "
+                            f"for {ck.inputs[0]}; check the link lengths")
+    g = ck.mechanism.variable(ck.inputs[0]).guess
+    g = 0.0 if g is None else g
+    a, b = next(((a, b) for a, b in ranges if a <= g <= b), ranges[0])
+    if not angle and len(ranges) == 1 and (a, b) == ranges[0]:
+        lo, hi = display_value(ck, a), display_value(ck, b)
+        return float(lo), float(hi), False
+    lo, hi = display_value(ck, a), display_value(ck, b)
+    # start inside (clear of the limit, where the rates are undefined); end beyond the far
+    # limit so that the sweep turns there and traces the whole circuit back over the grid
+    start = math.floor(lo / step + 1e-9) * step + step
+    if start >= hi:  # the range is narrower than the step
+        start = 0.5 * (lo + hi)
+    stop = math.ceil(hi / step - 1e-9) * step + (step if math.isclose(hi % step, 0.0, abs_tol=1e-9) else 0.0)
+    return float(start), float(stop), True
 
 
 def reachable_ranges(ck, *, samples: int | None = None) -> list[tuple[float, float]]:

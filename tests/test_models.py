@@ -252,21 +252,25 @@ def test_rates_match_finite_differences_of_positions(model):
     i = ck.input_idx[0]
     for x0, z0 in points:
         z1, z2, z3, pts, _ = solve_rates(ck, z0, RATES)
-        zs, ps = _fd_positions(ck, x0, z0, h)
-        d = [np.tensordot(W[k], zs, axes=1) / h**k for k in (1, 2, 3)]
-        fd = _chain(*d, RATES)
-        for k, (exact, approx) in enumerate(zip((z1, z2, z3), fd), start=1):
+        # near a limit position (a double rocker lives next to its toggles) the truncation error
+        # of the h-stencil grows; h/2 and h/4 are further opinions (a wrong term fails them all)
+        stencils = [_fd_positions(ck, x0, z0, h / 2**m) for m in range(3)]
+        fds = [_chain(*[np.tensordot(W[k], zs, axes=1) / (h / 2**m) ** k for k in (1, 2, 3)], RATES)
+               for m, (zs, _) in enumerate(stencils)]
+        fdps = [_chain(*[np.tensordot(W[k], ps, axes=1) / (h / 2**m) ** k for k in (1, 2, 3)], RATES)
+                for m, (_, ps) in enumerate(stencils)]
+        for k, exact in enumerate((z1, z2, z3), start=1):
             scale = np.maximum(np.abs(exact), np.where(np.array(ck.kinds) == Kind.LENGTH, ck.scale, 1.0))
-            err = np.abs(exact - approx) / scale
-            assert np.all(err < FD_TOL[k]), (name, k, x0, exact, approx)
+            err = np.min([np.abs(exact - fd[k - 1]) for fd in fds], axis=0) / scale
+            assert np.all(err < FD_TOL[k]), (name, k, x0, exact, [fd[k - 1] for fd in fds])
         # the input itself moves at the requested rates
         assert (z1[i], z2[i], z3[i]) == pytest.approx(RATES)
         if ck.points:
-            dp = [np.tensordot(W[k], ps, axes=1) / h**k for k in (1, 2, 3)]
-            fdp = _chain(*dp, RATES)
             for k in (1, 2, 3):
-                err = np.abs(pts[k] - fdp[k - 1]) / np.maximum(np.abs(pts[k]), ck.scale)
+                err = np.min([np.abs(pts[k] - fdp[k - 1]) for fdp in fdps], axis=0)
+                err = err / np.maximum(np.abs(pts[k]), ck.scale)
                 assert np.all(err < FD_TOL[k]), (name, "points", k, x0)
+            ps = stencils[0][1]
             assert np.allclose(pts[0], ps[len(OFFSETS) // 2], rtol=0, atol=1e-12 * ck.scale)
 
 

@@ -69,8 +69,12 @@ def _assert_colourful(im) -> None:
 
 def rows_of(model: Path, *args: str) -> int:
     """Number of output rows of the sweep the picture commands make with the same options."""
+    from loopsolve.tracking import default_range
+
     mech = ls.load(model)
-    sw = mech.sweep("0", "360", STEP, **dict(zip(args[::2], args[1::2])))
+    kw = dict(zip(args[::2], args[1::2]))
+    start, stop, through = default_range(mech.compile(kw.get("input")), float(STEP))  # the CLI's default range
+    sw = mech.sweep(start, stop, STEP, through_limits=through, **kw)
     return len(sw)
 
 
