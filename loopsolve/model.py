@@ -732,19 +732,20 @@ def build_mechanism(spec: Mapping[str, Any], *, source: str | None = None) -> Me
         if not bad:
             points.append(Point(pname, terms, pdef))
 
-    # ---- counts (only meaningful once the parts parsed)
-    if variables and loops and not problems.items and n_inputs > 0:
-        n_eq = 2 * len(loops)
-        n_unknown = len(variables) - n_inputs
+    # ---- counts: from the declared names, so they are reported with every other problem
+    declared_inputs = [n for n, d in var_spec.items() if isinstance(d, Mapping) and d.get("input") is True]
+    if var_spec and loops_spec and declared_inputs:
+        n_eq = 2 * len(loops_spec)
+        n_unknown = len(var_spec) - len(declared_inputs)
         if n_unknown != n_eq:
             problems.add(
                 "variables",
-                f"{n_unknown} unknown variable(s) ({', '.join(v.name for v in variables if not v.input)}) "
-                f"but {n_eq} scalar loop equations from {len(loops)} loop(s): each loop gives two "
+                f"{n_unknown} unknown variable(s) ({', '.join(n for n in var_spec if n not in declared_inputs)}) "
+                f"but {n_eq} scalar loop equations from {len(loops_spec)} loop(s): each loop gives two "
                 "equations (x and y), so the unknowns must number twice the loops; "
-                f"{n_inputs} input(s) declared ({', '.join(v.name for v in variables if v.input)}) "
-                f"where these {len(variables)} variables and {len(loops)} loop(s) leave a mobility of "
-                f"{len(variables) - n_eq}",
+                f"{len(declared_inputs)} input(s) declared ({', '.join(declared_inputs)}) "
+                f"where these {len(var_spec)} variables and {len(loops_spec)} loop(s) leave a mobility of "
+                f"{len(var_spec) - n_eq}",
             )
     # ---- assembly-mode aliases: name -> signature ("open" = "-" for a four-bar)
     modes_spec = spec.get("modes", {})

@@ -226,6 +226,19 @@ def test_all_problems_of_a_file_are_reported_at_once(tmp_path):
     assert all(str(path) in line for line in exc.problems)
 
 
+def test_unknown_count_is_reported_with_the_other_problems(tmp_path):
+    """A wrong number of unknowns is one more problem of the list, not hidden behind the others."""
+    text = edit(("theta4 = { guess = 80 }", "theta4 = { guess = 80 }\ntheta5 = { guess = 1 }"),
+                ("r2 = 25", 'r2 = "x"'))
+    path = tmp_path / "count.toml"
+    path.write_text(text)
+    with pytest.raises(ModelFileError) as info:
+        ls.load(path)
+    msg = str(info.value)
+    assert "parameters.r2" in msg
+    assert "3 unknown variable(s) (theta3, theta4, theta5) but 2 scalar loop equations" in msg
+
+
 def test_huge_file_is_refused_before_parsing(tmp_path):
     path = tmp_path / "huge.toml"
     path.write_text(GOOD + "# " + "x" * (MAX_FILE_SIZE + 10) + "\n")
