@@ -37,9 +37,9 @@ from typing import Any
 import numpy as np
 
 from .errors import ModelError, TopologyError
-from .model import Mechanism, _check_name, _Problems, build_mechanism
+from .model import Mechanism, _check_name, _name_and_units, _Problems, build_mechanism
 from .topology import GROUND, Link, PrismaticJoint, RevoluteJoint, Topology, check_inputs, jacobian_rank
-from .units import Kind, UnitError, angle_factor, parse_quantity, validate_units
+from .units import Kind, angle_factor, parse_quantity
 
 __all__ = ["Diagram", "parse_diagram", "diagram_to_spec", "diagram_data", "from_declarations",
            "topology_of", "to_vector_model"]
@@ -113,21 +113,8 @@ def parse_diagram(data: Mapping[str, Any], *, source: str | None = None) -> Diag
         elif k not in _TOP_KEYS:
             problems.add(str(k), f"unknown key {k!r} in a kinematic-diagram model (expected one of: "
                          + ", ".join(sorted(_TOP_KEYS)) + ")")
-    name = data.get("name", "mechanism")
-    if not isinstance(name, str) or not name.strip():
-        problems.add("name", f"expected a non-empty string, got {name!r}")
-        name = "mechanism"
-    units = data.get("units", {})
-    length_unit, angle_unit = "mm", "deg"
-    if not isinstance(units, Mapping):
-        problems.add("units", f"expected a table like {{ length = \"mm\", angle = \"deg\" }}, got {units!r}")
-    else:
-        length_unit, angle_unit = units.get("length", "mm"), units.get("angle", "deg")
-        try:
-            validate_units(angle_unit, length_unit)
-        except (UnitError, ModelError) as exc:
-            problems.add("units", str(exc))
-            length_unit, angle_unit = "mm", "deg"
+    name, units = _name_and_units(data, problems)
+    length_unit, angle_unit = units.length, units.angle
 
     def length(v, key):
         try:

@@ -443,6 +443,30 @@ def _collect_kinds(node, ctx: str, key: str, out: dict[str, set], pi_uses: list,
             _collect_kinds(a, sub, key, out, pi_uses, angle_unit)
 
 
+def _name_and_units(spec: Mapping[str, Any], problems: _Problems) -> tuple[str, Units]:
+    """The ``name`` and ``units`` of a model (vector-loop or diagram layout), problems collected."""
+    name = spec.get("name", "mechanism")
+    if not isinstance(name, str) or not name.strip():
+        problems.add("name", f"expected a non-empty string, got {name!r}")
+        name = "mechanism"
+    units_spec = spec.get("units", {})
+    length_unit, angle_unit = "mm", "deg"
+    if not isinstance(units_spec, Mapping):
+        problems.add("units", f"expected a table like {{ length = \"mm\", angle = \"deg\" }}, got {units_spec!r}")
+    else:
+        for k in units_spec:
+            if k not in ("length", "angle"):
+                problems.add(f"units.{k}", "unknown key (expected `length` and `angle`)")
+        length_unit = units_spec.get("length", "mm")
+        angle_unit = units_spec.get("angle", "deg")
+        try:
+            validate_units(angle_unit, length_unit)
+        except (UnitError, ModelError) as exc:
+            problems.add("units", str(exc))
+            length_unit, angle_unit = "mm", "deg"
+    return name.strip(), Units(length=length_unit, angle=angle_unit)
+
+
 def build_mechanism(spec: Mapping[str, Any], *, source: str | None = None) -> Mechanism:
     """Validate a model ``dict`` (the TOML layout) and return the :class:`Mechanism`.
 
@@ -460,28 +484,8 @@ def build_mechanism(spec: Mapping[str, Any], *, source: str | None = None) -> Me
         if k not in known_top:
             problems.add(str(k), f"unknown key {k!r} (expected one of: {', '.join(sorted(known_top))})")
 
-    name = spec.get("name", "mechanism")
-    if not isinstance(name, str) or not name.strip():
-        problems.add("name", f"expected a non-empty string, got {name!r}")
-        name = "mechanism"
-
-    # ---- units
-    units_spec = spec.get("units", {})
-    length_unit, angle_unit = "mm", "deg"
-    if not isinstance(units_spec, Mapping):
-        problems.add("units", f"expected a table like {{ length = \"mm\", angle = \"deg\" }}, got {units_spec!r}")
-    else:
-        for k in units_spec:
-            if k not in ("length", "angle"):
-                problems.add(f"units.{k}", "unknown key (expected `length` and `angle`)")
-        length_unit = units_spec.get("length", "mm")
-        angle_unit = units_spec.get("angle", "deg")
-        try:
-            validate_units(angle_unit, length_unit)
-        except (UnitError, ModelError) as exc:
-            problems.add("units", str(exc))
-            length_unit, angle_unit = "mm", "deg"
-    units = Units(length=length_unit, angle=angle_unit)
+    name, units = _name_and_units(spec, problems)
+    length_unit, angle_unit = units.length, units.angle
 
     def section(key: str) -> Mapping[str, Any]:
         val = spec.get(key, {})
