@@ -171,6 +171,14 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--fps", type=float, default=20.0, help="frames per second (default 20)")
     p.add_argument("-o", "--output", required=True, help=".gif or .mp4 file")
     p.set_defaults(func=cmd_animate)
+
+    p = sub.add_parser("view", help="an interactive page (one offline HTML file): the linkage moving over a sweep")
+    p.add_argument("model", help="model file (TOML)")
+    _sweep_args(p)
+    p.add_argument("--vars", nargs="+", metavar="NAME", help="variables or point coordinates to plot "
+                   "(default: the unknowns)")
+    p.add_argument("-o", "--output", required=True, help=".html file")
+    p.set_defaults(func=cmd_view)
     return parser
 
 
@@ -259,6 +267,15 @@ def cmd_animate(args) -> int:
 
     check_output(args.output, "animation")
     animate(_sweep_for(args), output=args.output, fps=args.fps, progress=None if not args.quiet else False)
+    print(f"wrote {args.output}", file=sys.stderr)
+    return EXIT_OK
+
+
+def cmd_view(args) -> int:
+    from .view import check_output, write_html
+
+    check_output(args.output)
+    write_html(_sweep_for(args), args.output, args.vars)
     print(f"wrote {args.output}", file=sys.stderr)
     return EXIT_OK
 

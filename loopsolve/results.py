@@ -366,3 +366,26 @@ class Sweep:
         from .plotting import animate
 
         return animate(self, *args, **kwargs)
+
+    def to_html(self, vars=None, **kwargs) -> str:
+        """The interactive page of this sweep (self-contained HTML): see :func:`loopsolve.view.to_html`."""
+        from .view import to_html
+
+        return to_html(self, vars, **kwargs)
+
+    def view(self, vars=None, **kwargs):
+        """The interactive page, shown inline by Jupyter: see :class:`loopsolve.view.Page`."""
+        from .view import Page, to_html
+
+        return Page(to_html(self, vars, **kwargs))
+
+    def _repr_html_(self):
+        """Jupyter shows a sweep as its interactive page (text for an empty or very long sweep)."""
+        from .view import MAX_INLINE_ROWS, Page
+
+        if not 0 < len(self) <= MAX_INLINE_ROWS:
+            return None
+        try:
+            return Page(self.to_html())._repr_html_()
+        except Exception:  # a display hook must never raise: Jupyter falls back to the text repr
+            return None
