@@ -368,13 +368,30 @@ class Sweep:
         return animate(self, *args, **kwargs)
 
     def to_html(self, vars=None, **kwargs) -> str:
-        """The interactive page of this sweep (self-contained HTML): see :func:`loopsolve.view.to_html`."""
+        """The interactive page of this sweep (self-contained HTML): see :func:`loopsolve.view.to_html`.
+
+        Examples
+        --------
+        >>> sw = ls.load(ls.models_dir() / "thesis_crank_rocker.toml").sweep(0, 360, 30)
+        >>> sw.to_html(["theta4"]).startswith("<!DOCTYPE html>")
+        True
+        """
         from .view import to_html
 
         return to_html(self, vars, **kwargs)
 
     def view(self, vars=None, **kwargs):
-        """The interactive page, shown inline by Jupyter: see :class:`loopsolve.view.Page`."""
+        """The interactive page, shown inline by Jupyter (the cell's value): see :class:`loopsolve.view.Page`.
+
+        Takes the arguments of :meth:`to_html`; ``display(sw.view())`` shows it from the middle of a
+        cell, ``sw.view().save("page.html")`` writes the file.
+
+        Examples
+        --------
+        >>> sw = ls.load(ls.models_dir() / "thesis_crank_rocker.toml").sweep(0, 360, 30)
+        >>> sw.view()  # doctest: +ELLIPSIS
+        <loopsolve page, ... characters>
+        """
         from .view import Page, to_html
 
         return Page(to_html(self, vars, **kwargs))

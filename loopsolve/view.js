@@ -1,6 +1,6 @@
 /* loopsolve interactive page (inlined into every page by loopsolve/view.py; no network, no libraries).
  * Hooks kept for scripts and tests (see DESIGN.md, "Interactive page"):
- *   <input type="range" id="loopsolve-input">: its value is the row index; an `input` event redraws;
+ *   the range input #loopsolve-input: its value is the row index; an `input` event redraws;
  *   every named point is an SVG circle with data-point="NAME" whose cx, cy are the point's model
  *   coordinates at the current row (the y-up flip is the parent group's transform). */
 (function () {

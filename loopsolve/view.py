@@ -75,9 +75,9 @@ def _pretty_name(name: str) -> list[str]:
     """``theta3`` → ``["θ", "3"]``, ``C_x`` → ``["C", "x"]``: the base and its subscript."""
     if "_" in name:
         base, sub = name.split("_", 1)
-        if re.fullmatch(r"[A-Za-z]+", base):
+        if base in _GREEK or re.fullmatch(r"[A-Za-z]", base):
             return [_GREEK.get(base, base), sub]
-        return [name, ""]
+        return [name.replace("_", " "), ""]
     m = re.fullmatch(r"([A-Za-z]+?)([0-9]+[A-Za-z]*|[A-Z][A-Z0-9]*)", name)
     if m and (m.group(1) in _GREEK or len(m.group(1)) == 1):
         return [_GREEK.get(m.group(1), m.group(1)), m.group(2)]
