@@ -25,6 +25,9 @@
     if (parent) parent.appendChild(e);
     return e;
   }
+  function show(e, on) {
+    if (e._on !== on) { e._on = on; e.setAttribute("visibility", on ? "visible" : "hidden"); }
+  }
   function fin(v) { return v !== null && v !== undefined && isFinite(v); }
   function X(t, i) { var a = T[t]; return a.length === 2 ? a[0] : a[2 * i]; }
   function Y(t, i) { var a = T[t]; return a.length === 2 ? a[1] : a[2 * i + 1]; }
@@ -158,22 +161,22 @@
 
   function unit(x, y) { var n = Math.hypot(x, y); return n > 0 ? [x / n, y / n] : [0, 0]; }
   function setLine(e, ax, ay, bx, by) {
-    if (!(fin(ax) && fin(ay) && fin(bx) && fin(by))) { e.setAttribute("visibility", "hidden"); return; }
-    e.setAttribute("visibility", "visible");
+    if (!(fin(ax) && fin(ay) && fin(bx) && fin(by))) { show(e, false); return; }
+    show(e, true);
     e.setAttribute("x1", ax); e.setAttribute("y1", ay); e.setAttribute("x2", bx); e.setAttribute("y2", by);
   }
   function setPoly(e, xy) {
     var s = [];
     for (var k = 0; k < xy.length; k++) {
-      if (!fin(xy[k][0]) || !fin(xy[k][1])) { e.setAttribute("visibility", "hidden"); return; }
+      if (!fin(xy[k][0]) || !fin(xy[k][1])) { show(e, false); return; }
       s.push(xy[k][0] + "," + xy[k][1]);
     }
-    e.setAttribute("visibility", "visible");
+    show(e, true);
     e.setAttribute("points", s.join(" "));
   }
   function setCircle(e, x, y) {
-    if (!(fin(x) && fin(y))) { e.setAttribute("visibility", "hidden"); return; }
-    e.setAttribute("visibility", "visible");
+    if (!(fin(x) && fin(y))) { show(e, false); return; }
+    show(e, true);
     e.setAttribute("cx", x); e.setAttribute("cy", y);
   }
 
@@ -207,8 +210,8 @@
 
   function placeLabel(l, i) {
     var px = X(l.d.t, i), py = Y(l.d.t, i);
-    if (!fin(px) || !fin(py)) { l.el.setAttribute("visibility", "hidden"); return; }
-    l.el.setAttribute("visibility", "visible");
+    if (!fin(px) || !fin(py)) { show(l.el, false); return; }
+    show(l.el, true);
     var dirs = [], radius = 0.75 * size, tol = 1e-9 * size;
     l.d.nb.forEach(function (t) {
       var qx = X(t, i), qy = Y(t, i);
@@ -386,13 +389,8 @@
     var half = period / 2, y = ((v + half) % period + period) % period - half;
     return y === -half ? half : y;
   }
-  valueRow(D.input.label, [D.input.unit, "", ""],
+  valueRow(D.input.label, D.input.units,
     [function (i) { return XIN[i]; }, function (i) { return D.input.vel[i]; }, function (i) { return D.input.acc[i]; }]);
-  (function () { // the input's rate units are those of an angle or a length series of the same kind
-    var tr = tbody.lastChild, us = tr.querySelectorAll(".u");
-    var same = D.series.filter(function (s) { return s.units[0] === D.input.unit; })[0];
-    if (same) { us[1].textContent = same.units[1]; us[2].textContent = same.units[2]; }
-  })();
   D.series.forEach(function (s) {
     valueRow(s.label, s.units, [0, 1, 2].map(function (k) {
       return function (i) { return k === 0 ? wrap(s.q[0][i], s.wrap) : s.q[k][i]; };
@@ -409,17 +407,24 @@
     var parts = h("span", {"class": "u"}, td);
     modeCells.push(parts);
   }
-  var modeOfRow = new Array(N);
+  var modeOfRow = new Array(N), shownMode = null;
   D.modes.runs.forEach(function (r) { for (var i = r[0]; i <= r[1]; i++) modeOfRow[i] = r[2]; });
 
   function drawValues(i) {
     cells.forEach(function (cs) { cs.forEach(function (c) { c[0].textContent = fmt(c[1](i), 6); }); });
     var m = modeOfRow[i] || "";
-    if (modeCells.length) {
+    if (modeCells.length && m !== shownMode) {
+      shownMode = m;
       modeCells[0].textContent = D.modes.labels[m] || m;
-      modeCells[1].textContent = "  " + D.modes.parts.map(function (names, k) {
-        return names.map(nameText).join(", ") + ": " + (m.charAt(k) || "?");
-      }).join(" · ");
+      modeCells[1].innerHTML = "";
+      if (D.modes.parts.length > 1) D.modes.parts.forEach(function (names, k) {
+        modeCells[1].appendChild(document.createTextNode(k ? "  ·  " : "   parts: "));
+        names.forEach(function (nm, j) {
+          if (j) modeCells[1].appendChild(document.createTextNode(", "));
+          modeCells[1].appendChild(nameHTML(nm));
+        });
+        modeCells[1].appendChild(document.createTextNode(" " + (m.charAt(k) || "?")));
+      });
     }
     var status = document.getElementById("ls-status");
     status.innerHTML = "";

@@ -50,6 +50,7 @@ _GREEK = {"alpha": "α", "beta": "β", "gamma": "γ", "delta": "δ", "epsilon": 
           "theta": "θ", "iota": "ι", "kappa": "κ", "lambda": "λ", "mu": "μ", "nu": "ν", "xi": "ξ", "pi": "π",
           "rho": "ρ", "sigma": "σ", "tau": "τ", "upsilon": "υ", "phi": "φ", "chi": "χ", "psi": "ψ",
           "omega": "ω"}
+_STYLE_FRAMES = 360  # rows the drawing style is computed from (see _scene)
 _DIGITS = 12  # significant digits of every number in the page (1e-12 relative: far below any drawing)
 
 
@@ -122,7 +123,11 @@ def _scene(sweep) -> dict:
 
     ck = sweep.compiled
     frames, _ = _frames(list(sweep.states), vectors=False)
-    style = _style(frames)
+    # the style (symbol size, pivot directions, guide spans, lever lengths) from at most
+    # _STYLE_FRAMES evenly spaced rows: _style costs ~1.5 ms a row; the extent is widened below
+    # to every row
+    idx = sorted(set(np.linspace(0, len(frames) - 1, min(len(frames), _STYLE_FRAMES)).round().astype(int)))
+    style = _style([frames[i] for i in idx])
     size = float(style.size)
     table = _Table(ck.scale)
     f0 = frames[0]
@@ -228,8 +233,13 @@ def _scene(sweep) -> dict:
         moves = bool(good.sum() > 1 and np.ptp(xy[good], axis=0).max() > 1e-9 * ck.scale)
         pin = any(_close(table.items[t], table.items[jt], 1e-7 * ck.scale) for jt in joint_set)
         points.append({"name": name, "t": t, "pin": pin, "moves": moves})
+    lo, hi = np.asarray(style.lo, dtype=float), np.asarray(style.hi, dtype=float)
+    for flat in table.items:
+        xy = np.array([math.nan if v is None else v for v in flat], dtype=float).reshape(-1, 2)
+        if np.isfinite(xy).any():
+            lo, hi = np.fmin(lo, np.nanmin(xy, axis=0)), np.fmax(hi, np.nanmax(xy, axis=0))
     pad = 2.6 * size
-    extent = _nums([style.lo - pad, style.hi + pad])
+    extent = _nums([lo - pad, hi + pad])
     return {"size": _num(size), "extent": extent, "traj": table.items, "angles": angle_list,
             "static": statics, "links": links, "levers": levers, "guides": guides, "blocks": blocks,
             "joints": joints, "labels": labels, "points": points, "unit": ck.mechanism.units.length}
@@ -321,6 +331,7 @@ def page_data(sweep, vars=None, *, extra_series=None, title=None) -> dict:
         "title": title or mech.name,
         "rows": n,
         "input": {"name": inp, "label": _pretty_name(inp), "unit": _pretty_unit(units[inp]), "x": _nums(x),
+                  "units": [_pretty_unit(units[inp + s]) for s in ("", "_vel", "_acc")],
                   "vel": _nums(cols[inp + "_vel"]), "acc": _nums(cols[inp + "_acc"])},
         "series": series,
         "extra": extras,

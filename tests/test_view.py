@@ -279,3 +279,21 @@ def test_keyboard_and_play(browser, tmp_path):
     browser.find_element(By.ID, "ls-play").click()
     errors = [e for e in browser.get_log("browser") if e["level"] in ("SEVERE", "WARNING")]
     assert not errors, errors
+
+
+def test_three_thousand_rows_in_browser(browser, tmp_path):
+    """A dense sweep (3001 rows): the page stays small and every row is reachable."""
+    sw = ls.load(ls.models_dir() / "thesis_crank_rocker.toml").sweep(0, 360, 0.12)
+    assert len(sw) == 3001
+    text = sw.to_html()
+    assert len(text.encode()) < 1_500_000  # about 180 bytes a row
+    page = tmp_path / "dense.html"
+    page.write_text(text, encoding="utf-8")
+    _open(browser, page)
+    for r in (1, 1500, 2999, 3000):
+        value, found = browser.execute_script(_POINTS_JS, r)
+        assert value == str(r)
+        for name, cx, cy, _, _ in found:
+            assert abs(float(cx) - sw[f"{name}_x"][r]) <= 1e-6 and abs(float(cy) - sw[f"{name}_y"][r]) <= 1e-6
+    errors = [e for e in browser.get_log("browser") if e["level"] in ("SEVERE", "WARNING")]
+    assert not errors, errors
