@@ -287,7 +287,7 @@
     if (hi - lo < 1e-12 * Math.max(1, Math.abs(hi))) { var m = Math.max(Math.abs(hi) * 0.05, 1e-9); lo -= m; hi += m; }
     return [lo, hi];
   }
-  var xr = range([XIN]);
+  var xr = range([XIN, D.events.map(function (e) { return e.input; })]);
   var xDeg = D.input.unit === "deg";
 
   function drawPlots() {
@@ -460,7 +460,8 @@
         el("title", {}, rc).textContent = "mode " + (D.modes.labels[run[2]] || run[2]) + ", rows " + (run[0] + 1) + "–" + (run[1] + 1);
       });
     }
-    D.events.forEach(function (ev) {
+    var order = D.events.slice().sort(function (a, b) { return (a.kind === "limit") - (b.kind === "limit"); });
+    order.forEach(function (ev) { // a limit drawn last: on top of the mode change at the same row
       var x = pos(ev.row);
       var m = el("path", {d: "M" + x + " 0 L" + (x - 4) + " 11 L" + (x + 4) + " 11 Z", fill: ev.color}, marks);
       el("title", {}, m).textContent = ev.kind + " at " + fmt(ev.input, 6) + " " + D.input.unit;
