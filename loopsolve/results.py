@@ -397,12 +397,10 @@ class Sweep:
         return Page(to_html(self, vars, **kwargs))
 
     def _repr_html_(self):
-        """Jupyter shows a sweep as its interactive page (text for an empty or very long sweep)."""
+        """Jupyter shows a sweep as its interactive page (its text repr when empty or longer than
+        :data:`loopsolve.view.MAX_INLINE_ROWS` rows)."""
         from .view import MAX_INLINE_ROWS, Page
 
         if not 0 < len(self) <= MAX_INLINE_ROWS:
             return None
-        try:
-            return Page(self.to_html())._repr_html_()
-        except Exception:  # a display hook must never raise: Jupyter falls back to the text repr
-            return None
+        return Page(self.to_html())._repr_html_()

@@ -132,7 +132,7 @@ def test_cli_errors(tmp_path):
     assert main(["view", str(path), "-q", "--vars", "nope", "-o", str(tmp_path / "p.html")]) == 2
 
 
-def test_view_and_repr_html():
+def test_view_and_repr_html(tmp_path):
     sw = sweep_of(ls.models_dir() / "example1_slider_crank.toml")
     page = sw.view()
     assert page.html == sw.to_html()
@@ -140,6 +140,11 @@ def test_view_and_repr_html():
     assert frame.startswith("<iframe srcdoc=\"") and 'sandbox="allow-scripts"' in frame
     assert "<script" not in frame  # the page is escaped inside the attribute
     assert sw._repr_html_() == frame
+    assert ls.Sweep(sw.compiled)._repr_html_() is None  # an empty sweep shows as text
+    out = page.save(tmp_path / "slider.html")
+    assert out.read_text(encoding="utf-8") == page.html
+    with pytest.raises(ModelError, match=r"\.html"):
+        page.save(tmp_path / "slider.txt")
 
 
 # ------------------------------------------------------------------------------ in a browser
