@@ -39,7 +39,7 @@ import numpy as np
 
 from .errors import LoopsolveError, ModelError
 
-__all__ = ["to_html", "write_html", "Page", "MAX_INLINE_ROWS"]
+__all__ = ["to_html", "write_html", "page_data", "check_output", "Page", "MAX_INLINE_ROWS"]
 
 #: the largest sweep a notebook shows as a page on its own (``Sweep._repr_html_``)
 MAX_INLINE_ROWS = 5000
@@ -282,7 +282,25 @@ def _event_rows(x: np.ndarray, events) -> list[int]:
 
 
 def page_data(sweep, vars=None, *, extra_series=None, title=None) -> dict:
-    """Everything the page shows, as plain JSON-ready data (see :func:`to_html`)."""
+    """Everything the page shows, as plain JSON-ready data (see :func:`to_html` for the arguments).
+
+    ``input`` (the driving variable's values per row), ``series`` (each chosen variable's
+    position — angles unwrapped —, velocity and acceleration), ``extra``, ``events`` (with the
+    row each is marked at), ``modes`` (runs of rows in one assembly mode, the unknowns of each
+    part) and ``scene`` (point trajectories in model units and the shapes that refer to them).
+
+    Examples
+    --------
+    >>> from loopsolve.view import page_data
+    >>> sw = ls.load(ls.models_dir() / "double_rocker.toml").sweep(60, 180, 10, through_limits=True)
+    >>> data = page_data(sw)
+    >>> data["rows"] == len(sw), [s["name"] for s in data["series"]]
+    (True, ['theta3', 'theta4'])
+    >>> [(e["kind"], round(e["input"], 2)) for e in data["events"]]
+    [('limit', 71.79), ('mode-change', 71.79)]
+    >>> [run[2] for run in data["modes"]["runs"]]
+    ['-', '+']
+    """
     from .plotting import _mode_label, _plot_vars, _unwrapped
 
     ck = sweep.compiled
@@ -445,7 +463,17 @@ def write_html(sweep, output, vars=None, *, extra_series=None, title=None) -> Pa
 
 
 def check_output(output) -> None:
-    """Raise :class:`ModelError` unless ``output`` names an ``.html``/``.htm`` file."""
+    """Raise :class:`ModelError` unless ``output`` names an ``.html``/``.htm`` file (checked before a sweep).
+
+    Examples
+    --------
+    >>> from loopsolve.view import check_output
+    >>> check_output("page.HTML")
+    >>> check_output("page.png")
+    Traceback (most recent call last):
+    ...
+    loopsolve.errors.ModelError: cannot write the page to 'page.png': the file name must end in .html
+    """
     if Path(output).suffix.lower() not in (".html", ".htm"):
         raise ModelError(f"cannot write the page to {str(output)!r}: the file name must end in .html")
 
