@@ -99,9 +99,10 @@
   });
 
   // traces of the moving points: the whole path dotted, the path so far solid (a dash as long as it)
-  var traces = [];
+  var traces = [], traced = {};
   S.points.forEach(function (p) {
     if (!p.moves) return;
+    if (p.path in traced) { traced[p.path].name += ", " + p.name; return; } // coincident points: one path
     var color = COLORS[traces.length % COLORS.length], d = "", cum = [], len = 0, prev = null;
     for (var i = 0; i < N; i++) {
       var x = X(p.t, i), y = Y(p.t, i);
@@ -114,7 +115,7 @@
     el("path", {d: d, "class": "path-all", stroke: color, "stroke-width": 1.3 * pt,
       "stroke-dasharray": [1.2 * pt, 2.2 * pt].join(" ")}, gPaths);
     var done = el("path", {d: d, "class": "path-done", stroke: color, "stroke-width": 1.8 * pt}, gPaths);
-    traces.push({name: p.name, color: color, el: done, cum: cum, len: len});
+    traces.push(traced[p.path] = {name: p.name, color: color, el: done, cum: cum, len: len});
   });
   var legend = document.getElementById("ls-legend");
   if (traces.length) {

@@ -232,7 +232,9 @@ def _scene(sweep) -> dict:
         good = np.isfinite(xy).all(axis=1)
         moves = bool(good.sum() > 1 and np.ptp(xy[good], axis=0).max() > 1e-9 * ck.scale)
         pin = any(_close(table.items[t], table.items[jt], 1e-7 * ck.scale) for jt in joint_set)
-        points.append({"name": name, "t": t, "pin": pin, "moves": moves})
+        # points that always coincide (a pin and the block on it) share one path
+        path = next((q["path"] for q in points if _close(table.items[q["t"]], table.items[t], 1e-7 * ck.scale)), j)
+        points.append({"name": name, "t": t, "pin": pin, "moves": moves, "path": path})
     lo, hi = np.asarray(style.lo, dtype=float), np.asarray(style.hi, dtype=float)
     for flat in table.items:
         xy = np.array([math.nan if v is None else v for v in flat], dtype=float).reshape(-1, 2)
