@@ -274,6 +274,12 @@ def test_keyboard_and_play(browser, tmp_path):
     assert browser.execute_script("return document.getElementById('loopsolve-input').value") == "3"
     body.send_keys(Keys.END)
     assert browser.execute_script("return document.getElementById('loopsolve-input').value") == str(len(sw) - 1)
+    # the sweep went around its limit onto the other mode: the page says which mode this row is on
+    last = sw.modes[-1]
+    alias = {v: k for k, v in sw.mechanism.mode_aliases.items()}[last]
+    assert last != sw.modes[0]
+    assert f"mode {last} ({alias})" in browser.execute_script("return document.getElementById('ls-status').textContent")
+    assert browser.execute_script("return document.querySelectorAll('#ls-marks rect').length") == 2  # mode band
     body.send_keys(Keys.HOME)
     # two panels: the two angles share one (same unit), the extra series has its own
     assert browser.execute_script("return document.querySelectorAll('.ls-panel').length") == 2
