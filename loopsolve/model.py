@@ -28,7 +28,7 @@ from typing import Any
 
 from . import expr as _expr
 from .errors import ModelError, ModelFileError
-from .units import UNITS, Kind, UnitError, parse_quantity, units_of_kind, validate_units
+from .units import MAX_MAGNITUDE, UNITS, Kind, UnitError, parse_quantity, units_of_kind, validate_units
 
 __all__ = [
     "Units",
@@ -45,6 +45,8 @@ __all__ = [
 RESERVED = frozenset({"sin", "cos", "tan", "sqrt", "asin", "acos", "atan", "atan2", "abs", "pi"}
                      | set(keyword.kwlist))
 _NAME_RE = re.compile(r"^[A-Za-z][A-Za-z0-9_]*$")
+#: loop names and mode names: printable, one line, bounded
+_LABEL_RE = re.compile(r"[A-Za-z][A-Za-z0-9_ .-]{0,63}\Z")
 _TERM_RE = re.compile(r"\s*([+-]?)\s*([A-Za-z][A-Za-z0-9_]*)\s*")
 
 #: expression contexts used to infer whether a symbol is an angle or a length
@@ -602,6 +604,10 @@ def _check_literals(node, ctx: str, key: str, problems: _Problems, angle_unit: s
     read as 30000 (≡ 120°).
     """
     if isinstance(node, _expr.Num):
+        if abs(node.value) > MAX_MAGNITUDE:
+            problems.add(key, f"the number {node.value:.3g} in {text!r} is beyond ±{MAX_MAGNITUDE:g}: lengths "
+                         "that large overflow the squares and products the solver forms (use a larger unit)")
+            return
         if node.unit is None:
             return
         literal = _expr.to_text(node)
@@ -863,6 +869,10 @@ def build_mechanism(spec: Mapping[str, Any], *, source: str | None = None) -> Me
         if not math.isfinite(value):
             problems.add(key, f"{pval!r} is not a finite number")
             continue
+        if kind is not Kind.ANGLE and abs(value) > MAX_MAGNITUDE:
+            problems.add(key, f"{_short(pval)} is beyond ±{MAX_MAGNITUDE:g}: values that large overflow the "
+                         "squares and products the solver forms (use a larger unit)")
+            continue
         parameters.append(Parameter(pname, value, kind or Kind.DIMENSIONLESS, str(pval)))
 
     # ---- variables
@@ -925,6 +935,7 @@ def build_mechanism(spec: Mapping[str, Any], *, source: str | None = None) -> Me
     # ---- loops
     vec_names = set(vec_spec)
     loops: list[Loop] = []
+    loop_names: dict[str, str] = {}
     for i, ldef in enumerate(loops_spec):
         key = f"loops[{i}]"
         if isinstance(ldef, str):
@@ -937,6 +948,13 @@ def build_mechanism(spec: Mapping[str, Any], *, source: str | None = None) -> Me
             problems.add(key, f"unknown key(s) {sorted(extra)} (allowed: equation, name)")
         text = ldef["equation"]
         lname = ldef.get("name", f"loop{i + 1}")
+        if not isinstance(lname, str) or not _LABEL_RE.match(lname):
+            problems.add(f"{key}.name", f"{_short(repr(lname))} is not a valid loop name (up to 64 letters, "
+                         "digits, _, -, . and spaces, starting with a letter)")
+            lname = f"loop{i + 1}"
+        elif lname in loop_names:
+            problems.add(f"{key}.name", f"loop name {lname!r} is used twice (also {loop_names[lname]})")
+        loop_names.setdefault(lname, key)
         if not isinstance(text, str):
             problems.add(f"{key}.equation", f"expected a string, got {text!r}")
             continue
@@ -971,6 +989,8 @@ def build_mechanism(spec: Mapping[str, Any], *, source: str | None = None) -> Me
         if not bad:
             points.append(Point(pname, terms, pdef))
 
+    _check_links(vectors, loops if len(loops) == len(loops_spec) else None, parameters, variables, problems)
+
     # ---- counts: from the declared names, so they are reported with every other problem
     declared_inputs = [n for n, d in var_spec.items() if isinstance(d, Mapping) and d.get("input") is True]
     if var_spec and loops_spec and declared_inputs:
@@ -992,9 +1012,16 @@ def build_mechanism(spec: Mapping[str, Any], *, source: str | None = None) -> Me
     if not isinstance(modes_spec, Mapping):
         problems.add("modes", "expected a table of alias = \"signature\" (e.g. open = \"-\")")
     else:
+        n_unknown = max(2 * len(loops_spec), 1)
         for alias, sig in modes_spec.items():
-            if not isinstance(sig, str) or not sig or set(sig) - {"+", "-"}:
-                problems.add(f"modes.{alias}", f"a mode signature is a string of + and - signs, got {sig!r}")
+            if not isinstance(alias, str) or not _LABEL_RE.match(alias):
+                problems.add(f"modes.{_short(repr(alias), 40)}", "a mode name is up to 64 letters, digits, _, -, . "
+                             "and spaces, starting with a letter")
+            elif not isinstance(sig, str) or not sig or set(sig) - {"+", "-"}:
+                problems.add(f"modes.{alias}", f"a mode signature is a string of + and - signs, got {_short(repr(sig))}")
+            elif len(sig) > n_unknown:
+                problems.add(f"modes.{alias}", f"the signature {sig!r} has {len(sig)} signs but this model's "
+                             f"signatures have at most {n_unknown} (one per diagonal block of the Jacobian)")
             else:
                 mode_aliases[str(alias)] = sig
     problems.raise_if_any()
@@ -1010,6 +1037,55 @@ def build_mechanism(spec: Mapping[str, Any], *, source: str | None = None) -> Me
         spec=_deep_copy(spec),
         mode_aliases=mode_aliases,
     )
+
+
+def _check_links(vectors, loops, parameters, variables, problems: _Problems) -> None:
+    """Links of nonzero positive length, and every variable in some loop.
+
+    A vector whose angle varies but whose length is a constant is a link: a length of zero leaves
+    its angle undetermined, a negative one silently turns it by 180° (``info`` refuses both), so
+    both are refused. A constant vector (fixed angle) may have length zero (no offset) or a
+    negative one (pointing the other way). A variable used only by vectors outside every loop
+    is never determined (an unknown) or drives nothing (an input: every rate would be 0).
+    """
+    var_names = {v.name for v in variables}
+    env = {p.name: p.value for p in parameters if p.kind is not Kind.ANGLE}
+    for v in vectors:
+        if v.cartesian or v.length is None:
+            continue
+        moving_angle = (_expr.names(v.angle) | (_expr.names(v.offset) if v.offset is not None else set())) & var_names
+        if not moving_angle or _expr.names(v.length) & var_names:
+            continue
+        if any(isinstance(n, (_expr.Call, _expr.Const)) or (isinstance(n, _expr.Num) and n.unit)
+               for n in _expr.walk(v.length)) or not _expr.names(v.length) <= set(env):
+            continue  # only sums and products of length parameters and plain numbers are checked
+        try:
+            value = _expr.evaluate(v.length, env)
+        except ModelError:
+            continue
+        if value <= 0:
+            problems.add(f"vectors.{v.name}.length", f"the link {v.name} (angle {_expr.to_text(v.angle)}) has "
+                         f"length {_expr.to_text(v.length)} = {value:g}: a link's length must be positive (a zero "
+                         "length leaves its angle undetermined; for the opposite direction add 180 to the angle)")
+    if loops is None:  # a loop could not be read: its vectors are unknown
+        return
+    in_loops = {n for lp in loops for _, n in lp.terms}
+    for var in variables:
+        users = [v.name for v in vectors if var.name in _vector_names(v)]
+        if users and not any(u in in_loops for u in users):
+            problems.add(f"variables.{var.name}", f"{'the input ' if var.input else ''}{var.name!r} appears in no "
+                         f"loop: the vector(s) {', '.join(users)} using it are in no loop equation, so it "
+                         f"{'drives nothing (every rate would be 0)' if var.input else 'is never determined'}; "
+                         "add them to a loop")
+
+
+def _vector_names(v) -> set:
+    out = set()
+    for f_ in ("length", "angle", "offset", "x", "y"):
+        n = getattr(v, f_)
+        if n is not None:
+            out |= _expr.names(n)
+    return out
 
 
 def _unit_kind_of_text(text: str) -> Kind | None:

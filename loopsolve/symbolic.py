@@ -256,6 +256,9 @@ def derive(mech: Mechanism, input: str | Sequence[str] | None = None) -> Kinemat
         points[p.name] = (pos, vel.applyfunc(_tidy), acc.applyfunc(_tidy), jerk.applyfunc(_tidy))
 
     _check_jacobian_structure(mech, jac, unknowns)
+    _check_inputs_structure(mech, jac_inputs, inputs)
+    if inputs == mech.inputs and mech.mode_aliases:
+        _check_mode_aliases(mech, jac, unknowns)
     return Kinematics(
         name=mech.name,
         units=mech.units,
@@ -338,6 +341,31 @@ class _Deriv:
         if out.has(sp.DiracDelta):  # d/dt of sign(x) (from abs(), or a Cartesian vector's length):
             out = out.replace(sp.DiracDelta, lambda *args: sp.Integer(0))  # 0 wherever it is defined
         return out
+
+
+def _check_inputs_structure(mech: Mechanism, jac_inputs: sp.Matrix, inputs: tuple[str, ...]) -> None:
+    """An input that appears in no loop equation drives nothing (every rate would be 0): say which."""
+    for j, name in enumerate(inputs):
+        if all(jac_inputs[i, j] == 0 for i in range(jac_inputs.rows)):
+            raise ModelError(
+                f"{mech.source or mech.name}: the input {name!r} does not appear in any loop equation, so it "
+                "drives nothing (every rate would be 0); add a vector that depends on it to a loop or drive "
+                "another variable")
+
+
+def _check_mode_aliases(mech: Mechanism, jac: sp.Matrix, unknowns: tuple[str, ...]) -> None:
+    """Every declared mode name must have one sign per diagonal block of Φ_q (the signature length)."""
+    from .topology import solve_order
+
+    m, n = jac.shape
+    try:
+        blocks = solve_order([[jac[i, j] != 0 for j in range(n)] for i in range(m)], unknown_names=unknowns)
+    except ModelError:
+        return  # reported elsewhere (no perfect matching)
+    bad = [f"modes.{a} = {sig!r}" for a, sig in mech.mode_aliases.items() if len(sig) != len(blocks)]
+    if bad:
+        raise ModelError(f"{mech.source or mech.name}: {'; '.join(bad)}: a mode signature of this model has "
+                         f"{len(blocks)} sign(s), one per diagonal block of the Jacobian")
 
 
 def _check_jacobian_structure(mech: Mechanism, jac: sp.Matrix, unknowns: tuple[str, ...]) -> None:

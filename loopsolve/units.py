@@ -44,6 +44,7 @@ __all__ = [
     "unit_label",
     "to_display",
     "REDUCE_TURNS",
+    "MAX_MAGNITUDE",
 ]
 
 
@@ -366,18 +367,28 @@ def _reduce_angle(number: float, text: str | None, unit: str) -> float:
     return math.fmod(number, turn)
 
 
+#: largest magnitude of a length, a rate or a plain number (angles are reduced modulo a turn
+#: instead): beyond it the squares and products the solver forms overflow floating point
+MAX_MAGNITUDE = 1e100
+
+
 def _finite(value: float, kind: Kind, text: str, where: str, length_unit: str) -> float:
     if not math.isfinite(value):
         raise _kind_error(kind, text, where, length_unit,
                           "value overflows (not finite) after conversion to internal units")
+    if kind is not Kind.ANGLE and abs(value) > MAX_MAGNITUDE:
+        raise _kind_error(kind, text, where, length_unit,
+                          f"value {value:.3g} is beyond ±{MAX_MAGNITUDE:g} (the solver's squares and "
+                          "products would overflow; use a larger unit)")
     return value
 
 
-def _plain(value: float, kind: Kind, angle_unit: str, text: str | None = None) -> float:
+def _plain(value: float, kind: Kind, angle_unit: str, text: str | None = None, where: str = "",
+           length_unit: str = "mm") -> float:
     """Convert a plain number in the display unit of ``kind`` to internal units."""
     if kind is Kind.ANGLE:
         return _reduce_angle(value, text, angle_unit) * angle_factor(angle_unit)
-    return value
+    return _finite(value, kind, text if text is not None else repr(value), where, length_unit)
 
 
 def parse_quantity(
@@ -445,7 +456,7 @@ def parse_quantity(
         if not math.isfinite(number):
             raise _kind_error(kind, _short(value), where, length_unit, "value is not finite")
         exact = str(value) if isinstance(value, numbers.Integral) else None
-        return _plain(number, kind, angle_unit, exact)
+        return _plain(number, kind, angle_unit, exact, where, length_unit)
 
     text = value
     m = _QUANTITY_RE.match(text)
@@ -456,7 +467,7 @@ def parse_quantity(
         raise _kind_error(kind, text, where, length_unit, "value is not finite")
     unit = m.group("unit")
     if not unit:
-        return _plain(number, kind, angle_unit, m.group("num"))
+        return _plain(number, kind, angle_unit, m.group("num"), where, length_unit)
 
     entry = UNITS.get(unit)
     if entry is None:
@@ -464,7 +475,7 @@ def parse_quantity(
         if order is not None:
             custom_kind = _BY_ORDER_LENGTH[order]
             if custom_kind is kind:
-                return number
+                return _finite(number, kind, text, where, length_unit)
             raise _kind_error(
                 kind, text, where, length_unit,
                 f"unit {unit!r} is {_a(custom_kind.value)} unit, not {_a(kind.value)}",
