@@ -604,11 +604,10 @@ def _check_literals(node, ctx: str, key: str, problems: _Problems, angle_unit: s
     read as 30000 (≡ 120°).
     """
     if isinstance(node, _expr.Num):
-        if abs(node.value) > MAX_MAGNITUDE:
-            problems.add(key, f"the number {node.value:.3g} in {text!r} is beyond ±{MAX_MAGNITUDE:g}: lengths "
-                         "that large overflow the squares and products the solver forms (use a larger unit)")
-            return
         if node.unit is None:
+            if abs(node.value) > MAX_MAGNITUDE:
+                problems.add(key, f"the number {node.value:.3g} in {text!r} is beyond ±{MAX_MAGNITUDE:g}: lengths "
+                             "that large overflow the squares and products the solver forms (use a larger unit)")
             return
         literal = _expr.to_text(node)
         got = UNITS.get(node.unit, (None, 0.0))[0]
