@@ -208,17 +208,6 @@ def test_overflowing_rates_name_the_speed(tmp_path, capsys):
     assert status == 2 and len(err) == 1 and "speed" in err[0]
 
 
-def test_near_overflow_lengths_give_an_assembly_answer_not_an_overflow(tmp_path, capsys):
-    """Lengths at 1e99 (within the limit) next to small ones: a clear 'cannot be assembled', no warnings."""
-    import warnings
-
-    text = model(l4="1e99")
-    with warnings.catch_warnings():
-        warnings.simplefilter("error")
-        with pytest.raises(ls.errors.AssemblyError):
-            ls.loads(text).solve(90)
-
-
 def test_newton_does_not_overflow_on_huge_values():
     from loopsolve.newton import NewtonStatus, newton
 
