@@ -31,12 +31,18 @@ SINGULAR_COND = 1e10
 SINGULAR_RATIO = 1e-2
 
 
-def input_value(ck: CompiledKinematics, value, name: str | None = None) -> float:
-    """Convert a user input value (number in display units, or a string with a unit) to internal units."""
+def input_value(ck: CompiledKinematics, value, name: str | None = None, *, reduce: bool = True) -> float:
+    """Convert a user input value (number in display units, or a string with a unit) to internal units.
+
+    An angle of 65536 turns or more is reduced modulo a turn exactly in its own unit first
+    (``--at 1e17`` is 280°, see :func:`loopsolve.units.parse_quantity`); pass ``reduce=False``
+    for an increment (a sweep step). A value that is not finite after conversion is an error.
+    """
     name = name or ck.inputs[0]
     kind = ck.kinds[ck.index(name)]
     u = ck.mechanism.units
-    return parse_quantity(value, kind, angle_unit=u.angle, length_unit=u.length, where=f"input {name}")
+    return parse_quantity(value, kind, angle_unit=u.angle, length_unit=u.length, where=f"input {name}",
+                          reduce=reduce)
 
 
 def display_value(ck: CompiledKinematics, internal: float, name: str | None = None) -> float:

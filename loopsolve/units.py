@@ -384,10 +384,12 @@ def _finite(value: float, kind: Kind, text: str, where: str, length_unit: str) -
 
 
 def _plain(value: float, kind: Kind, angle_unit: str, text: str | None = None, where: str = "",
-           length_unit: str = "mm") -> float:
+           length_unit: str = "mm", reduce: bool = True) -> float:
     """Convert a plain number in the display unit of ``kind`` to internal units."""
     if kind is Kind.ANGLE:
-        return _reduce_angle(value, text, angle_unit) * angle_factor(angle_unit)
+        if reduce:
+            value = _reduce_angle(value, text, angle_unit)
+        return _finite(value * angle_factor(angle_unit), kind, text or repr(value), where, length_unit)
     return _finite(value, kind, text if text is not None else repr(value), where, length_unit)
 
 
@@ -398,6 +400,7 @@ def parse_quantity(
     angle_unit: str = "deg",
     length_unit: str = "mm",
     where: str = "",
+    reduce: bool = True,
 ) -> float:
     """Parse a quantity and return it in internal units.
 
@@ -413,6 +416,10 @@ def parse_quantity(
         The model's display units.
     where : str
         Name of the field, used in error messages (e.g. ``'variables.theta2.speed'``).
+    reduce : bool
+        Reduce an angle of :data:`REDUCE_TURNS` turns or more modulo a turn, exactly in its
+        own unit, before converting it (``"1e17"`` degrees is 280°). Pass ``False`` for an
+        angle *increment* such as a sweep step.
 
     Returns
     -------
@@ -456,7 +463,7 @@ def parse_quantity(
         if not math.isfinite(number):
             raise _kind_error(kind, _short(value), where, length_unit, "value is not finite")
         exact = str(value) if isinstance(value, numbers.Integral) else None
-        return _plain(number, kind, angle_unit, exact, where, length_unit)
+        return _plain(number, kind, angle_unit, exact, where, length_unit, reduce)
 
     text = value
     m = _QUANTITY_RE.match(text)
@@ -467,7 +474,7 @@ def parse_quantity(
         raise _kind_error(kind, text, where, length_unit, "value is not finite")
     unit = m.group("unit")
     if not unit:
-        return _plain(number, kind, angle_unit, m.group("num"), where, length_unit)
+        return _plain(number, kind, angle_unit, m.group("num"), where, length_unit, reduce)
 
     entry = UNITS.get(unit)
     if entry is None:
@@ -492,7 +499,7 @@ def parse_quantity(
             kind, text, where, length_unit,
             f"unit {unit!r} is {_a(got_kind.value)} unit, not {_a(kind.value)}",
         )
-    if kind is Kind.ANGLE:
+    if kind is Kind.ANGLE and reduce:
         number = _reduce_angle(number, m.group("num"), unit)
     if kind.is_angular:
         return _finite(number * factor, kind, text, where, length_unit)
