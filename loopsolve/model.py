@@ -230,7 +230,13 @@ class Mechanism:
         """Compiled numeric kinematics: see :func:`loopsolve.compiled.compile_mechanism`."""
         from .compiled import compile_mechanism
 
-        return compile_mechanism(self, input=input, cache=cache)
+        ck = compile_mechanism(self, input=input, cache=cache)
+        if self.mode_aliases and tuple(ck.inputs) == self.inputs:  # also when the code came from the cache
+            bad = [f"modes.{a} = {sig!r}" for a, sig in self.mode_aliases.items() if len(sig) != len(ck.blocks)]
+            if bad:
+                raise ModelError(f"{self.source or self.name}: {'; '.join(bad)}: a mode signature of this model "
+                                 f"has {len(ck.blocks)} sign(s), one per diagonal block of the Jacobian")
+        return ck
 
     def solve(self, at=None, **kwargs):
         """Positions and rates at one input value: see :func:`loopsolve.solve.solve`."""

@@ -350,3 +350,11 @@ def test_abs_of_a_variable_differentiates_without_dirac_delta():
     text = model(l4='"abs(r4 + 0*theta4)"')
     s = ls.loads(text).solve(90)
     assert s["theta4"] == pytest.approx(fourbar_theta(90.0)[1], abs=1e-8)
+
+
+def test_mode_alias_checked_also_when_the_code_is_cached():
+    """A good model compiles first (its code is then cached); the same structure with an alias
+    longer than the signature is still refused, naming the alias."""
+    ls.loads(model(extra='[modes]\nopen = "-"')).compile()
+    with pytest.raises(ModelError, match="modes.wide"):
+        ls.loads(model(extra='[modes]\nopen = "-"\nwide = "+-"')).solve(90)
