@@ -270,7 +270,8 @@ def _check_literals(node, ctx: str, key: str, problems, angle_unit: str, length_
         try:
             parse_quantity(literal, want, angle_unit=angle_unit, length_unit=length_unit)
         except UnitError as exc:
-            problems.add(key, f"{exc} (in {text!r})")
+            same = text.replace(" ", "") == literal.replace(" ", "") or f"{literal!r}" == f"{text!r}"
+            problems.add(key, str(exc) if same else f"{exc} (in {text!r})")
         return
     if isinstance(node, _expr.Unary):
         _check_literals(node.operand, ctx, key, problems, angle_unit, length_unit, text)
