@@ -217,7 +217,8 @@ def _tokenize(text: str) -> list[_Tok]:
         if m.group("num") is not None:
             value = float(m.group("num"))
             if not math.isfinite(value):
-                raise _error(text, pos, f"number {m.group('num')!r} is too large")
+                shown = m.group("num") if len(m.group("num")) <= 40 else m.group("num")[:37] + "..."
+                raise _error(text, pos, f"number {shown!r} is too large (beyond float range)")
             end = m.end()
             if m.group("unit") is None:
                 w = _WORDCHAR_RE.match(text, end)
@@ -448,9 +449,13 @@ def parse(text: str | int | float) -> Node:
     if isinstance(text, bool):
         raise ExpressionError(f"expected an expression or a number, got the boolean {text!r}")
     if isinstance(text, numbers.Real):
-        value = float(text)
+        try:
+            value = float(text)
+        except OverflowError:
+            value = math.inf
         if not math.isfinite(value):
-            raise ExpressionError(f"number {text!r} is not finite")
+            shown = repr(text) if len(repr(text)) <= 40 else repr(text)[:37] + "..."
+            raise ExpressionError(f"number {shown} is not finite (too large for a float)")
         return Num(value, None)
     if not isinstance(text, str):
         raise ExpressionError(

@@ -28,7 +28,9 @@ from typing import Any
 
 from . import expr as _expr
 from .errors import ModelError, ModelFileError
-from .units import Kind, UnitError, parse_quantity, validate_units
+from .exprcheck import (MAX_DEGREE, MAX_EXPONENT, MAX_TERMS, _check_literals, _check_terms,  # noqa: F401
+                        _constant_size, _degree, _nesting, _TooLarge)
+from .units import MAX_MAGNITUDE, UNITS, Kind, UnitError, parse_quantity, units_of_kind, validate_units
 
 __all__ = [
     "Units",
@@ -45,6 +47,8 @@ __all__ = [
 RESERVED = frozenset({"sin", "cos", "tan", "sqrt", "asin", "acos", "atan", "atan2", "abs", "pi"}
                      | set(keyword.kwlist))
 _NAME_RE = re.compile(r"^[A-Za-z][A-Za-z0-9_]*$")
+#: loop names and mode names: printable, one line, bounded
+_LABEL_RE = re.compile(r"[A-Za-z][A-Za-z0-9_ .-]{0,63}\Z")
 _TERM_RE = re.compile(r"\s*([+-]?)\s*([A-Za-z][A-Za-z0-9_]*)\s*")
 
 #: expression contexts used to infer whether a symbol is an angle or a length
@@ -226,7 +230,13 @@ class Mechanism:
         """Compiled numeric kinematics: see :func:`loopsolve.compiled.compile_mechanism`."""
         from .compiled import compile_mechanism
 
-        return compile_mechanism(self, input=input, cache=cache)
+        ck = compile_mechanism(self, input=input, cache=cache)
+        if self.mode_aliases and tuple(ck.inputs) == self.inputs:  # also when the code came from the cache
+            bad = [f"modes.{a} = {sig!r}" for a, sig in self.mode_aliases.items() if len(sig) != len(ck.blocks)]
+            if bad:
+                raise ModelError(f"{self.source or self.name}: {'; '.join(bad)}: a mode signature of this model "
+                                 f"has {len(ck.blocks)} sign(s), one per diagonal block of the Jacobian")
+        return ck
 
     def solve(self, at=None, **kwargs):
         """Positions and rates at one input value: see :func:`loopsolve.solve.solve`."""
@@ -354,7 +364,11 @@ def _parse_terms(text: Any, key: str, problems: _Problems) -> tuple[tuple[int, s
     return tuple(terms)
 
 
-def _parse_expr(value: Any, key: str, problems: _Problems) -> _expr.Node | None:
+def _parse_expr(value: Any, key: str, problems: _Problems, moving: frozenset | None = None) -> _expr.Node | None:
+    """Parse one expression field; its problems go to ``problems`` under ``key``.
+
+    ``moving`` names the variables (for the size of the derivatives; ``None``: every name).
+    """
     if isinstance(value, bool) or not isinstance(value, (int, float, str)):
         problems.add(key, f"expected a number or an expression string, got {value!r}")
         return None
@@ -368,56 +382,18 @@ def _parse_expr(value: Any, key: str, problems: _Problems) -> _expr.Node | None:
         return None
     try:
         _constant_size(node)
+        _degree(node)
+        _nesting(node)
+        _check_terms(node, moving)
     except _TooLarge as exc:
-        problems.add(key, f"{exc} in {value!r}: constants must stay finite and constant exponents within "
-                     f"±{MAX_EXPONENT} (the symbolic derivation would otherwise try to expand them)")
+        problems.add(key, f"{exc} in {_short(value)!r}")
         return None
     return node
 
 
-#: largest |exponent| accepted when the exponent is a constant (x**2, sqrt via **0.5, ...)
-MAX_EXPONENT = 64
-
-
-class _TooLarge(Exception):
-    pass
-
-
-def _constant_size(node) -> float | None:
-    """Float value of a name-free subtree (``None`` if it has names or calls).
-
-    Raises :class:`_TooLarge` for a constant exponent beyond ``MAX_EXPONENT`` or a constant that
-    overflows: sympy evaluates integer powers such as ``10**10**10`` exactly (and expands
-    ``(a + b)**1000000``), which would hang the derivation.
-    """
-    if isinstance(node, _expr.Num):
-        return float(node.value)
-    if isinstance(node, _expr.Const):
-        return math.pi
-    if isinstance(node, _expr.Unary):
-        v = _constant_size(node.operand)
-        return None if v is None else (-v if node.op == "-" else v)
-    if isinstance(node, _expr.Call):
-        for a in node.args:
-            _constant_size(a)
-        return None
-    if isinstance(node, _expr.Binary):
-        a, b = _constant_size(node.left), _constant_size(node.right)
-        if node.op == "**" and b is not None and abs(b) > MAX_EXPONENT:
-            raise _TooLarge(f"exponent {b:g} is too large")
-        if a is None or b is None:
-            return None
-        try:
-            v = {"+": lambda: a + b, "-": lambda: a - b, "*": lambda: a * b,
-                 "/": lambda: a / b if b else math.nan, "**": lambda: math.pow(a, b)}[node.op]()
-        except OverflowError:
-            raise _TooLarge(f"the constant {_expr.to_text(node)} overflows") from None
-        except ValueError:
-            raise _TooLarge(f"the constant {_expr.to_text(node)} is not a real number") from None
-        if math.isinf(v):
-            raise _TooLarge(f"the constant {_expr.to_text(node)} overflows")
-        return None if math.isnan(v) else v
-    return None
+def _short(value: Any, limit: int = 60) -> str:
+    text = str(value)
+    return text if len(text) <= limit else text[: limit - 3] + "..."
 
 
 def _collect_kinds(node, ctx: str, key: str, out: dict[str, set], pi_uses: list, angle_unit: str):
@@ -519,6 +495,7 @@ def build_mechanism(spec: Mapping[str, Any], *, source: str | None = None) -> Me
         problems.add("loops", "no vector loops declared: add [[loops]] equation = \"...\"")
 
     # ---- vectors (parse expressions)
+    moving = frozenset(str(n) for n in var_spec)
     vectors: list[Vector] = []
     vec_keys_polar = {"length", "angle", "offset", "link"}
     vec_keys_cart = {"x", "y", "link"}
@@ -534,8 +511,8 @@ def build_mechanism(spec: Mapping[str, Any], *, source: str | None = None) -> Me
                 problems.add(key, "a Cartesian vector needs exactly `x` and `y` "
                              f"(got keys {sorted(keys)})")
                 continue
-            x = _parse_expr(vdef["x"], f"{key}.x", problems)
-            y = _parse_expr(vdef["y"], f"{key}.y", problems)
+            x = _parse_expr(vdef["x"], f"{key}.x", problems, moving)
+            y = _parse_expr(vdef["y"], f"{key}.y", problems, moving)
             vectors.append(Vector(vname, x=x, y=y))
         else:
             extra = keys - vec_keys_polar
@@ -546,9 +523,9 @@ def build_mechanism(spec: Mapping[str, Any], *, source: str | None = None) -> Me
                 problems.add(key, f"missing key(s) {sorted(missing)}")
             if extra or missing:
                 continue
-            ln = _parse_expr(vdef["length"], f"{key}.length", problems)
-            an = _parse_expr(vdef["angle"], f"{key}.angle", problems)
-            off = _parse_expr(vdef["offset"], f"{key}.offset", problems) if "offset" in vdef else None
+            ln = _parse_expr(vdef["length"], f"{key}.length", problems, moving)
+            an = _parse_expr(vdef["angle"], f"{key}.angle", problems, moving)
+            off = _parse_expr(vdef["offset"], f"{key}.offset", problems, moving) if "offset" in vdef else None
             vectors.append(Vector(vname, length=ln, angle=an, offset=off))
 
     # ---- infer kinds from the contexts the names appear in
@@ -567,6 +544,13 @@ def build_mechanism(spec: Mapping[str, Any], *, source: str | None = None) -> Me
                 _collect_kinds(v.angle, _ANGLE, f"{key}.angle", seen, pi_uses, angle_unit)
             if v.offset is not None:
                 _collect_kinds(v.offset, _ANGLE, f"{key}.offset", seen, pi_uses, angle_unit)
+    for v in vectors:
+        for f_, ctx in (("length", _LENGTH), ("angle", _ANGLE), ("offset", _ANGLE), ("x", _LENGTH),
+                        ("y", _LENGTH)):
+            n = getattr(v, f_)
+            if n is not None:
+                _check_literals(n, ctx, f"vectors.{v.name}.{f_}", problems, angle_unit, length_unit,
+                                _short(vec_spec[v.name][f_]))
     for key in pi_uses:
         problems.add(key, "`pi` in an angle of a model whose angles are in degrees would mean "
                           "pi degrees: write the angle in degrees (180 for pi), or set "
@@ -610,11 +594,18 @@ def build_mechanism(spec: Mapping[str, Any], *, source: str | None = None) -> Me
                 problems.add(key, f"{pval!r} is not a number; a parameter is a number, optionally "
                              "with a unit such as \"30deg\" or \"25mm\"")
                 continue
+            if unit_kind not in (Kind.ANGLE, Kind.LENGTH, Kind.DIMENSIONLESS):
+                expected = f"{pname!r} is used as {_a(kind.value)}" if kind is not None else \
+                    "a parameter is an angle, a length or a plain number"
+                problems.add(key, f"{pval!r} has {_a(unit_kind.value)} unit; {expected} (accepted units: "
+                             + ", ".join(units_of_kind(kind or Kind.ANGLE) + (() if kind else units_of_kind(Kind.LENGTH)))
+                             + ")")
+                continue
             if kind is None:
                 kind = unit_kind
             elif unit_kind not in (kind, Kind.DIMENSIONLESS):
-                problems.add(key, f"{pval!r} has a {unit_kind.name.lower()} unit but {pname!r} is used as "
-                             f"{'an' if kind is Kind.ANGLE else 'a'} {kind.name.lower()}")
+                problems.add(key, f"{pval!r} has {_a(unit_kind.value)} unit but {pname!r} is used as "
+                             f"{_a(kind.value)}")
                 continue
         qkind = kind if kind in (Kind.ANGLE, Kind.LENGTH) else None
         try:
@@ -622,11 +613,18 @@ def build_mechanism(spec: Mapping[str, Any], *, source: str | None = None) -> Me
                 value = float(pval) if not isinstance(pval, str) else float(pval.strip())
             else:
                 value = parse_quantity(pval, qkind, angle_unit=angle_unit, length_unit=length_unit)
+        except OverflowError:
+            problems.add(key, f"{_short(pval)} is too large for a float")
+            continue
         except (ValueError, ModelError) as exc:
             problems.add(key, str(exc))
             continue
         if not math.isfinite(value):
             problems.add(key, f"{pval!r} is not a finite number")
+            continue
+        if kind is not Kind.ANGLE and abs(value) > MAX_MAGNITUDE:
+            problems.add(key, f"{_short(pval)} is beyond ±{MAX_MAGNITUDE:g}: values that large overflow the "
+                         "squares and products the solver forms (use a larger unit)")
             continue
         parameters.append(Parameter(pname, value, kind or Kind.DIMENSIONLESS, str(pval)))
 
@@ -690,6 +688,7 @@ def build_mechanism(spec: Mapping[str, Any], *, source: str | None = None) -> Me
     # ---- loops
     vec_names = set(vec_spec)
     loops: list[Loop] = []
+    loop_names: dict[str, str] = {}
     for i, ldef in enumerate(loops_spec):
         key = f"loops[{i}]"
         if isinstance(ldef, str):
@@ -702,6 +701,13 @@ def build_mechanism(spec: Mapping[str, Any], *, source: str | None = None) -> Me
             problems.add(key, f"unknown key(s) {sorted(extra)} (allowed: equation, name)")
         text = ldef["equation"]
         lname = ldef.get("name", f"loop{i + 1}")
+        if not isinstance(lname, str) or not _LABEL_RE.match(lname):
+            problems.add(f"{key}.name", f"{_short(repr(lname))} is not a valid loop name (up to 64 letters, "
+                         "digits, _, -, . and spaces, starting with a letter)")
+            lname = f"loop{i + 1}"
+        elif lname in loop_names:
+            problems.add(f"{key}.name", f"loop name {lname!r} is used twice (also {loop_names[lname]})")
+        loop_names.setdefault(lname, key)
         if not isinstance(text, str):
             problems.add(f"{key}.equation", f"expected a string, got {text!r}")
             continue
@@ -736,6 +742,8 @@ def build_mechanism(spec: Mapping[str, Any], *, source: str | None = None) -> Me
         if not bad:
             points.append(Point(pname, terms, pdef))
 
+    _check_links(vectors, loops if len(loops) == len(loops_spec) else None, parameters, variables, problems)
+
     # ---- counts: from the declared names, so they are reported with every other problem
     declared_inputs = [n for n, d in var_spec.items() if isinstance(d, Mapping) and d.get("input") is True]
     if var_spec and loops_spec and declared_inputs:
@@ -757,9 +765,16 @@ def build_mechanism(spec: Mapping[str, Any], *, source: str | None = None) -> Me
     if not isinstance(modes_spec, Mapping):
         problems.add("modes", "expected a table of alias = \"signature\" (e.g. open = \"-\")")
     else:
+        n_unknown = max(2 * len(loops_spec), 1)
         for alias, sig in modes_spec.items():
-            if not isinstance(sig, str) or not sig or set(sig) - {"+", "-"}:
-                problems.add(f"modes.{alias}", f"a mode signature is a string of + and - signs, got {sig!r}")
+            if not isinstance(alias, str) or not _LABEL_RE.match(alias):
+                problems.add(f"modes.{_short(repr(alias), 40)}", "a mode name is up to 64 letters, digits, _, -, . "
+                             "and spaces, starting with a letter")
+            elif not isinstance(sig, str) or not sig or set(sig) - {"+", "-"}:
+                problems.add(f"modes.{alias}", f"a mode signature is a string of + and - signs, got {_short(repr(sig))}")
+            elif len(sig) > n_unknown:
+                problems.add(f"modes.{alias}", f"the signature {sig!r} has {len(sig)} signs but this model's "
+                             f"signatures have at most {n_unknown} (one per diagonal block of the Jacobian)")
             else:
                 mode_aliases[str(alias)] = sig
     problems.raise_if_any()
@@ -777,6 +792,55 @@ def build_mechanism(spec: Mapping[str, Any], *, source: str | None = None) -> Me
     )
 
 
+def _check_links(vectors, loops, parameters, variables, problems: _Problems) -> None:
+    """Links of nonzero positive length, and every variable in some loop.
+
+    A vector whose angle varies but whose length is a constant is a link: a length of zero leaves
+    its angle undetermined, a negative one silently turns it by 180° (``info`` refuses both), so
+    both are refused. A constant vector (fixed angle) may have length zero (no offset) or a
+    negative one (pointing the other way). A variable used only by vectors outside every loop
+    is never determined (an unknown) or drives nothing (an input: every rate would be 0).
+    """
+    var_names = {v.name for v in variables}
+    env = {p.name: p.value for p in parameters if p.kind is not Kind.ANGLE}
+    for v in vectors:
+        if v.cartesian or v.length is None:
+            continue
+        moving_angle = (_expr.names(v.angle) | (_expr.names(v.offset) if v.offset is not None else set())) & var_names
+        if not moving_angle or _expr.names(v.length) & var_names:
+            continue
+        if any(isinstance(n, (_expr.Call, _expr.Const)) or (isinstance(n, _expr.Num) and n.unit)
+               for n in _expr.walk(v.length)) or not _expr.names(v.length) <= set(env):
+            continue  # only sums and products of length parameters and plain numbers are checked
+        try:
+            value = _expr.evaluate(v.length, env)
+        except ModelError:
+            continue
+        if value <= 0:
+            problems.add(f"vectors.{v.name}.length", f"the link {v.name} (angle {_expr.to_text(v.angle)}) has "
+                         f"length {_expr.to_text(v.length)} = {value:g}: a link's length must be positive (a zero "
+                         "length leaves its angle undetermined; for the opposite direction add 180 to the angle)")
+    if loops is None:  # a loop could not be read: its vectors are unknown
+        return
+    in_loops = {n for lp in loops for _, n in lp.terms}
+    for var in variables:
+        users = [v.name for v in vectors if var.name in _vector_names(v)]
+        if users and not any(u in in_loops for u in users):
+            problems.add(f"variables.{var.name}", f"{'the input ' if var.input else ''}{var.name!r} appears in no "
+                         f"loop: the vector(s) {', '.join(users)} using it are in no loop equation, so it "
+                         f"{'drives nothing (every rate would be 0)' if var.input else 'is never determined'}; "
+                         "add them to a loop")
+
+
+def _vector_names(v) -> set:
+    out = set()
+    for f_ in ("length", "angle", "offset", "x", "y"):
+        n = getattr(v, f_)
+        if n is not None:
+            out |= _expr.names(n)
+    return out
+
+
 def _unit_kind_of_text(text: str) -> Kind | None:
     """Kind of the unit a quantity string carries (DIMENSIONLESS for a bare number), None if not a quantity."""
     s = text.strip()
@@ -791,7 +855,14 @@ def _unit_kind_of_text(text: str) -> Kind | None:
             return kind
         except (ModelError, ValueError):
             continue
+    m = re.match(r"\s*[+-]?(?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:[eE][+-]?[0-9]+)?\s*(.+?)\s*\Z", s)
+    if m and m.group(1) in UNITS:  # a known unit of another kind (a rate...)
+        return UNITS[m.group(1)][0]
     return None
+
+
+def _a(noun: str) -> str:
+    return ("an " if noun[:1] in "aeiou" else "a ") + noun
 
 
 class MechanismBuilder:

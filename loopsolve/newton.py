@@ -71,8 +71,15 @@ def newton(fun: Callable[[np.ndarray], np.ndarray], jac: Callable[[np.ndarray], 
     >>> r.status.name, round(float(r.x[0]), 12)
     ('CONVERGED', 1.414213562373)
     """
+    with np.errstate(all="ignore"):  # overflow and NaN are detected and reported by status
+        return _newton(fun, jac, x0, scale=scale, settings=settings)
+
+
+def _newton(fun, jac, x0, *, scale, settings) -> NewtonResult:
     fun, jac = _guarded(fun), _guarded(jac, matrix=True)
     x = np.array(x0, dtype=float)
+    if not np.all(np.isfinite(x)):
+        return NewtonResult(x, float("nan"), 0, NewtonStatus.NOT_FINITE)
     f = fun(x)
     fn = float(np.max(np.abs(f))) if f.size else 0.0
     tol = settings.atol * scale
@@ -84,14 +91,14 @@ def newton(fun: Callable[[np.ndarray], np.ndarray], jac: Callable[[np.ndarray], 
         dx = _step(J, f)
         if not np.all(np.isfinite(dx)):
             return NewtonResult(x, fn, it, NewtonStatus.NOT_FINITE)
-        # backtracking line search on the 2-norm of f
-        f2 = float(f @ f)
+        # backtracking line search on the 2-norm of f (compared as norms: f·f overflows past 1e154)
+        f2 = _norm2(f)
         t = 1.0
         while True:
             x_new = x + t * dx
             f_new = fun(x_new)
-            f2_new = float(f_new @ f_new)
-            if np.isfinite(f2_new) and (f2_new <= (1 - 1e-4 * t) * f2 or f2 <= (tol * 1e-3) ** 2):
+            f2_new = _norm2(f_new)
+            if np.isfinite(f2_new) and (f2_new <= np.sqrt(1 - 1e-4 * t) * f2 or f2 <= tol * 1e-3):
                 break
             t *= 0.5
             if t < 1e-10:
@@ -129,8 +136,29 @@ def _guarded(fn: Callable[[np.ndarray], np.ndarray], *, matrix: bool = False) ->
     return wrapped
 
 
+def _norm2(f: np.ndarray) -> float:
+    """Euclidean norm without overflow of the squares (inf or NaN when ``f`` is not finite)."""
+    if not f.size:
+        return 0.0
+    big = float(np.max(np.abs(f)))
+    if not np.isfinite(big):
+        return big if not np.isnan(big) else float("nan")
+    if big == 0.0:
+        return 0.0
+    return big * float(np.sqrt(np.sum((f / big) ** 2)))
+
+
 def _step(J: np.ndarray, f: np.ndarray) -> np.ndarray:
-    """Newton step, or a Levenberg–Marquardt step when ``J`` is (nearly) singular."""
+    """Newton step, or a Levenberg–Marquardt step when ``J`` is (nearly) singular.
+
+    ``J`` and ``f`` are divided by the largest entry of ``J`` first (the step is unchanged),
+    so ``JᵀJ`` cannot overflow for a model whose lengths are near the float range.
+    """
+    if not np.all(np.isfinite(J)):
+        return np.full(J.shape[1], np.nan)
+    big = float(np.max(np.abs(J))) if J.size else 0.0
+    if big > 0.0:
+        J, f = J / big, f / big
     try:
         cond = np.linalg.cond(J)
     except np.linalg.LinAlgError:

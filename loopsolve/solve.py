@@ -31,12 +31,18 @@ SINGULAR_COND = 1e10
 SINGULAR_RATIO = 1e-2
 
 
-def input_value(ck: CompiledKinematics, value, name: str | None = None) -> float:
-    """Convert a user input value (number in display units, or a string with a unit) to internal units."""
+def input_value(ck: CompiledKinematics, value, name: str | None = None, *, reduce: bool = True) -> float:
+    """Convert a user input value (number in display units, or a string with a unit) to internal units.
+
+    An angle of 65536 turns or more is reduced modulo a turn exactly in its own unit first
+    (``--at 1e17`` is 280°, see :func:`loopsolve.units.parse_quantity`); pass ``reduce=False``
+    for an increment (a sweep step). A value that is not finite after conversion is an error.
+    """
     name = name or ck.inputs[0]
     kind = ck.kinds[ck.index(name)]
     u = ck.mechanism.units
-    return parse_quantity(value, kind, angle_unit=u.angle, length_unit=u.length, where=f"input {name}")
+    return parse_quantity(value, kind, angle_unit=u.angle, length_unit=u.length, where=f"input {name}",
+                          reduce=reduce)
 
 
 def display_value(ck: CompiledKinematics, internal: float, name: str | None = None) -> float:
@@ -190,13 +196,20 @@ def solve_rates(ck: CompiledKinematics, z: np.ndarray, rates: Sequence[float], *
         )
     zs = [z]
     n = len(ck.variables)
-    for order in (1, 2, 3):
-        zk = np.zeros(n)
-        zk[ck.input_idx[0]] = rates[order - 1]
-        b = ck.rhs(order, *zs, zk)
-        zk[ck.unknown_idx] = np.linalg.solve(J, b)
-        zs.append(zk)
-    pts = np.stack([ck.point_values(k, *zs[: k + 1]) for k in range(4)]) if ck.points else np.zeros((4, 0, 2))
+    with np.errstate(over="ignore", invalid="ignore"):  # an overflow is reported below, once
+        for order in (1, 2, 3):
+            zk = np.zeros(n)
+            zk[ck.input_idx[0]] = rates[order - 1]
+            b = ck.rhs(order, *zs, zk)
+            zk[ck.unknown_idx] = np.linalg.solve(J, b)
+            zs.append(zk)
+        pts = np.stack([ck.point_values(k, *zs[: k + 1]) for k in range(4)]) if ck.points else np.zeros((4, 0, 2))
+    if not (all(np.all(np.isfinite(zk)) for zk in zs[1:]) and np.all(np.isfinite(pts))):
+        u = _input_unit(ck).strip()
+        raise ModelError(
+            f"{ck.mechanism.source or ck.mechanism.name}: the rates overflow floating point with the input "
+            f"{ck.inputs[0]}'s speed {rates[0]:.3g}, accel {rates[1]:.3g}, jerk {rates[2]:.3g} "
+            f"({'rad' if u in ('deg', 'rad') else u}/s based): give a smaller --speed/--accel/--jerk")
     return zs[1], zs[2], zs[3], pts, cond
 
 

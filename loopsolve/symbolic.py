@@ -190,16 +190,27 @@ def derive(mech: Mechanism, input: str | Sequence[str] | None = None) -> Kinemat
     def conv(node):
         return to_sympy(node, symbols, k=k, angle_names=angle_names, length_unit=mech.units.length)
 
+    where = mech.source or mech.name
+
+    def field(v, name):
+        """One vector field in sympy, refused when it is not a finite real expression."""
+        e = conv(getattr(v, name))
+        if _not_finite_real(e):
+            raise ModelError(f"{where}: vectors.{v.name}.{name}: {_expr.to_text(getattr(v, name))!r} is not a "
+                             f"finite real expression (it simplifies to {_short(e)}): check divisions by zero, "
+                             "tan at 90 degrees and the domains of sqrt, asin and acos")
+        return e
+
     vectors: dict[str, tuple] = {}
     vector_xy: dict[str, sp.Matrix] = {}
     for v in mech.vectors:
         if v.cartesian:
-            x, y = conv(v.x), conv(v.y)
+            x, y = field(v, "x"), field(v, "y")
             vectors[v.name] = (sp.sqrt(x**2 + y**2), None)
             vector_xy[v.name] = sp.Matrix([x, y])
         else:
-            length = conv(v.length)
-            ang_model = conv(v.angle) + (conv(v.offset) if v.offset is not None else 0)
+            length = field(v, "length")
+            ang_model = field(v, "angle") + (field(v, "offset") if v.offset is not None else 0)
             angle = sp.expand(k * ang_model)
             vectors[v.name] = (length, angle)
             vector_xy[v.name] = sp.Matrix([length * sp.cos(angle), length * sp.sin(angle)])
@@ -223,6 +234,7 @@ def derive(mech: Mechanism, input: str | Sequence[str] | None = None) -> Kinemat
     # b_k = -(D^k Φ with q^(k) = 0)
     d1 = phi.applyfunc(kin_tmp.D)
     d2 = d1.applyfunc(kin_tmp.D)
+    _check_size(mech, d2, MAX_NODES // 2, "second")
     d3 = d2.applyfunc(kin_tmp.D)
     zero1 = {z1[i]: 0 for i in q_idx}
     zero2 = {z2[i]: 0 for i in q_idx}
@@ -230,6 +242,8 @@ def derive(mech: Mechanism, input: str | Sequence[str] | None = None) -> Kinemat
     b1 = (-d1.xreplace(zero1)).applyfunc(_tidy)
     b2 = (-d2.xreplace(zero2)).applyfunc(_tidy)
     b3 = (-d3.xreplace(zero3)).applyfunc(_tidy)
+
+    _check_size(mech, b3, MAX_NODES, "third")
 
     points: dict[str, tuple] = {}
     for p in mech.points:
@@ -242,6 +256,9 @@ def derive(mech: Mechanism, input: str | Sequence[str] | None = None) -> Kinemat
         points[p.name] = (pos, vel.applyfunc(_tidy), acc.applyfunc(_tidy), jerk.applyfunc(_tidy))
 
     _check_jacobian_structure(mech, jac, unknowns)
+    _check_inputs_structure(mech, jac_inputs, inputs)
+    if inputs == mech.inputs and mech.mode_aliases:
+        _check_mode_aliases(mech, jac, unknowns)
     return Kinematics(
         name=mech.name,
         units=mech.units,
@@ -269,6 +286,43 @@ def derive(mech: Mechanism, input: str | Sequence[str] | None = None) -> Kinemat
     )
 
 
+#: most operations one entry of the third time derivative of Φ may have; beyond it the
+#: compilation (common subexpressions, code generation) would take minutes. The models in
+#: ``models/`` stay below 300.
+MAX_NODES = 8000
+
+
+def _size_exceeds(e, limit: int) -> bool:
+    for i, _ in enumerate(sp.preorder_traversal(e)):
+        if i >= limit:
+            return True
+    return False
+
+
+def _check_size(mech: Mechanism, m: sp.Matrix, limit: int, order: str) -> None:
+    """Refuse a derivation whose entries grow past ``limit`` operations, naming the loop."""
+    for i in range(m.rows):
+        if _size_exceeds(m[i], limit):
+            loop = mech.loops[i // 2]
+            raise ModelError(
+                f"{mech.source or mech.name}: loops[{i // 2}] ({loop.name}: {loop.text!r}): the {order} time "
+                f"derivative of its closure equations has more than {limit} operations, too large to "
+                "derive and compile in reasonable time; simplify the expressions of its vectors "
+                f"({', '.join(sorted({n for _, n in loop.terms}))})")
+
+
+def _not_finite_real(e) -> bool:
+    """True for an expression holding an infinity, NaN, an imaginary unit or an interval."""
+    if e.has(sp.zoo, sp.oo, -sp.oo, sp.nan, sp.I) or e.has(sp.AccumBounds):
+        return True
+    return bool(e.is_number and e.is_real is False)
+
+
+def _short(e, limit: int = 60) -> str:
+    text = str(e)
+    return text if len(text) <= limit else text[: limit - 3] + "..."
+
+
 def _tidy(e):
     """Light clean-up: group by the rates so the right-hand sides read like the textbook."""
     return sp.expand(e)
@@ -284,7 +338,34 @@ class _Deriv:
         for s, ds in self.pairs:
             if s in free:
                 out += sp.diff(e, s) * ds
+        if out.has(sp.DiracDelta):  # d/dt of sign(x) (from abs(), or a Cartesian vector's length):
+            out = out.replace(sp.DiracDelta, lambda *args: sp.Integer(0))  # 0 wherever it is defined
         return out
+
+
+def _check_inputs_structure(mech: Mechanism, jac_inputs: sp.Matrix, inputs: tuple[str, ...]) -> None:
+    """An input that appears in no loop equation drives nothing (every rate would be 0): say which."""
+    for j, name in enumerate(inputs):
+        if all(jac_inputs[i, j] == 0 for i in range(jac_inputs.rows)):
+            raise ModelError(
+                f"{mech.source or mech.name}: the input {name!r} does not appear in any loop equation, so it "
+                "drives nothing (every rate would be 0); add a vector that depends on it to a loop or drive "
+                "another variable")
+
+
+def _check_mode_aliases(mech: Mechanism, jac: sp.Matrix, unknowns: tuple[str, ...]) -> None:
+    """Every declared mode name must have one sign per diagonal block of Φ_q (the signature length)."""
+    from .topology import solve_order
+
+    m, n = jac.shape
+    try:
+        blocks = solve_order([[jac[i, j] != 0 for j in range(n)] for i in range(m)], unknown_names=unknowns)
+    except ModelError:
+        return  # reported elsewhere (no perfect matching)
+    bad = [f"modes.{a} = {sig!r}" for a, sig in mech.mode_aliases.items() if len(sig) != len(blocks)]
+    if bad:
+        raise ModelError(f"{mech.source or mech.name}: {'; '.join(bad)}: a mode signature of this model has "
+                         f"{len(blocks)} sign(s), one per diagonal block of the Jacobian")
 
 
 def _check_jacobian_structure(mech: Mechanism, jac: sp.Matrix, unknowns: tuple[str, ...]) -> None:

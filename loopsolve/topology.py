@@ -320,11 +320,15 @@ def jacobian_rank(jac, *, rtol: float = 1e-8) -> int:
     a = np.array(jac, dtype=float)
     if a.size == 0:
         return 0
-    norms = np.linalg.norm(a, axis=0)
-    keep = norms > 0
+    if not np.all(np.isfinite(a)):
+        raise ModelError("the constraint Jacobian has infinite or NaN entries at the assembly pose "
+                         "(coordinates or lengths too large for floating point?): use a larger length unit")
+    big = np.max(np.abs(a), axis=0)  # scale by the largest entry first: the norms cannot overflow
+    keep = big > 0
     if not keep.any():
         return 0
-    a = a[:, keep] / norms[keep]
+    a = a[:, keep] / big[keep]
+    a = a / np.linalg.norm(a, axis=0)
     s = np.linalg.svd(a, compute_uv=False)
     return int(np.sum(s > rtol * s[0]))
 

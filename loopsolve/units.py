@@ -23,6 +23,7 @@ import enum
 import math
 import numbers
 import re
+from fractions import Fraction
 from types import MappingProxyType
 from typing import Mapping
 
@@ -42,6 +43,8 @@ __all__ = [
     "validate_units",
     "unit_label",
     "to_display",
+    "REDUCE_TURNS",
+    "MAX_MAGNITUDE",
 ]
 
 
@@ -331,11 +334,63 @@ def _kind_error(kind: Kind, text: str, where: str, length_unit: str, detail: str
     )
 
 
-def _plain(value: float, kind: Kind, angle_unit: str) -> float:
+#: an angle of at least this many turns is reduced modulo a turn, exactly in its own unit,
+#: before it is converted to radians (below it the conversion keeps ~1e-10 rad; above it the
+#: number of whole turns would swamp the digits of the angle within the turn)
+REDUCE_TURNS = 2**16
+
+#: turns per unit for the angle units whose turn is a rational number of units
+_TURN = {"deg": 360, "degree": 360, "degrees": 360, "°": 360, "rev": 1, "turn": 1}
+
+
+def _reduce_angle(number: float, text: str | None, unit: str) -> float:
+    """``number`` (an angle in ``unit``) reduced modulo a turn when it is huge, still in ``unit``.
+
+    Degrees and turns are reduced exactly: from the decimal ``text`` when given (``"1e17"`` is
+    exactly 280 degrees modulo 360), else with :func:`math.fmod` (exact for floats). Radians
+    are reduced through ``atan2(sin x, cos x)``, which uses the platform's exact argument
+    reduction of the float ``x``.
+    """
+    turn = _TURN.get(unit)
+    if turn is None:  # radians
+        if abs(number) < REDUCE_TURNS * _TWO_PI:
+            return number
+        return math.atan2(math.sin(number), math.cos(number))
+    if abs(number) < REDUCE_TURNS * turn:
+        return number
+    if text is not None:
+        try:
+            exact = Fraction(text)
+        except (ValueError, ZeroDivisionError):
+            return math.fmod(number, turn)
+        return math.copysign(float(abs(exact) % turn), exact)
+    return math.fmod(number, turn)
+
+
+#: largest magnitude of a length, a rate or a plain number (angles are reduced modulo a turn
+#: instead): beyond it the squares and products the solver forms overflow floating point
+MAX_MAGNITUDE = 1e100
+
+
+def _finite(value: float, kind: Kind, text: str, where: str, length_unit: str) -> float:
+    if not math.isfinite(value):
+        raise _kind_error(kind, text, where, length_unit,
+                          "value overflows (not finite) after conversion to internal units")
+    if kind is not Kind.ANGLE and abs(value) > MAX_MAGNITUDE:
+        raise _kind_error(kind, text, where, length_unit,
+                          f"value {value:.3g} is beyond ±{MAX_MAGNITUDE:g} (the solver's squares and "
+                          "products would overflow; use a larger unit)")
+    return value
+
+
+def _plain(value: float, kind: Kind, angle_unit: str, text: str | None = None, where: str = "",
+           length_unit: str = "mm", reduce: bool = True) -> float:
     """Convert a plain number in the display unit of ``kind`` to internal units."""
     if kind is Kind.ANGLE:
-        return value * angle_factor(angle_unit)
-    return value
+        if reduce:
+            value = _reduce_angle(value, text, angle_unit)
+        return _finite(value * angle_factor(angle_unit), kind, text or repr(value), where, length_unit)
+    return _finite(value, kind, text if text is not None else repr(value), where, length_unit)
 
 
 def parse_quantity(
@@ -345,6 +400,7 @@ def parse_quantity(
     angle_unit: str = "deg",
     length_unit: str = "mm",
     where: str = "",
+    reduce: bool = True,
 ) -> float:
     """Parse a quantity and return it in internal units.
 
@@ -360,6 +416,10 @@ def parse_quantity(
         The model's display units.
     where : str
         Name of the field, used in error messages (e.g. ``'variables.theta2.speed'``).
+    reduce : bool
+        Reduce an angle of :data:`REDUCE_TURNS` turns or more modulo a turn, exactly in its
+        own unit, before converting it (``"1e17"`` degrees is 280°). Pass ``False`` for an
+        angle *increment* such as a sweep step.
 
     Returns
     -------
@@ -396,10 +456,14 @@ def parse_quantity(
             f"expected a number or a string with a unit, got {type(value).__name__} {value!r}",
         )
     if isinstance(value, numbers.Real):
-        number = float(value)
+        try:
+            number = float(value)
+        except OverflowError:
+            number = math.inf
         if not math.isfinite(number):
-            raise _kind_error(kind, repr(value), where, length_unit, "value is not finite")
-        return _plain(number, kind, angle_unit)
+            raise _kind_error(kind, _short(value), where, length_unit, "value is not finite")
+        exact = str(value) if isinstance(value, numbers.Integral) else None
+        return _plain(number, kind, angle_unit, exact, where, length_unit, reduce)
 
     text = value
     m = _QUANTITY_RE.match(text)
@@ -410,7 +474,7 @@ def parse_quantity(
         raise _kind_error(kind, text, where, length_unit, "value is not finite")
     unit = m.group("unit")
     if not unit:
-        return _plain(number, kind, angle_unit)
+        return _plain(number, kind, angle_unit, m.group("num"), where, length_unit, reduce)
 
     entry = UNITS.get(unit)
     if entry is None:
@@ -418,7 +482,7 @@ def parse_quantity(
         if order is not None:
             custom_kind = _BY_ORDER_LENGTH[order]
             if custom_kind is kind:
-                return number
+                return _finite(number, kind, text, where, length_unit)
             raise _kind_error(
                 kind, text, where, length_unit,
                 f"unit {unit!r} is {_a(custom_kind.value)} unit, not {_a(kind.value)}",
@@ -435,8 +499,10 @@ def parse_quantity(
             kind, text, where, length_unit,
             f"unit {unit!r} is {_a(got_kind.value)} unit, not {_a(kind.value)}",
         )
+    if kind is Kind.ANGLE and reduce:
+        number = _reduce_angle(number, m.group("num"), unit)
     if kind.is_angular:
-        return number * factor
+        return _finite(number * factor, kind, text, where, length_unit)
     # a length kind: the table factor is metres based; convert to the model's length unit
     if length_unit not in UNITS:
         raise UnitError(
@@ -446,7 +512,12 @@ def parse_quantity(
             text=text,
             kind=kind,
         )
-    return number * factor / UNITS[length_unit][1]
+    return _finite(number * factor / UNITS[length_unit][1], kind, text, where, length_unit)
+
+
+def _short(value: object, limit: int = 40) -> str:
+    text = repr(value)
+    return text if len(text) <= limit else text[: limit - 3] + "..."
 
 
 def unit_label(kind: Kind, angle_unit: str = "deg", length_unit: str = "mm") -> str:

@@ -296,3 +296,22 @@ def test_no_dangerous_builtins_used(module):
     source = inspect.getsource(importlib.import_module(module))
     assert not re.search(r"(?<![.\w])(eval|exec|compile|__import__)\(", source)
     assert not re.search(r"^\s*(import|from)\s+(ast|sympy)\b", source, re.M)
+
+
+@pytest.mark.parametrize("value", [10**400, -(10**400), "1" + "0" * 400, "1" + "0" * 400 + " + a"])
+def test_integers_beyond_float_range_are_an_expression_error(value):
+    """An int from TOML (or digits in a string) too large for a float: ExpressionError, no OverflowError."""
+    with pytest.raises(ExpressionError, match="too large") as info:
+        parse(value)
+    assert "1" + "0" * 40 not in str(info.value).split(" in ")[0]  # the number itself is shortened
+
+
+def test_no_dangerous_builtins_in_the_expression_checks():
+    import inspect
+    import re
+
+    import loopsolve.exprcheck as mod
+
+    source = inspect.getsource(mod)
+    assert not re.search(r"(?<![.\w])(eval|exec|compile|__import__)\(", source)
+    assert not re.search(r"^\s*(import|from)\s+(ast|sympy)\b", source, re.M)

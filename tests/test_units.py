@@ -181,7 +181,18 @@ def test_length_factor():
                                                      ("deg", "in"), ("rad", "units"),
                                                      ("deg", "px")])
 def test_validate_units_ok(angle_unit, length_unit):
-    validate_units(angle_unit, length_unit)
+    """Accepted display units: no error, and quantities are then read in them."""
+    assert validate_units(angle_unit, length_unit) is None
+    # a plain angle is in the model's angle unit, a plain length in its length unit
+    expected_angle = math.pi / 2 if angle_unit == "deg" else 90.0
+    assert parse_quantity(90, Kind.ANGLE, angle_unit=angle_unit, length_unit=length_unit) == \
+        pytest.approx(expected_angle, rel=1e-15)
+    assert parse_quantity(2.5, Kind.LENGTH, angle_unit=angle_unit, length_unit=length_unit) == 2.5
+    # the model's own length unit as a suffix is the identity, also for custom units (px)
+    assert parse_quantity(f"3{length_unit}", Kind.LENGTH, angle_unit=angle_unit,
+                          length_unit=length_unit) == pytest.approx(3.0, rel=1e-15)
+    assert parse_quantity(f"3{length_unit}/s", Kind.LENGTH_RATE, angle_unit=angle_unit,
+                          length_unit=length_unit) == pytest.approx(3.0, rel=1e-15)
 
 
 @pytest.mark.parametrize(
@@ -260,3 +271,26 @@ def test_unit_table():
             assert units_of_kind(kind)
     assert Kind.ANGULAR_ACCEL.is_angular and not Kind.ANGULAR_ACCEL.is_length
     assert Kind.LENGTH_JERK.is_length and not Kind.DIMENSIONLESS.is_angular
+
+
+@pytest.mark.parametrize("value, expected_deg", [
+    ("1e17", 280.0),            # 10**17 = 280 (mod 360), exactly
+    (10**17, 280.0),
+    (1e17, 280.0),              # the float 1e17 is the integer 10**17
+    ("1e17 deg", 280.0),
+    ("-1e17", -280.0),
+    ("1e300", 280.0),           # 10**300 = 280 (mod 360) for every exponent >= 3
+    ("100000000000000000000000361", float((10**26 + 361) % 360)),  # decimal digits beyond a double's
+    ("1e17 rev", 0.0),
+    ("720", 720.0),             # below the threshold nothing is reduced: multi-turn sweeps keep their turns
+])
+def test_huge_angles_reduced_modulo_a_turn_exactly(value, expected_deg):
+    got = math.degrees(parse_quantity(value, Kind.ANGLE))
+    assert got == pytest.approx(expected_deg, abs=1e-9)
+
+
+@pytest.mark.parametrize("value, kind", [("1e308 m", Kind.LENGTH), ("1e101", Kind.LENGTH),
+                                         ("1e200 rad/s", Kind.ANGULAR_RATE), (1e300, Kind.LENGTH_RATE)])
+def test_lengths_and_rates_beyond_the_limit(value, kind):
+    with pytest.raises(UnitError, match="1e\\+100|overflows"):
+        parse_quantity(value, kind, where="x")
