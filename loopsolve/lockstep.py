@@ -1,0 +1,419 @@
+"""Lockstep continuation: one sweep of many designs at once, on the compiled numpy kernels.
+
+The generated ``*_v`` functions broadcast over their last axis, so a parameter vector ``P``
+of shape ``(npar, D)`` evaluates D designs in one call. :func:`sweep_chunk` follows every
+design of a chunk along the same input values:
+
+1. **Start.** Newton from the declared guesses at the guesses' input value (where
+   :func:`loopsolve.solve.start_position` takes the assembly mode from), every design at once;
+   then natural-parameter continuation to the start of the range.
+2. **Continuation** over the output grid in internal substeps of at most 1° (or 1 % of the
+   length scale): tangent predictor dq/dx = Φ_q⁻¹ b₁, Newton corrector to round-off with
+   converged designs frozen.
+3. **Checks at every substep, per design**: the corrector converges in a few iterations with
+   a small first correction, the scaled slope |dq/dx| stays below ``FOLD_SLOPE`` (a limit is
+   near), the regularity (≈ 2/cond of each scaled block) stays above ``REGULAR_MIN`` (a
+   change point or a dead centre is near), and the signs of the block determinants (the
+   assembly mode) never change.
+4. **Hand-off.** A design for which any check fails — or the start cannot be decided (Newton
+   from the guesses needs damping or does not converge) — is not guessed at: it is swept
+   alone by the public :func:`loopsolve.sweep` with its own parameter values, which gives its
+   rows, events and status (``limit``, ``not-assemblable`` ...). The checks are far more
+   conservative than the tracker's own (which locates folds to round-off), so every design
+   the lockstep path keeps is one whose single sweep is a regular path in one mode.
+
+Mechanisms with a solve-order block larger than 2×2 (where a signature need not single out
+one root) are swept design by design.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .errors import AssemblyError, SingularPositionError, SolveError
+from .units import Kind
+
+__all__ = ["sweep_chunk", "FOLD_SLOPE", "REGULAR_MIN", "Chunk"]
+
+#: a design is handed to the single-design sweep when a scaled |dq/dx| exceeds this
+FOLD_SLOPE = 3.0
+#: ... or a block's regularity (|det| over the mean squared entry, ≈ 2/cond) falls below this
+REGULAR_MIN = 1e-3
+#: ... or the first corrector step is larger than this (scaled units)
+FIRST_CORRECTION = 0.05
+_EPS = 2.220446049250313e-16
+_ROUNDOFF = 8 * _EPS
+_SUB_ANGLE = math.radians(1.0)
+
+
+class Chunk:
+    """Rows of D designs on K grid points (internal units): ``Z``, ``Z1``-``Z3`` are (nv, D, K), NaN where
+    a design has no row; ``status``, ``stop``, ``events``, ``nearest`` per design; ``lockstep`` marks the
+    designs the vectorized path solved."""
+
+    def __init__(self, nv, D, K):
+        self.Z = [np.full((nv, D, K), np.nan) for _ in range(4)]
+        self.status = np.array(["ok"] * D, dtype=object)
+        self.stop = np.full(D, np.nan)
+        self.events = np.array([""] * D, dtype=object)
+        self.nearest = np.array([""] * D, dtype=object)
+        self.lockstep = np.zeros(D, dtype=bool)
+
+
+def param_matrix(ck, names, values) -> np.ndarray:
+    """``(npar, D)`` internal parameter values: the model's, with ``names`` replaced by ``values`` (D, k)."""
+    mech = ck.mechanism
+    pnames = [p.name for p in mech.parameters]
+    D = values.shape[0]
+    P = np.repeat(np.asarray(ck.p, dtype=float)[:, None], D, axis=1)
+    for j, n in enumerate(names):
+        i = pnames.index(n)
+        v = values[:, j]
+        if mech.parameters[i].kind is Kind.ANGLE and mech.units.angle == "deg":
+            v = np.radians(v)
+        P[i] = v
+    return P
+
+
+def design_scale(ck, P) -> np.ndarray:
+    """Length scale of every design, as :func:`loopsolve.compiled.compile_mechanism` computes it."""
+    mech = ck.mechanism
+    rows = [np.abs(P[i]) for i, p in enumerate(mech.parameters) if p.kind is Kind.LENGTH]
+    rows += [np.full(P.shape[1], abs(v.guess)) for v in mech.variables if v.kind is Kind.LENGTH and v.guess is not None]
+    if not rows:
+        return np.ones(P.shape[1])
+    s = np.max(np.array(rows), axis=0)
+    return np.where(s > 0, s, 1.0)
+
+
+class _Ops:
+    """Vectorized evaluations of one compiled model with per-column parameters."""
+
+    def __init__(self, ck):
+        self.ck = ck
+        self.m = ck.module
+        self.n = len(ck.unknowns)
+        self.iu = np.asarray(ck.unknown_idx)
+        self.ix = int(ck.input_idx[0])
+        self.blocks = [(tuple(b.eqs), tuple(b.unknowns)) for b in ck.blocks]
+        self.is_len = np.array([ck.kinds[int(i)] is Kind.LENGTH for i in self.iu])
+
+    def _bc(self, a, rows, N):
+        a = np.asarray(a, dtype=float)
+        return np.broadcast_to(a.reshape(rows, -1), (rows, N))
+
+    def phi(self, Z, P):
+        return self._bc(self.m.phi_v(Z, P), self.m.N_EQ, Z.shape[1])
+
+    def jac(self, Z, P):
+        return self._bc(self.m.jac_v(Z, P), self.n * self.n, Z.shape[1])
+
+    def rhs(self, order, zs, P):
+        return self._bc(getattr(self.m, f"rhs{order}_v")(*zs, P), self.n, zs[0].shape[1])
+
+    def solve(self, J, B):
+        """Φ_q X = B for stacked systems, by forward substitution over the solve-order blocks."""
+        n = self.n
+        X = np.zeros((n, B.shape[1]))
+        solved = []
+        for eqs, cols in self.blocks:
+            r = [B[e] - sum(J[e * n + c] * X[c] for c in solved) for e in eqs]
+            solved.extend(cols)
+            if len(cols) == 1:
+                X[cols[0]] = r[0] / J[eqs[0] * n + cols[0]]
+            else:
+                (e0, e1), (c0, c1) = eqs, cols
+                a, b, c, d = J[e0 * n + c0], J[e0 * n + c1], J[e1 * n + c0], J[e1 * n + c1]
+                det = a * d - b * c
+                X[c0] = (d * r[0] - b * r[1]) / det
+                X[c1] = (a * r[1] - c * r[0]) / det
+        return X
+
+    def signs_and_regularity(self, J, scale):
+        """Signs of the diagonal-block determinants ``(nb, N)`` and the smallest regularity ``(N,)``."""
+        n = self.n
+        sig, reg = [], np.full(J.shape[1], np.inf)
+        cs = [np.where(self.is_len[c], scale, 1.0) for c in range(n)]
+        for eqs, cols in self.blocks:
+            if len(cols) == 1:
+                d = J[eqs[0] * n + cols[0]]
+                h = np.where(d != 0, 1.0, 0.0)
+            else:
+                (e0, e1), (c0, c1) = eqs, cols
+                a, b = J[e0 * n + c0] * cs[c0], J[e0 * n + c1] * cs[c1]
+                c, d_ = J[e1 * n + c0] * cs[c0], J[e1 * n + c1] * cs[c1]
+                d = a * d_ - b * c
+                h = np.abs(d) / (0.5 * (a * a + b * b + c * c + d_ * d_))
+            sig.append(np.sign(d))
+            reg = np.minimum(reg, np.where(np.isfinite(h), h, 0.0))
+        return np.array(sig).reshape(len(sig), -1), reg
+
+
+def _plain(v):
+    """A number given as a number or a plain numeric string (no unit), else None."""
+    try:
+        return float(v)
+    except (TypeError, ValueError):
+        return None
+
+
+def grid_values(ck, start, stop, step):
+    """The sweep's output grid: internal values ``(K,)`` and display values ``(K,)``."""
+    from .solve import display_value, input_value
+
+    name = ck.inputs[0]
+    kind = ck.kinds[ck.index(name)]
+    deg = kind is Kind.ANGLE and ck.mechanism.units.angle == "deg"
+    x0, x1 = input_value(ck, start, name), input_value(ck, stop, name)
+    if isinstance(step, str) and _plain(step) is not None:
+        step = _plain(step)
+    if isinstance(step, str):
+        h = input_value(ck, step, name)
+        hd = display_value(ck, h, name) if deg else h
+    else:
+        hd = float(step)
+        h = math.radians(hd) if kind is Kind.ANGLE and ck.mechanism.units.angle == "deg" else hd
+    if h == 0 or not math.isfinite(h):
+        from .errors import ModelError
+
+        raise ModelError("--step must be a nonzero number")
+    h = math.copysign(abs(h), x1 - x0) if x1 != x0 else abs(h)
+    n = max(int(math.floor((x1 - x0) / h + 1e-9)), 0)
+    k = np.arange(n + 1)
+    if not deg:
+        xs = x0 + h * k
+        return xs, xs.copy()
+    d0 = _plain(start)
+    d0 = math.degrees(x0) if d0 is None else d0
+    dh = math.copysign(abs(hd), x1 - x0) if x1 != x0 else abs(hd)
+    v = d0 + dh * k
+    x = np.radians(v)
+    for _ in range(4):
+        d = np.degrees(x)
+        off = d != v
+        if not off.any():
+            break
+        x[off] = np.nextafter(x[off], np.where(d[off] < v[off], np.inf, -np.inf))
+    return x, v
+
+
+def _single(mech, names, row, start, stop, step, speed, accel, jerk, mode, derivatives, ch, j, xs_disp):
+    """Sweep design j alone with the public sweep and put its rows, events and status into ``ch``."""
+    m = mech.with_parameters(**{n: float(v) for n, v in zip(names, row)})
+    try:
+        sw = m.sweep(start, stop, step, speed=speed, accel=accel, jerk=jerk, mode=mode,
+                           derivatives=derivatives, progress=False)
+    except AssemblyError as exc:
+        ch.status[j] = "not-assemblable"
+        ch.stop[j] = xs_disp[0]
+        ch.nearest[j] = ", ".join(f"{v:.10g}" for v in exc.nearest)
+        ch.events[j] = str(exc).splitlines()[0] if str(exc) else "not-assemblable"
+        return
+    except SingularPositionError as exc:
+        ch.status[j] = "singular"
+        ch.stop[j] = xs_disp[0]
+        ch.events[j] = str(exc).splitlines()[0] if str(exc) else "singular"
+        return
+    except SolveError as exc:
+        ch.status[j] = "failed"
+        ch.stop[j] = xs_disp[0]
+        ch.events[j] = f"{type(exc).__name__}: {str(exc).splitlines()[0] if str(exc) else ''}"
+        return
+    ck = sw.compiled
+    ix = ck.index(ck.inputs[0])
+    if len(sw):
+        xd = np.asarray(sw.columns[ck.inputs[0]], dtype=float)
+        step_d = xs_disp[1] - xs_disp[0] if len(xs_disp) > 1 else 1.0
+        k = np.rint((xd - xs_disp[0]) / step_d).astype(int)
+        ok = (k >= 0) & (k < len(xs_disp))
+        for a, arr in enumerate((sw.z, sw.z1, sw.z2, sw.z3)):
+            ch.Z[a][:, j, k[ok]] = arr[ok].T
+        del ix
+    ev = [e for e in sw.events]
+    ch.events[j] = "; ".join(f"{e.kind.value}@{e.input:.10g}" for e in ev)
+    lim = [e for e in ev if e.kind.value == "limit"]
+    if lim:
+        ch.status[j] = "limit"
+        ch.stop[j] = lim[0].input
+
+
+def sweep_chunk(mech, names, values, start, stop, step, *, speed=None, accel=None, jerk=None, mode=None,
+                derivatives: int = 3, method: str = "lockstep") -> tuple[Chunk, object, np.ndarray]:
+    """Sweep the designs ``values`` ``(D, k)`` of the parameters ``names``; returns ``(chunk, ck, P)``.
+
+    ``method="lockstep"`` (vectorized, with hand-off) or ``"single"`` (every design by the
+    public sweep). See the module docstring.
+
+    Examples
+    --------
+    >>> mech = ls.fourbar(60, 25, 70, 45)
+    >>> ch, ck, P = sweep_chunk(mech, ("r2",), np.array([[20.0], [25.0]]), 0, 360, 90)
+    >>> ch.status.tolist(), ch.lockstep.tolist(), ch.Z[0].shape
+    (['ok', 'ok'], [True, True], (3, 2, 5))
+    """
+    from .solve import initial_z, input_rates
+
+    values = np.asarray(values, dtype=float).reshape(-1, len(names))
+    ck = mech.compile()
+    ops = _Ops(ck)
+    P = param_matrix(ck, names, values)
+    D = P.shape[1]
+    xs, xs_disp = grid_values(ck, start, stop, step)
+    K = len(xs)
+    nv = len(ck.variables)
+    ch = Chunk(nv, D, K)
+    rates = input_rates(ck, speed, accel, jerk)
+    lockstep = (method == "lockstep" and mode is None and all(len(c) <= 2 for _, c in ops.blocks)
+                and ops.n > 0)
+    alive = np.zeros(D, dtype=bool)
+    if lockstep:
+        alive = _lockstep(ck, ops, P, xs, ch)
+    ch.lockstep[:] = alive
+    if alive.any():
+        _rates(ops, P, ch, alive, rates, derivatives)
+    for j in np.flatnonzero(~alive):
+        _single(mech, names, values[j], start, stop, step, speed, accel, jerk, mode, derivatives, ch, j, xs_disp)
+    return ch, ck, P
+
+
+def _newton_start(ops, Z, P, scale, alive):
+    """Newton at fixed input from the guesses, all designs at once; designs needing damping drop out."""
+    iu = ops.iu
+    F = ops.phi(Z, P)
+    fn = np.max(np.abs(F), axis=0)
+    polished = np.zeros(Z.shape[1], dtype=bool)
+    done = np.zeros(Z.shape[1], dtype=bool)
+    w = np.where(ops.is_len[:, None], 1.0 / scale, 1.0)
+    for _ in range(40):
+        act = alive & ~done
+        if not act.any():
+            break
+        J = ops.jac(Z, P)
+        dU = ops.solve(J, -F)
+        U = Z[iu] + np.where(act, dU, 0.0)
+        Zn = Z.copy()
+        Zn[iu] = U
+        Fn = ops.phi(Zn, P)
+        fnn = np.max(np.abs(Fn), axis=0)
+        f2, f2n = np.sum(F * F, axis=0), np.sum(Fn * Fn, axis=0)
+        descent = np.isfinite(f2n) & (f2n <= (1 - 1e-4) * f2) | (f2 <= (1e-12 * scale * 1e-3) ** 2)
+        alive &= ~(act & ~descent)  # the scalar Newton would damp: not decided here
+        act &= alive
+        Z[iu] = np.where(act, U, Z[iu])
+        F = np.where(act, Fn, F)
+        fn = np.where(act, fnn, fn)
+        step = np.max(np.abs(dU * w), axis=0)
+        conv = act & (fn <= 1e-12 * scale)
+        small = step <= 1e-12 * (1 + np.max(np.abs(Z[iu] * w), axis=0))
+        done |= conv & (polished | small)
+        polished |= conv
+    alive &= done
+    return Z
+
+
+def _lockstep(ck, ops, P, xs, ch) -> np.ndarray:
+    from .solve import initial_z
+
+    D = P.shape[1]
+    iu, ix = ops.iu, ops.ix
+    scale = design_scale(ck, P)
+    w = np.where(ops.is_len[:, None], 1.0 / scale, 1.0)  # scaled unknowns: angles, lengths / scale
+    z0 = initial_z(ck, warn=False)
+    x_guess = ck.mechanism.variable(ck.inputs[0]).guess
+    x0 = float(xs[0])
+    if x_guess is None or abs(x_guess - x0) <= 1e-12 * max(1.0, abs(x0)):
+        x_guess = x0
+    Z = np.repeat(z0[:, None], D, axis=1)
+    Z[ix] = x_guess
+    alive = np.ones(D, dtype=bool)
+    with np.errstate(all="ignore"):
+        Z = _newton_start(ops, Z, P, scale, alive)
+        J = ops.jac(Z, P)
+        sig0, reg = ops.signs_and_regularity(J, scale)
+        alive &= reg >= REGULAR_MIN
+        # the path: from the guesses' input to the start, then the grid
+        kind = ck.kinds[ix]
+        hmax = _SUB_ANGLE if kind is Kind.ANGLE else 0.01 * float(np.median(scale))
+        targets: list[tuple[float, int]] = []
+        if x_guess != x0:
+            m = max(1, int(math.ceil(abs(x0 - x_guess) / hmax)))
+            targets += [(x_guess + (x0 - x_guess) * i / m, -1) for i in range(1, m)] + [(x0, 0)]
+        else:
+            targets.append((x0, 0))
+        for k in range(1, len(xs)):
+            a, b = float(xs[k - 1]), float(xs[k])
+            m = max(1, int(math.ceil(abs(b - a) / hmax - 1e-9)))
+            targets += [(a + (b - a) * i / m, -1) for i in range(1, m)] + [(b, k)]
+        zk1 = np.zeros_like(Z)
+        zk1[ix] = 1.0
+        x_prev = x_guess
+        for x, k in targets:
+            if x != x_prev:
+                if not alive.any():
+                    break
+                Z = _substep(ops, Z, P, J, zk1, x, x_prev, w, alive)
+                J = ops.jac(Z, P)
+                sig, reg = ops.signs_and_regularity(J, scale)
+                alive &= (reg >= REGULAR_MIN) & np.all(sig == sig0, axis=0)
+                x_prev = x
+            if k >= 0:
+                ch.Z[0][:, :, k] = Z
+    ch.Z[0][:, ~alive, :] = np.nan
+    return alive
+
+
+def _substep(ops, Z, P, J, zk1, x, x_prev, w, alive):
+    iu, ix = ops.iu, ops.ix
+    T = ops.solve(J, ops.rhs(1, (Z, zk1), P))  # dq/dx
+    slope = np.max(np.abs(T * w), axis=0)
+    alive &= np.isfinite(slope) & (slope <= FOLD_SLOPE)
+    Z = Z.copy()
+    Z[ix] = x
+    Z[iu] = Z[iu] + T * (x - x_prev)
+    done = ~alive
+    first = True
+    for _ in range(8):
+        F = ops.phi(Z, P)
+        Jc = ops.jac(Z, P)
+        dU = ops.solve(Jc, -F)
+        dU = np.where(done, 0.0, dU)
+        size = np.max(np.abs(dU * w), axis=0)
+        if first:
+            alive &= np.isfinite(size) & (size <= FIRST_CORRECTION)
+            first = False
+        Z[iu] = np.where(alive & ~done, Z[iu] + dU, Z[iu])
+        tiny = size <= _ROUNDOFF * (1 + np.max(np.abs(Z[iu] * w), axis=0))
+        done |= tiny | ~alive
+        if done.all():
+            break
+    alive &= done | (size <= 1e-10)
+    return Z
+
+
+def _rates(ops, P, ch, alive, rates, derivatives):
+    """Velocities, accelerations and jerks of every lockstep row at once (as the sweep computes them)."""
+    nv = ch.Z[0].shape[0]
+    idx = np.flatnonzero(alive)
+    K = ch.Z[0].shape[2]
+    Z = ch.Z[0][:, idx, :].reshape(nv, -1)
+    ok = np.all(np.isfinite(Z), axis=0)
+    Zs = Z[:, ok]
+    Ps = np.repeat(P[:, idx], K, axis=1)[:, ok]
+    ix = ops.ix
+    out = [Zs]
+    with np.errstate(all="ignore"):
+        J = ops.jac(Zs, Ps)
+        for order in (1, 2, 3):
+            Zk = np.zeros_like(Zs)
+            Zk[ix] = rates[order - 1]
+            if order <= derivatives:
+                Zk[ops.iu] = ops.solve(J, ops.rhs(order, out + [Zk], Ps))
+            else:
+                Zk[ops.iu] = np.nan
+            out.append(Zk)
+    for a in (1, 2, 3):
+        full = np.full((nv, len(idx) * K), np.nan)
+        full[:, ok] = out[a]
+        ch.Z[a][:, idx, :] = full.reshape(nv, len(idx), K)
