@@ -51,7 +51,7 @@ _SUB_ANGLE = math.radians(1.0)
 class Chunk:
     """Rows of D designs on K grid points (internal units): ``Z``, ``Z1``-``Z3`` are (nv, D, K), NaN where
     a design has no row; ``status``, ``stop``, ``events``, ``nearest`` per design; ``lockstep`` marks the
-    designs the vectorized path solved."""
+    designs the vectorized path solved; ``mode`` is each design's (starting) mode signature."""
 
     def __init__(self, nv, D, K):
         self.Z = [np.full((nv, D, K), np.nan) for _ in range(4)]
@@ -59,6 +59,7 @@ class Chunk:
         self.stop = np.full(D, np.nan)
         self.events = np.array([""] * D, dtype=object)
         self.nearest = np.array([""] * D, dtype=object)
+        self.mode = np.array([""] * D, dtype=object)
         self.lockstep = np.zeros(D, dtype=bool)
 
 
@@ -231,6 +232,7 @@ def _single(mech, names, row, start, stop, step, speed, accel, jerk, mode, deriv
         for a, arr in enumerate((sw.z, sw.z1, sw.z2, sw.z3)):
             ch.Z[a][:, j, k[ok]] = arr[ok].T
         del ix
+    ch.mode[j] = sw.mode
     ev = [e for e in sw.events]
     ch.events[j] = "; ".join(f"{e.kind.value}@{e.input:.10g}" for e in ev)
     lim = [e for e in ev if e.kind.value == "limit"]
@@ -361,6 +363,9 @@ def _lockstep(ck, ops, P, xs, ch) -> np.ndarray:
             if k >= 0:
                 ch.Z[0][:, :, k] = Z
     ch.Z[0][:, ~alive, :] = np.nan
+    codes = np.where(sig0 > 0, "+", np.where(sig0 < 0, "-", "0"))
+    for j in np.flatnonzero(alive):
+        ch.mode[j] = "".join(codes[:, j])
     return alive
 
 

@@ -8,8 +8,9 @@ A metric is ``NAME=EXPR`` where ``EXPR`` is
 * a built-in: ``transmission(a, b)`` — minimum transmission angle (degrees, 0–90) between the
   links at angles ``a`` and ``b``; ``swing(v)`` / ``stroke(v)`` — travel (max − min, display
   units) of an output; ``time_ratio(v)`` — quick-return time ratio of an oscillating output
-  over a full turn of the input (longer stroke time over shorter, extremes located by
-  parabolic interpolation); ``max_acc(v)`` — max |acceleration| of ``v``;
+  over a full turn of the input at constant speed (longer stroke time over shorter; the
+  extremes are the roots of the velocity, located by cubic Hermite interpolation of the
+  velocity and acceleration between rows); ``max_acc(v)`` — max |acceleration| of ``v``;
   ``grashof(a, b, c, d)`` — Grashof class of four lengths (1 Grashof, 0 change point,
   −1 non-Grashof);
 * an expression of the parameters alone (one value per design), e.g. ``r2 / r3``.
@@ -142,13 +143,54 @@ def _extreme_x(v, x, which):
     return out
 
 
+def _turning_points(vel, acc, speed, x, deg):
+    """Inputs where an output's velocity changes sign (+ to −: its maximum; − to +: its minimum).
+
+    On each bracketing grid interval the velocity is a cubic Hermite in the input from its
+    values and slopes dv/dx = acc / speed (constant input speed) at both rows; its root is
+    found by bisection. Returns ``(x_max, x_min)`` per design (NaN where not found).
+    """
+    D = vel.shape[0]
+    conv = math.pi / 180 if deg else 1.0
+    out = np.full((2, D), np.nan)
+    sgn = np.sign(x[-1] - x[0])
+    for d in range(D):
+        v, a, w = vel[d], acc[d], speed[d]
+        for i in range(len(x) - 1):
+            v0, v1 = v[i], v[i + 1]
+            if not (np.isfinite(v0) and np.isfinite(v1)) or (v0 > 0) == (v1 > 0) or v0 == 0:
+                continue
+            kind = 0 if (v0 > 0) == (sgn > 0) else 1  # v decreasing in x: a maximum
+            H = x[i + 1] - x[i]
+            m0, m1 = a[i] / w[i] * conv * H, a[i + 1] / w[i + 1] * conv * H
+
+            def p(t):
+                return ((2 * t**3 - 3 * t**2 + 1) * v0 + (t**3 - 2 * t**2 + t) * m0 + (-2 * t**3 + 3 * t**2) * v1
+                        + (t**3 - t**2) * m1)
+
+            lo, hi = 0.0, 1.0
+            plo = p(lo)
+            for _ in range(60):
+                mid = 0.5 * (lo + hi)
+                pm = p(mid)
+                if (pm > 0) == (plo > 0):
+                    lo, plo = mid, pm
+                else:
+                    hi = mid
+            if np.isnan(out[kind, d]):
+                out[kind, d] = x[i] + 0.5 * (lo + hi) * H
+    return out[0], out[1]
+
+
 def evaluate_metrics(metrics, columns: Mapping[str, np.ndarray], params: Mapping[str, np.ndarray],
-                     x: np.ndarray, *, angle_columns=(), full_turn: bool = False) -> dict[str, np.ndarray]:
+                     x: np.ndarray, *, angle_columns=(), full_turn: bool = False, input_name: str = "",
+                     input_angle_deg: bool = False) -> dict[str, np.ndarray]:
     """Evaluate parsed metrics on ``columns`` (name → (D, K), display units) and ``params`` (name → (D,)).
 
     ``x`` is the input grid (display units); ``angle_columns`` the position columns of angle
     variables in degrees (converted to radians inside expressions); ``full_turn`` whether the
-    grid covers a full turn of an angle input (needed by ``time_ratio``).
+    grid covers a full turn of an angle input (needed by ``time_ratio``); ``input_name`` the
+    input (its ``_vel`` column is the input speed) and ``input_angle_deg`` whether it is in degrees.
 
     Examples
     --------
@@ -188,7 +230,7 @@ def evaluate_metrics(metrics, columns: Mapping[str, np.ndarray], params: Mapping
                 out[m.name] = np.broadcast_to(np.asarray(_eval(m.args[0], env, m.text), dtype=float).reshape(D, -1)
                                               [:, 0], (D,)).copy()
             else:
-                out[m.name] = _builtin(m, env, columns, x, angle_columns, full_turn, D)
+                out[m.name] = _builtin(m, env, columns, x, angle_columns, full_turn, D, input_name, input_angle_deg)
     return out
 
 
@@ -198,7 +240,7 @@ def _column_of(m, node, columns):
     return node.id
 
 
-def _builtin(m, env, columns, x, angle_columns, full_turn, D):
+def _builtin(m, env, columns, x, angle_columns, full_turn, D, input_name, input_angle_deg):
     if m.func == "transmission":
         a, b = (np.asarray(_eval(n, env, m.text), dtype=float) for n in m.args)
         mu = np.degrees(np.arcsin(np.clip(np.abs(np.sin(a - b)), 0, 1)))
@@ -231,8 +273,12 @@ def _builtin(m, env, columns, x, angle_columns, full_turn, D):
     if not full_turn:
         return np.full(D, np.nan)
     complete = ~np.any(np.isnan(v), axis=1)
-    xa = _extreme_x(v, x, "max")
-    xb = _extreme_x(v, x, "min")
+    if col + "_vel" in columns and col + "_acc" in columns and input_name + "_vel" in columns:
+        xa, xb = _turning_points(columns[col + "_vel"], columns[col + "_acc"], columns[input_name + "_vel"], x,
+                                 input_angle_deg)
+    else:
+        xa = _extreme_x(v, x, "max")
+        xb = _extreme_x(v, x, "min")
     turn = 360.0 if abs(x[-1] - x[0]) >= 359.999 else 2 * math.pi
     fwd = np.mod((xa - xb) * np.sign(x[-1] - x[0]), turn)
     r = np.maximum(fwd, turn - fwd) / np.minimum(fwd, turn - fwd)

@@ -117,7 +117,7 @@ def phi_p_v(ck, Z, P) -> np.ndarray:
     >>> ck = ls.fourbar(60, 25, 70, 45).compile()
     >>> Z = np.radians([[90.0], [16.0], [80.0]])
     >>> phi_p_v(ck, Z, ck.p[:, None])[:, 0, 0].tolist()  # d(loop x, loop y)/d r1
-    [-1.0, -0.0]
+    [-1.0, 0.0]
     """
     mod = phi_p_module(ck)
     Z = np.asarray(Z, dtype=float)

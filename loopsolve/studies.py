@@ -17,7 +17,8 @@ Dataset layout
 * the varied parameters as ``design`` coordinates (fixed ones in ``attrs["fixed"]``);
 * ``status`` (``ok``, ``limit``, ``not-assemblable``, ``singular`` — the start is a singular
   position —, ``failed`` — the solver gave up), ``stop`` (the input where a design stopped),
-  ``events`` (``kind@input; ...``), ``nearest`` (nearest assemblable inputs),
+  ``events`` (``kind@input; ...``), ``nearest`` (nearest assemblable inputs), ``mode`` (the
+  assembly-mode signature each design starts in and keeps),
   ``lockstep`` (solved by the vectorized path);
 * one ``(design,)`` variable per metric, and ``d_<unknown>_d_<parameter>`` sensitivities.
 """
@@ -131,7 +132,7 @@ def _chunk_task(mech, names, values, start, stop, step, opts):
     cols = _display_columns(ck, ops, ch.Z, P)
     xs, xs_disp = grid_values(ck, start, stop, step)
     out = {"columns": cols, "status": ch.status.astype(str), "stop": ch.stop, "events": ch.events.astype(str),
-           "nearest": ch.nearest.astype(str), "lockstep": ch.lockstep, "x": xs_disp}
+           "nearest": ch.nearest.astype(str), "mode": ch.mode.astype(str), "lockstep": ch.lockstep, "x": xs_disp}
     if opts["sensitivity"]:
         out["sensitivity"] = _sensitivities(ck, ops, ch.Z[0], P, names)
     if opts["metrics"]:
@@ -142,7 +143,8 @@ def _chunk_task(mech, names, values, start, stop, step, opts):
         kind = ck.kinds[ck.index(ck.inputs[0])]
         full = kind is Kind.ANGLE and abs(xs[-1] - xs[0]) >= 2 * math.pi - 1e-9
         out["metrics"] = evaluate_metrics([parse_metric(m) for m in opts["metrics"]], cols, params, xs_disp,
-                                          angle_columns=angle_cols, full_turn=full)
+                                          angle_columns=angle_cols, full_turn=full, input_name=ck.inputs[0],
+                                          input_angle_deg=kind is Kind.ANGLE and mech.units.angle == "deg")
     return out
 
 
@@ -154,7 +156,7 @@ def _chunk_dataset(res, ck_info, names, values, offset):
     data = {k: (dims, v, {"units": ck_info["units"].get(k, "")}) for k, v in res["columns"].items() if k != inp}
     for k, v in res.get("sensitivity", {}).items():
         data[k] = (dims, v)
-    for k in ("status", "events", "nearest"):
+    for k in ("status", "events", "nearest", "mode"):
         data[k] = ("design", np.asarray(res[k], dtype=object))
     data["stop"] = ("design", res["stop"])
     data["lockstep"] = ("design", res["lockstep"])
@@ -217,7 +219,7 @@ def study(mech, vary, start, stop, step, *, samples: int | None = None, lhs: int
     >>> ds.status.values.tolist()
     ['ok', 'ok', 'not-assemblable']
     >>> np.round(ds.mu.values[:2], 2).tolist(), float(ds.theta4.sel(theta2=90).values[1].round(2))
-    ([32.83, 26.34], 80.72)
+    ([32.3, 25.21], 80.72)
     """
     xr = _need("xarray")
     if method not in ("lockstep", "single"):
@@ -432,7 +434,7 @@ def write(ds, path) -> None:
                 raise MissingDependencyError("writing .nc needs netCDF4 (or h5netcdf with h5py): "
                                              "pip install 'loopsolve[study]'") from None
         out = ds.copy()
-        for k in ("status", "events", "nearest"):
+        for k in ("status", "events", "nearest", "mode"):
             if k in out:
                 out[k] = out[k].astype(str)
         out["lockstep"] = out["lockstep"].astype("int8")
