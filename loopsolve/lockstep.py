@@ -44,17 +44,25 @@ REGULAR_MIN = 1e-3
 #: ... or the first corrector step is larger than this (scaled units)
 FIRST_CORRECTION = 0.05
 _EPS = 2.220446049250313e-16
-_ROUNDOFF = 8 * _EPS
+#: a corrector step smaller than this (scaled) leaves an error ~ its square: converged
+_CONVERGED = 1e-11
 _SUB_ANGLE = math.radians(1.0)
 
 
 class Chunk:
-    """Rows of D designs on K grid points (internal units): ``Z``, ``Z1``-``Z3`` are (nv, D, K), NaN where
-    a design has no row; ``status``, ``stop``, ``events``, ``nearest`` per design; ``lockstep`` marks the
-    designs the vectorized path solved; ``mode`` is each design's (starting) mode signature."""
+    """Rows of D designs on K grid points (internal units).
 
-    def __init__(self, nv, D, K):
-        self.Z = [np.full((nv, D, K), np.nan) for _ in range(4)]
+    ``Z[0..d]`` are positions and their time derivatives up to ``derivatives``, ``(nv, K, D)``,
+    NaN where a design has no row; ``points`` ``(d+1, P, 2, K, D)`` the points of the lockstep
+    designs (the others' are computed from their rows afterwards); ``status``, ``stop``, ``events``,
+    ``nearest``, ``mode`` per design; ``lockstep`` marks the designs the vectorized path solved.
+    """
+
+    def __init__(self, nv, D, K, npts=0, derivatives=3):
+        # rows are written for every design by the lockstep loop; the rest is set to NaN after it
+        self.Z = [np.empty((nv, K, D)) for _ in range(derivatives + 1)]
+        self.points = np.empty((derivatives + 1, npts, 2, K, D)) if npts else None
+        self.filled = 0  # grid rows written by the lockstep loop
         self.status = np.array(["ok"] * D, dtype=object)
         self.stop = np.full(D, np.nan)
         self.events = np.array([""] * D, dtype=object)
@@ -229,8 +237,8 @@ def _single(mech, names, row, start, stop, step, speed, accel, jerk, mode, deriv
         step_d = xs_disp[1] - xs_disp[0] if len(xs_disp) > 1 else 1.0
         k = np.rint((xd - xs_disp[0]) / step_d).astype(int)
         ok = (k >= 0) & (k < len(xs_disp))
-        for a, arr in enumerate((sw.z, sw.z1, sw.z2, sw.z3)):
-            ch.Z[a][:, j, k[ok]] = arr[ok].T
+        for a, arr in enumerate((sw.z, sw.z1, sw.z2, sw.z3)[: len(ch.Z)]):
+            ch.Z[a][:, k[ok], j] = arr[ok].T
         del ix
     ch.mode[j] = sw.mode
     ev = [e for e in sw.events]
@@ -253,7 +261,7 @@ def sweep_chunk(mech, names, values, start, stop, step, *, speed=None, accel=Non
     >>> mech = ls.fourbar(60, 25, 70, 45)
     >>> ch, ck, P = sweep_chunk(mech, ("r2",), np.array([[20.0], [25.0]]), 0, 360, 90)
     >>> ch.status.tolist(), ch.lockstep.tolist(), ch.Z[0].shape
-    (['ok', 'ok'], [True, True], (3, 2, 5))
+    (['ok', 'ok'], [True, True], (3, 5, 2))
     """
     from .solve import initial_z, input_rates
 
@@ -265,16 +273,21 @@ def sweep_chunk(mech, names, values, start, stop, step, *, speed=None, accel=Non
     xs, xs_disp = grid_values(ck, start, stop, step)
     K = len(xs)
     nv = len(ck.variables)
-    ch = Chunk(nv, D, K)
+    ch = Chunk(nv, D, K, len(ck.points), derivatives)
     rates = input_rates(ck, speed, accel, jerk)
     lockstep = (method == "lockstep" and mode is None and all(len(c) <= 2 for _, c in ops.blocks)
                 and ops.n > 0)
     alive = np.zeros(D, dtype=bool)
     if lockstep:
-        alive = _lockstep(ck, ops, P, xs, ch)
+        alive = _lockstep(ck, ops, P, xs, ch, rates, derivatives)
     ch.lockstep[:] = alive
-    if alive.any():
-        _rates(ops, P, ch, alive, rates, derivatives)
+    dead = np.flatnonzero(~alive)
+    for arr in ch.Z:
+        arr[:, ch.filled:, :] = np.nan
+        arr[:, :, dead] = np.nan
+    if ch.points is not None:
+        ch.points[..., ch.filled:, :] = np.nan
+        ch.points[..., dead] = np.nan
     for j in np.flatnonzero(~alive):
         _single(mech, names, values[j], start, stop, step, speed, accel, jerk, mode, derivatives, ch, j, xs_disp)
     return ch, ck, P
@@ -315,7 +328,7 @@ def _newton_start(ops, Z, P, scale, alive):
     return Z
 
 
-def _lockstep(ck, ops, P, xs, ch) -> np.ndarray:
+def _lockstep(ck, ops, P, xs, ch, rates, derivatives) -> np.ndarray:
     from .solve import initial_z
 
     D = P.shape[1]
@@ -340,7 +353,7 @@ def _lockstep(ck, ops, P, xs, ch) -> np.ndarray:
         hmax = _SUB_ANGLE if kind is Kind.ANGLE else 0.01 * float(np.median(scale))
         targets: list[tuple[float, int]] = []
         if x_guess != x0:
-            m = max(1, int(math.ceil(abs(x0 - x_guess) / hmax)))
+            m = max(1, int(math.ceil(abs(x0 - x_guess) / (2 * hmax))))
             targets += [(x_guess + (x0 - x_guess) * i / m, -1) for i in range(1, m)] + [(x0, 0)]
         else:
             targets.append((x0, 0))
@@ -351,74 +364,85 @@ def _lockstep(ck, ops, P, xs, ch) -> np.ndarray:
         zk1 = np.zeros_like(Z)
         zk1[ix] = 1.0
         x_prev = x_guess
+        T = None  # dq/dx at Z, when known
+        T_prev, h_prev = None, 0.0
         for x, k in targets:
             if x != x_prev:
                 if not alive.any():
                     break
-                Z = _substep(ops, Z, P, J, zk1, x, x_prev, w, alive)
-                J = ops.jac(Z, P)
+                if T is None:
+                    T = ops.solve(J, ops.rhs(1, (Z, zk1), P))
+                h = x - x_prev
+                C2 = (T - T_prev) / h_prev if T_prev is not None and h * h_prev > 0 else None
+                Z, J = _substep(ops, Z, P, T, C2, x, x_prev, w, alive)
+                if k >= 0:  # an output row: its rates use the Jacobian at the converged Z, as the sweep's
+                    J = ops.jac(Z, P)
                 sig, reg = ops.signs_and_regularity(J, scale)
                 alive &= (reg >= REGULAR_MIN) & np.all(sig == sig0, axis=0)
-                x_prev = x
+                x_prev, T_prev, h_prev = x, T, h
+                T = None
             if k >= 0:
-                ch.Z[0][:, :, k] = Z
-    ch.Z[0][:, ~alive, :] = np.nan
+                T = _store_row(ck, ops, Z, J, P, ch, k, rates, derivatives)
     codes = np.where(sig0 > 0, "+", np.where(sig0 < 0, "-", "0"))
     for j in np.flatnonzero(alive):
         ch.mode[j] = "".join(codes[:, j])
     return alive
 
 
-def _substep(ops, Z, P, J, zk1, x, x_prev, w, alive):
+def _store_row(ck, ops, Z, J, P, ch, k, rates, derivatives):
+    """Positions, rates and points of grid row k for every design (Jacobian ``J`` at ``Z``); returns dq/dx."""
+    ix = ops.ix
+    out = [Z]
+    ch.Z[0][:, k, :] = Z
+    ch.filled = k + 1
+    T = None
+    for order in range(1, derivatives + 1):
+        Zk = np.zeros_like(Z)
+        Zk[ix] = rates[order - 1]
+        Zk[ops.iu] = ops.solve(J, ops.rhs(order, out + [Zk], P))
+        out.append(Zk)
+        ch.Z[order][:, k, :] = Zk
+        if order == 1 and rates[0] != 0:
+            T = Zk[ops.iu] / rates[0]
+    if ch.points is not None:
+        npts = ch.points.shape[1]
+        for order in range(derivatives + 1):
+            v = getattr(ck.module, f"points{order}_v")(*out[: order + 1], P)
+            ch.points[order, :, :, k, :] = np.asarray(v).reshape(npts, 2, -1)
+    return T
+
+
+def _substep(ops, Z, P, T, C2, x, x_prev, w, alive):
+    """Predictor and Newton corrector to x, all designs at once; returns Z and the Jacobian there.
+
+    The predictor is the Taylor polynomial with the tangent ``T`` = dq/dx at Z and, when
+    known, ``C2`` ≈ d²q/dx² (from the previous tangent). A design is converged when its
+    correction is below ``_CONVERGED``: Newton converges quadratically, so the error left is
+    far below round-off, and the Jacobian of that last iteration is the Jacobian at Z to ~1e-11
+    (good enough for the next tangent; output rows get a fresh one).
+    """
     iu, ix = ops.iu, ops.ix
-    T = ops.solve(J, ops.rhs(1, (Z, zk1), P))  # dq/dx
     slope = np.max(np.abs(T * w), axis=0)
     alive &= np.isfinite(slope) & (slope <= FOLD_SLOPE)
+    h = x - x_prev
     Z = Z.copy()
     Z[ix] = x
-    Z[iu] = Z[iu] + T * (x - x_prev)
+    Z[iu] = Z[iu] + T * h + (0.5 * h * h * C2 if C2 is not None else 0.0)
     done = ~alive
     first = True
+    Jc = None
     for _ in range(8):
         F = ops.phi(Z, P)
-        Jc = ops.jac(Z, P)
-        dU = ops.solve(Jc, -F)
-        dU = np.where(done, 0.0, dU)
+        Jn = ops.jac(Z, P)
+        Jc = Jn if Jc is None else np.where(done, Jc, Jn)
+        dU = ops.solve(Jn, -F)
         size = np.max(np.abs(dU * w), axis=0)
         if first:
             alive &= np.isfinite(size) & (size <= FIRST_CORRECTION)
             first = False
         Z[iu] = np.where(alive & ~done, Z[iu] + dU, Z[iu])
-        tiny = size <= _ROUNDOFF * (1 + np.max(np.abs(Z[iu] * w), axis=0))
-        done |= tiny | ~alive
+        done |= (size <= _CONVERGED) | ~alive
         if done.all():
             break
-    alive &= done | (size <= 1e-10)
-    return Z
-
-
-def _rates(ops, P, ch, alive, rates, derivatives):
-    """Velocities, accelerations and jerks of every lockstep row at once (as the sweep computes them)."""
-    nv = ch.Z[0].shape[0]
-    idx = np.flatnonzero(alive)
-    K = ch.Z[0].shape[2]
-    Z = ch.Z[0][:, idx, :].reshape(nv, -1)
-    ok = np.all(np.isfinite(Z), axis=0)
-    Zs = Z[:, ok]
-    Ps = np.repeat(P[:, idx], K, axis=1)[:, ok]
-    ix = ops.ix
-    out = [Zs]
-    with np.errstate(all="ignore"):
-        J = ops.jac(Zs, Ps)
-        for order in (1, 2, 3):
-            Zk = np.zeros_like(Zs)
-            Zk[ix] = rates[order - 1]
-            if order <= derivatives:
-                Zk[ops.iu] = ops.solve(J, ops.rhs(order, out + [Zk], Ps))
-            else:
-                Zk[ops.iu] = np.nan
-            out.append(Zk)
-    for a in (1, 2, 3):
-        full = np.full((nv, len(idx) * K), np.nan)
-        full[:, ok] = out[a]
-        ch.Z[a][:, idx, :] = full.reshape(nv, len(idx), K)
+    alive &= done
+    return Z, Jc

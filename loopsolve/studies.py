@@ -55,53 +55,61 @@ def _need(module: str):
 # ----------------------------------------------------------------------------- one chunk
 
 
-def _display_columns(ck, ops, Zs, P):
-    """Sweep columns (display units) from internal rows ``Zs`` = 4 arrays ``(nv, D, K)``."""
-    nv, D, K = Zs[0].shape
+def _display_columns(ch, ck, P, derivatives=3):
+    """Sweep columns (display units), each ``(K, D)``, from a chunk's internal rows ``(nv, K, D)``.
+
+    Columns of derivatives not computed (``derivatives`` < 3) are left out. Angles of unknowns
+    are wrapped to (−180°, 180°] as in a sweep; the input is the Dataset's coordinate.
+    """
+    Zs = ch.Z
+    nv, K, D = Zs[0].shape
     deg = ck.mechanism.units.angle == "deg"
     out: dict[str, np.ndarray] = {}
     inputs = set(ck.inputs)
     order = list(ck.inputs) + [n for n in ck.variables if n not in inputs]
     for name in order:
         i = ck.index(name)
-        for k, suffix in enumerate(_SUFFIX):
+        for k in range(derivatives + 1):
+            if k == 0 and name == ck.inputs[0]:
+                continue  # the coordinate
             v = Zs[k][i]
             if k == 0 and ck.kinds[i] is Kind.ANGLE:
-                if deg:
-                    v = np.degrees(v)
-                    r = np.round(v, 9)
-                    v = np.where(np.abs(v - r) <= 1e-13 * np.maximum(1.0, np.abs(v)), r, v)
-                    half = 180.0
-                else:
-                    half = math.pi
+                half = 180.0 if deg else math.pi
+                v = np.degrees(v) if deg else v + 0.0
                 if name not in inputs:
-                    y = np.mod(v + half, 2 * half) - half
-                    v = np.where(y == -half, half, y)
-            out[name + suffix] = v + 0.0
+                    np.mod(v + half, 2 * half, out=v)
+                    v -= half
+                    v[v == -half] = half
+            out[name + _SUFFIX[k]] = v
     if ck.points:
-        flat = [z.reshape(nv, -1) for z in Zs]
-        Pf = np.repeat(P, K, axis=1)
-        ok = np.all(np.isfinite(flat[0]), axis=0)
-        for k in range(4):
-            vals = np.full((len(ck.points), 2, D * K), np.nan)
-            if ok.any():
-                with np.errstate(all="ignore"):
-                    v = getattr(ck.module, f"points{k}_v")(*[f[:, ok] for f in flat[: k + 1]], Pf[:, ok])
-                vals[:, :, ok] = np.broadcast_to(np.asarray(v).reshape(len(ck.points), 2, -1),
-                                                 (len(ck.points), 2, int(ok.sum())))
-            for j, p in enumerate(ck.points):
-                for c, axis in (("x", 0), ("y", 1)):
-                    out[f"{p}_{c}{_SUFFIX[k]}"] = vals[j, axis].reshape(D, K)
+        pts = ch.points
+        other = np.flatnonzero(~ch.lockstep)
+        if len(other):  # designs swept alone: their points from their rows
+            flat = [z[:, :, other].reshape(nv, -1) for z in Zs]
+            Pf = np.repeat(P[:, None, other], K, axis=1).reshape(P.shape[0], -1)
+            ok = np.all(np.isfinite(flat[0]), axis=0)
+            for k in range(derivatives + 1):
+                vals = np.full((len(ck.points), 2, K * len(other)), np.nan)
+                if ok.any():
+                    with np.errstate(all="ignore"):
+                        v = getattr(ck.module, f"points{k}_v")(*[f[:, ok] for f in flat[: k + 1]], Pf[:, ok])
+                    vals[:, :, ok] = np.broadcast_to(np.asarray(v).reshape(len(ck.points), 2, -1),
+                                                     (len(ck.points), 2, int(ok.sum())))
+                pts[k][:, :, :, other] = vals.reshape(len(ck.points), 2, K, len(other))
+        for j, p in enumerate(ck.points):
+            for c, axis in (("x", 0), ("y", 1)):
+                for k in range(derivatives + 1):
+                    out[f"{p}_{c}{_SUFFIX[k]}"] = pts[k, j, axis]
     return out
 
 
 def _sensitivities(ck, ops, Z, P, names):
-    """∂q/∂p (display units) of every unknown for every varied parameter: Φ_q q_p = −Φ_p."""
+    """∂q/∂p (display units, ``(K, D)``) of every unknown for every varied parameter: Φ_q q_p = −Φ_p."""
     from .sensitivity import phi_p_v
 
-    nv, D, K = Z.shape
+    nv, K, D = Z.shape
     flat = Z.reshape(nv, -1)
-    Pf = np.repeat(P, K, axis=1)
+    Pf = np.broadcast_to(P[:, None, :], (P.shape[0], K, D)).reshape(P.shape[0], -1)
     ok = np.all(np.isfinite(flat), axis=0)
     pnames = [p.name for p in ck.mechanism.parameters]
     deg = ck.mechanism.units.angle == "deg"
@@ -117,7 +125,7 @@ def _sensitivities(ck, ops, Z, P, names):
                 qf = 180 / math.pi if (deg and ck.kinds[ck.index(u)] is Kind.ANGLE) else 1.0
                 full = np.full(D * K, np.nan)
                 full[ok] = S[a] * qf * pf
-                out[f"d_{u}_d_{pn}"] = full.reshape(D, K)
+                out[f"d_{u}_d_{pn}"] = full.reshape(K, D)
     return out
 
 
@@ -129,7 +137,7 @@ def _chunk_task(mech, names, values, start, stop, step, opts):
     from .lockstep import grid_values
 
     ops = _Ops(ck)
-    cols = _display_columns(ck, ops, ch.Z, P)
+    cols = _display_columns(ch, ck, P, opts["derivatives"])
     xs, xs_disp = grid_values(ck, start, stop, step)
     out = {"columns": cols, "status": ch.status.astype(str), "stop": ch.stop, "events": ch.events.astype(str),
            "nearest": ch.nearest.astype(str), "mode": ch.mode.astype(str), "lockstep": ch.lockstep, "x": xs_disp}
@@ -142,7 +150,8 @@ def _chunk_task(mech, names, values, start, stop, step, opts):
                   for i, p in enumerate(mech.parameters)}
         kind = ck.kinds[ck.index(ck.inputs[0])]
         full = kind is Kind.ANGLE and abs(xs[-1] - xs[0]) >= 2 * math.pi - 1e-9
-        out["metrics"] = evaluate_metrics([parse_metric(m) for m in opts["metrics"]], cols, params, xs_disp,
+        out["metrics"] = evaluate_metrics([parse_metric(m) for m in opts["metrics"]],
+                                          {k: v.T for k, v in cols.items()}, params, xs_disp,
                                           angle_columns=angle_cols, full_turn=full, input_name=ck.inputs[0],
                                           input_angle_deg=kind is Kind.ANGLE and mech.units.angle == "deg")
     return out
@@ -153,9 +162,9 @@ def _chunk_dataset(res, ck_info, names, values, offset):
     inp = ck_info["input"]
     D = len(values)
     dims = ("design", inp)
-    data = {k: (dims, v, {"units": ck_info["units"].get(k, "")}) for k, v in res["columns"].items() if k != inp}
+    data = {k: (dims, v.T, {"units": ck_info["units"].get(k, "")}) for k, v in res["columns"].items() if k != inp}
     for k, v in res.get("sensitivity", {}).items():
-        data[k] = (dims, v)
+        data[k] = (dims, v.T)
     for k in ("status", "events", "nearest", "mode"):
         data[k] = ("design", np.asarray(res[k], dtype=object))
     data["stop"] = ("design", res["stop"])
