@@ -98,9 +98,16 @@ def design_scale(ck, P) -> np.ndarray:
 
 
 class _Ops:
-    """Vectorized evaluations of one compiled model with per-column parameters."""
+    """Vectorized evaluations of one compiled model with per-column parameters.
 
-    def __init__(self, ck):
+    With ``shared_input=True`` every column has the same input value (the lockstep case): the
+    input's row is passed as one value, so the generated code evaluates the input's sines and
+    cosines once instead of once per design (numpy broadcasting does the rest).
+    """
+
+    def __init__(self, ck, shared_input: bool = False):
+        self.shared = shared_input
+        self.inputs_idx = [int(i) for i in ck.input_idx]
         self.ck = ck
         self.m = ck.module
         self.n = len(ck.unknowns)
@@ -113,14 +120,26 @@ class _Ops:
         a = np.asarray(a, dtype=float)
         return np.broadcast_to(a.reshape(rows, -1), (rows, N))
 
+    def rows(self, Z):
+        """``Z`` as the generated code takes it: with ``shared``, the inputs' rows as one value each."""
+        if not self.shared:
+            return Z
+        r = list(Z)
+        for i in self.inputs_idx:
+            r[i] = Z[i, :1]
+        return r
+
     def phi(self, Z, P):
-        return self._bc(self.m.phi_v(Z, P), self.m.N_EQ, Z.shape[1])
+        return self._bc(self.m.phi_v(self.rows(Z), P), self.m.N_EQ, Z.shape[1])
 
     def jac(self, Z, P):
-        return self._bc(self.m.jac_v(Z, P), self.n * self.n, Z.shape[1])
+        return self._bc(self.m.jac_v(self.rows(Z), P), self.n * self.n, Z.shape[1])
 
     def rhs(self, order, zs, P):
-        return self._bc(getattr(self.m, f"rhs{order}_v")(*zs, P), self.n, zs[0].shape[1])
+        return self._bc(getattr(self.m, f"rhs{order}_v")(*[self.rows(z) for z in zs], P), self.n, zs[0].shape[1])
+
+    def points(self, order, zs, P):
+        return getattr(self.m, f"points{order}_v")(*[self.rows(z) for z in zs], P)
 
     def solve(self, J, B):
         """Φ_q X = B for stacked systems, by forward substitution over the solve-order blocks."""
@@ -279,7 +298,9 @@ def sweep_chunk(mech, names, values, start, stop, step, *, speed=None, accel=Non
                 and ops.n > 0)
     alive = np.zeros(D, dtype=bool)
     if lockstep:
-        alive = _lockstep(ck, ops, P, xs, ch, rates, derivatives)
+        varied = set(names)
+        Pr = [P[i] if p.name in varied else P[i, :1] for i, p in enumerate(mech.parameters)]
+        alive = _lockstep(ck, _Ops(ck, shared_input=True), Pr, P, xs, ch, rates, derivatives)
     ch.lockstep[:] = alive
     dead = np.flatnonzero(~alive)
     for arr in ch.Z:
@@ -328,12 +349,13 @@ def _newton_start(ops, Z, P, scale, alive):
     return Z
 
 
-def _lockstep(ck, ops, P, xs, ch, rates, derivatives) -> np.ndarray:
+def _lockstep(ck, ops, P, Pfull, xs, ch, rates, derivatives) -> np.ndarray:
+    """``P``: the parameter rows as the generated code takes them (fixed ones as one value)."""
     from .solve import initial_z
 
-    D = P.shape[1]
+    D = Pfull.shape[1]
     iu, ix = ops.iu, ops.ix
-    scale = design_scale(ck, P)
+    scale = design_scale(ck, Pfull)
     w = np.where(ops.is_len[:, None], 1.0 / scale, 1.0)  # scaled unknowns: angles, lengths / scale
     z0 = initial_z(ck, warn=False)
     x_guess = ck.mechanism.variable(ck.inputs[0]).guess
@@ -374,9 +396,8 @@ def _lockstep(ck, ops, P, xs, ch, rates, derivatives) -> np.ndarray:
                     T = ops.solve(J, ops.rhs(1, (Z, zk1), P))
                 h = x - x_prev
                 C2 = (T - T_prev) / h_prev if T_prev is not None and h * h_prev > 0 else None
-                Z, J = _substep(ops, Z, P, T, C2, x, x_prev, w, alive)
-                if k >= 0:  # an output row: its rates use the Jacobian at the converged Z, as the sweep's
-                    J = ops.jac(Z, P)
+                Z = _substep(ops, Z, P, T, C2, x, x_prev, w, alive)
+                J = ops.jac(Z, P)  # at the converged Z: mode, regularity, tangent and the rows' rates
                 sig, reg = ops.signs_and_regularity(J, scale)
                 alive &= (reg >= REGULAR_MIN) & np.all(sig == sig0, axis=0)
                 x_prev, T_prev, h_prev = x, T, h
@@ -406,20 +427,21 @@ def _store_row(ck, ops, Z, J, P, ch, k, rates, derivatives):
             T = Zk[ops.iu] / rates[0]
     if ch.points is not None:
         npts = ch.points.shape[1]
+        D = Z.shape[1]
         for order in range(derivatives + 1):
-            v = getattr(ck.module, f"points{order}_v")(*out[: order + 1], P)
-            ch.points[order, :, :, k, :] = np.asarray(v).reshape(npts, 2, -1)
+            v = np.asarray(ops.points(order, out[: order + 1], P))
+            ch.points[order, :, :, k, :] = np.broadcast_to(v.reshape(npts, 2, -1), (npts, 2, D))
     return T
 
 
 def _substep(ops, Z, P, T, C2, x, x_prev, w, alive):
-    """Predictor and Newton corrector to x, all designs at once; returns Z and the Jacobian there.
+    """Predictor and Newton corrector to x, all designs at once; returns Z.
 
     The predictor is the Taylor polynomial with the tangent ``T`` = dq/dx at Z and, when
-    known, ``C2`` ≈ d²q/dx² (from the previous tangent). A design is converged when its
-    correction is below ``_CONVERGED``: Newton converges quadratically, so the error left is
-    far below round-off, and the Jacobian of that last iteration is the Jacobian at Z to ~1e-11
-    (good enough for the next tangent; output rows get a fresh one).
+    known, ``C2`` ≈ d²q/dx² (from the previous tangent). The corrector is Newton with the
+    Jacobian of the predicted point kept for two more (chord) iterations, then refreshed. A
+    design is converged when its correction is below ``_CONVERGED``: from a predictor error
+    ~1e-6 a chord step contracts by about that factor, so what is left is far below round-off.
     """
     iu, ix = ops.iu, ops.ix
     slope = np.max(np.abs(T * w), axis=0)
@@ -429,20 +451,18 @@ def _substep(ops, Z, P, T, C2, x, x_prev, w, alive):
     Z[ix] = x
     Z[iu] = Z[iu] + T * h + (0.5 * h * h * C2 if C2 is not None else 0.0)
     done = ~alive
-    first = True
-    Jc = None
-    for _ in range(8):
+    Jn = None
+    for it in range(8):
         F = ops.phi(Z, P)
-        Jn = ops.jac(Z, P)
-        Jc = Jn if Jc is None else np.where(done, Jc, Jn)
+        if it % 3 == 0:
+            Jn = ops.jac(Z, P)
         dU = ops.solve(Jn, -F)
         size = np.max(np.abs(dU * w), axis=0)
-        if first:
+        if it == 0:
             alive &= np.isfinite(size) & (size <= FIRST_CORRECTION)
-            first = False
         Z[iu] = np.where(alive & ~done, Z[iu] + dU, Z[iu])
         done |= (size <= _CONVERGED) | ~alive
         if done.all():
             break
     alive &= done
-    return Z, Jc
+    return Z
