@@ -135,6 +135,14 @@ class _Ops:
     def jac(self, Z, P):
         return self._bc(self.m.jac_v(self.rows(Z), P), self.n * self.n, Z.shape[1])
 
+    def phi_jac(self, Z, P):
+        """Φ and Φ_q at once (shared subexpressions), when the fused kernel is available."""
+        if getattr(self, "fused", None) is None:
+            return self.phi(Z, P), self.jac(Z, P)
+        m = self.m.N_EQ
+        out = self._bc(self.fused.phi_jac_v(self.rows(Z), P), m + self.n * self.n, Z.shape[1])
+        return out[:m], out[m:]
+
     def rhs(self, order, zs, P):
         return self._bc(getattr(self.m, f"rhs{order}_v")(*[self.rows(z) for z in zs], P), self.n, zs[0].shape[1])
 
@@ -298,9 +306,13 @@ def sweep_chunk(mech, names, values, start, stop, step, *, speed=None, accel=Non
                 and ops.n > 0)
     alive = np.zeros(D, dtype=bool)
     if lockstep:
+        from .sensitivity import fused_module
+
         varied = set(names)
         Pr = [P[i] if p.name in varied else P[i, :1] for i, p in enumerate(mech.parameters)]
-        alive = _lockstep(ck, _Ops(ck, shared_input=True), Pr, P, xs, ch, rates, derivatives)
+        lops = _Ops(ck, shared_input=True)
+        lops.fused = fused_module(ck)
+        alive = _lockstep(ck, lops, Pr, P, xs, ch, rates, derivatives)
     ch.lockstep[:] = alive
     dead = np.flatnonzero(~alive)
     for arr in ch.Z:
@@ -453,9 +465,10 @@ def _substep(ops, Z, P, T, C2, x, x_prev, w, alive):
     done = ~alive
     Jn = None
     for it in range(8):
-        F = ops.phi(Z, P)
         if it % 3 == 0:
-            Jn = ops.jac(Z, P)
+            F, Jn = ops.phi_jac(Z, P)
+        else:
+            F = ops.phi(Z, P)
         dU = ops.solve(Jn, -F)
         size = np.max(np.abs(dU * w), axis=0)
         if it == 0:
