@@ -174,13 +174,15 @@ def part_zarr(args):
     d = designs(n, seed=1)
     tmp = Path(tempfile.mkdtemp(prefix="loopsolve-bench-"))
     store = tmp / "study.zarr"
-    print(f"== {n} designs x 361 points to Zarr on a 2-worker local cluster (chunk {args.chunk}) ==")
+    print(f"== {n} designs x 361 points to Zarr on a 2-worker local cluster (chunk {args.chunk}, "
+          f"derivatives={args.derivatives}) ==")
     try:
         with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1",
                           dashboard_address=None) as cluster, Client(cluster) as client:
             ls.study(mech, d.slice(0, 4), 0, 360, 1, client=client, progress=False)  # warm the workers
             t = time.perf_counter()
-            ds = ls.study(mech, d, 0, 360, 1, client=client, chunk_size=args.chunk, out=store, progress=args.progress)
+            ds = ls.study(mech, d, 0, 360, 1, client=client, chunk_size=args.chunk, out=store, progress=args.progress,
+                          derivatives=args.derivatives)
             wall = time.perf_counter() - t
             workers = client.run(_rss_peak_mb)
         size = sum(f.stat().st_size for f in store.rglob("*") if f.is_file())
@@ -201,6 +203,7 @@ def main():
     ap.add_argument("--repeats", type=int, default=5)
     ap.add_argument("--designs", type=int, default=100_000, help="designs of part 2 (default 10^5)")
     ap.add_argument("--chunk", type=int, default=1000, help="designs per Dask task in part 2 (default 1000)")
+    ap.add_argument("--derivatives", type=int, default=2, help="part 2: 2 = positions, velocities, accelerations")
     ap.add_argument("--progress", action="store_true")
     args = ap.parse_args()
     os.environ.setdefault("LOOPSOLVE_CACHE_DIR", tempfile.mkdtemp(prefix="loopsolve-cache-"))

@@ -210,7 +210,9 @@ def study(mech, vary, start, stop, step, *, samples: int | None = None, lhs: int
         processes; ``scheduler="tcp://..."`` connects to a running one.
     out : str or Path, optional
         Also write the Dataset (``.nc``, ``.zarr``, ``.csv``); ``.zarr`` is streamed chunk by
-        chunk and the returned Dataset is opened lazily from the store.
+        chunk and the returned Dataset is opened lazily from the store. On a Dask cluster the
+        workers write their chunks into the store themselves (so the path must be on storage
+        they can write: the local disk for a local cluster, a shared filesystem otherwise).
     progress : bool, optional
         Completed designs of the total (tqdm) on stderr; default: on a terminal.
     method : {"lockstep", "single"}
@@ -291,6 +293,9 @@ def study(mech, vary, start, stop, step, *, samples: int | None = None, lhs: int
                 consume(i, _chunk_task(*t))
                 if bar is not None:
                     bar.update(bounds[i][1] - bounds[i][0])
+        elif writer is not None and writer.streaming:
+            _run_dask_zarr(client, tasks, bounds, ck_info, names, writer.path, bar)
+            writer.started = True
         else:
             _run_dask(client, tasks, bounds, consume, bar)
     finally:
@@ -360,6 +365,67 @@ def _run_dask(client, tasks, bounds, consume, bar):
             nxt += 1
         if pending:
             ac.add(submit(pending.pop(0)))
+
+
+def _region_write(ds, path, a, b):
+    """Write a chunk's Dataset into rows ``a:b`` of an initialized store (idempotent: a rerun rewrites them)."""
+    drop = [k for k, v in ds.variables.items() if "design" not in v.dims]
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        ds.drop_vars(drop).to_zarr(path, region={"design": slice(a, b)})
+
+
+def _chunk_to_zarr(task, ck_info, names, a, b, path):
+    """A Dask task: sweep one chunk and write it into its region of the store; returns its size."""
+    res = _chunk_task(*task)
+    _region_write(_chunk_dataset(res, ck_info, names, task[2], a), path, a, b)
+    return b - a
+
+
+def _run_dask_zarr(client, tasks, bounds, ck_info, names, path, bar):
+    """Zarr on a cluster: the store's layout from the first chunk, then every worker writes its own chunks.
+
+    Nothing but a count travels back to the client, so its memory does not grow with the number
+    of designs, and the compression of the columns runs on the workers in parallel. A chunk
+    lost with a worker is recomputed and rewrites the same region.
+    """
+    import uuid
+
+    import dask.array as da
+    from distributed import as_completed
+
+    xr = _need("xarray")
+    N = bounds[-1][1]
+    c = bounds[0][1] - bounds[0][0]
+    first = _chunk_dataset(_chunk_task(*tasks[0]), ck_info, names, tasks[0][2], 0)
+
+    def lazy(v):
+        shape = (N,) + v.shape[1:]
+        if v.dtype == object:
+            return da.from_array(np.full(shape, "", dtype=object), chunks=(c,) + v.shape[1:])
+        return da.empty(shape, chunks=(c,) + v.shape[1:], dtype=v.dtype)
+
+    tmpl = xr.Dataset({k: (v.dims, lazy(v), v.attrs) for k, v in first.data_vars.items()},
+                      coords={k: ((v.dims, lazy(v)) if "design" in v.dims and k != "design" else v)
+                              for k, v in first.coords.items() if k != "design"},
+                      attrs=first.attrs)
+    tmpl = tmpl.assign_coords(design=np.arange(N))
+    _need("zarr")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        tmpl.to_zarr(path, compute=False, mode="w")
+    _region_write(first, path, *bounds[0])
+    if bar is not None:
+        bar.update(bounds[0][1])
+    token = uuid.uuid4().hex[:12]
+    futures = [client.submit(_chunk_to_zarr, tasks[i], ck_info, names, bounds[i][0], bounds[i][1], path,
+                             key=f"loopsolve-study-zarr-{token}-{i}", pure=False, retries=3)
+               for i in range(1, len(tasks))]
+    for fut in as_completed(futures):
+        n = fut.result()
+        fut.release()
+        if bar is not None:
+            bar.update(n)
 
 
 # ----------------------------------------------------------------------------- output files

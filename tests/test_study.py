@@ -320,6 +320,19 @@ def test_dask_worker_killed_mid_study_loses_nothing(thesis, cluster, local_run):
     xr.testing.assert_identical(local_run, again)
 
 
+def test_dask_zarr_written_by_the_workers_equals_local(thesis, cluster, local_run, tmp_path):
+    store = tmp_path / "study.zarr"
+    z = ls.study(thesis, DASK_VARY, 0, 360, 5, metrics=DASK_METRICS, chunk_size=3, client=cluster, out=store)
+    z = z.load()
+    assert set(z.variables) == set(local_run.variables)
+    for k in local_run.variables:
+        a, b = local_run[k].values, z[k].values
+        if a.dtype.kind == "f":
+            assert np.array_equal(a, b, equal_nan=True), k
+        else:
+            assert (a == b).all(), k
+
+
 # ----------------------------------------------------------------------------- the command line
 
 
