@@ -178,7 +178,7 @@ def part_zarr(args):
           f"derivatives={args.derivatives}) ==")
     try:
         with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1",
-                          dashboard_address=None) as cluster, Client(cluster) as client:
+                          dashboard_address=":0") as cluster, Client(cluster) as client:
             ls.study(mech, d.slice(0, 4), 0, 360, 1, client=client, progress=False)  # warm the workers
             t = time.perf_counter()
             ds = ls.study(mech, d, 0, 360, 1, client=client, chunk_size=args.chunk, out=store, progress=args.progress,

@@ -330,7 +330,7 @@ def _make_client(workers, scheduler):
     if scheduler:
         return distributed.Client(scheduler)
     cluster = distributed.LocalCluster(n_workers=int(workers), threads_per_worker=1, processes=True,
-                                       host="127.0.0.1", dashboard_address=None)
+                                       host="127.0.0.1", dashboard_address=":0")
     return distributed.Client(cluster)
 
 

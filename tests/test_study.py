@@ -274,7 +274,7 @@ def test_sensitivities_equal_finite_differences():
 def cluster():
     distributed = pytest.importorskip("distributed")
     cl = distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1",
-                                  dashboard_address=None)
+                                  dashboard_address=":0")
     client = distributed.Client(cl)
     yield client
     client.close()
@@ -331,6 +331,20 @@ def test_dask_zarr_written_by_the_workers_equals_local(thesis, cluster, local_ru
             assert np.array_equal(a, b, equal_nan=True), k
         else:
             assert (a == b).all(), k
+
+
+def test_cli_scheduler_address_runs_on_that_cluster(cluster, local_run, tmp_path):
+    from loopsolve.cli import main
+
+    out = tmp_path / "remote.nc"
+    assert main(["study", str(THESIS), "--vary", "r2=" + ",".join(map(str, DASK_VARY["r2"])), "--vary",
+                 "r3=" + ",".join(map(str, DASK_VARY["r3"])), "--from", "0", "--to", "360", "--step", "5",
+                 "--metric", DASK_METRICS[0], "--chunk", "4", "--scheduler", cluster.scheduler.address, "-q",
+                 "-o", str(out)]) == 0
+    with xr.open_dataset(out) as ds:
+        assert np.array_equal(ds.theta4.values, local_run.theta4.values, equal_nan=True)
+        assert np.array_equal(ds.mu.values, local_run.mu.values, equal_nan=True)
+        assert ds.status.values.tolist() == local_run.status.values.tolist()
 
 
 # ----------------------------------------------------------------------------- the command line
