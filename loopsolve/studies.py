@@ -145,9 +145,14 @@ def _chunk_task(mech, names, values, start, stop, step, opts):
         out["sensitivity"] = _sensitivities(ck, ops, ch.Z[0], P, names)
     if opts["metrics"]:
         angle_cols = tuple(n for n, k in zip(ck.variables, ck.kinds) if k is Kind.ANGLE)
-        params = {p.name: np.asarray(ck.p[i] if p.name not in names else values[:, list(names).index(p.name)],
-                                     dtype=float) * np.ones(len(values))
-                  for i, p in enumerate(mech.parameters)}
+        deg = mech.units.angle == "deg"
+        params = {}  # model units: the numbers of the model file
+        for i, p in enumerate(mech.parameters):
+            if p.name in names:
+                v = values[:, list(names).index(p.name)]
+            else:
+                v = math.degrees(ck.p[i]) if (deg and p.kind is Kind.ANGLE) else ck.p[i]
+            params[p.name] = np.asarray(v, dtype=float) * np.ones(len(values))
         kind = ck.kinds[ck.index(ck.inputs[0])]
         full = kind is Kind.ANGLE and abs(xs[-1] - xs[0]) >= 2 * math.pi - 1e-9
         out["metrics"] = evaluate_metrics([parse_metric(m) for m in opts["metrics"]],
