@@ -418,7 +418,11 @@ def _run_dask_zarr(client, tasks, bounds, ck_info, names, path, bar):
     _need("zarr")
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        tmpl.to_zarr(path, compute=False, mode="w")
+        # every design-dim array chunked by the task size (strings too: a shared zarr chunk would be a
+        # read-modify-write race between workers)
+        enc = {k: {"chunks": (c,) + tuple(v.shape[1:])} for k, v in tmpl.variables.items()
+               if v.dims and v.dims[0] == "design" and k != "design"}
+        tmpl.to_zarr(path, compute=False, mode="w", encoding=enc)
     _region_write(first, path, *bounds[0])
     if bar is not None:
         bar.update(bounds[0][1])

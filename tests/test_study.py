@@ -324,6 +324,10 @@ def test_dask_zarr_written_by_the_workers_equals_local(thesis, cluster, local_ru
     store = tmp_path / "study.zarr"
     z = ls.study(thesis, DASK_VARY, 0, 360, 5, metrics=DASK_METRICS, chunk_size=3, client=cluster, out=store)
     z = z.load()
+    zarr = pytest.importorskip("zarr")
+    group = zarr.open_group(str(store), mode="r")
+    for name in ("status", "events", "theta4", "mu", "r2"):  # one zarr chunk per task: no shared writes
+        assert group[name].chunks[0] == 3, name
     assert set(z.variables) == set(local_run.variables)
     for k in local_run.variables:
         a, b = local_run[k].values, z[k].values
