@@ -8,8 +8,10 @@ design of a chunk along the same input values:
    :func:`loopsolve.solve.start_position` takes the assembly mode from), every design at once;
    then natural-parameter continuation to the start of the range.
 2. **Continuation** over the output grid in internal substeps of at most 1° (or 1 % of the
-   length scale): tangent predictor dq/dx = Φ_q⁻¹ b₁, Newton corrector to round-off with
-   converged designs frozen.
+   length scale; 2° on the way from the guesses to the start): Taylor predictor from the
+   tangent dq/dx = Φ_q⁻¹ b₁ (and its change over the previous step), Newton corrector (a fused
+   Φ/Φ_q kernel, chord iterations) to round-off with converged designs frozen. Rates and points
+   of every output row are computed for all designs at once with the row's Jacobian.
 3. **Checks at every substep, per design**: the corrector converges in a few iterations with
    a small first correction, the scaled slope |dq/dx| stays below ``FOLD_SLOPE`` (a limit is
    near), the regularity (≈ 2/cond of each scaled block) stays above ``REGULAR_MIN`` (a
@@ -43,7 +45,6 @@ FOLD_SLOPE = 3.0
 REGULAR_MIN = 1e-3
 #: ... or the first corrector step is larger than this (scaled units)
 FIRST_CORRECTION = 0.05
-_EPS = 2.220446049250313e-16
 #: a corrector step smaller than this (scaled) leaves an error ~ its square: converged
 _CONVERGED = 1e-11
 _SUB_ANGLE = math.radians(1.0)
@@ -258,7 +259,6 @@ def _single(mech, names, row, start, stop, step, speed, accel, jerk, mode, deriv
         ch.events[j] = f"{type(exc).__name__}: {str(exc).splitlines()[0] if str(exc) else ''}"
         return
     ck = sw.compiled
-    ix = ck.index(ck.inputs[0])
     if len(sw):
         xd = np.asarray(sw.columns[ck.inputs[0]], dtype=float)
         step_d = xs_disp[1] - xs_disp[0] if len(xs_disp) > 1 else 1.0
@@ -266,7 +266,6 @@ def _single(mech, names, row, start, stop, step, speed, accel, jerk, mode, deriv
         ok = (k >= 0) & (k < len(xs_disp))
         for a, arr in enumerate((sw.z, sw.z1, sw.z2, sw.z3)[: len(ch.Z)]):
             ch.Z[a][:, k[ok], j] = arr[ok].T
-        del ix
     ch.mode[j] = sw.mode
     ev = [e for e in sw.events]
     ch.events[j] = "; ".join(f"{e.kind.value}@{e.input:.10g}" for e in ev)
@@ -290,7 +289,7 @@ def sweep_chunk(mech, names, values, start, stop, step, *, speed=None, accel=Non
     >>> ch.status.tolist(), ch.lockstep.tolist(), ch.Z[0].shape
     (['ok', 'ok'], [True, True], (3, 5, 2))
     """
-    from .solve import initial_z, input_rates
+    from .solve import input_rates
 
     values = np.asarray(values, dtype=float).reshape(-1, len(names))
     ck = mech.compile()
@@ -366,7 +365,7 @@ def _lockstep(ck, ops, P, Pfull, xs, ch, rates, derivatives) -> np.ndarray:
     from .solve import initial_z
 
     D = Pfull.shape[1]
-    iu, ix = ops.iu, ops.ix
+    ix = ops.ix
     scale = design_scale(ck, Pfull)
     w = np.where(ops.is_len[:, None], 1.0 / scale, 1.0)  # scaled unknowns: angles, lengths / scale
     z0 = initial_z(ck, warn=False)

@@ -33,7 +33,7 @@ from collections.abc import Mapping, Sequence
 
 import numpy as np
 
-from .designs import Designs, designs_from
+from .designs import designs_from
 from .errors import MissingDependencyError, ModelError
 from .lockstep import _Ops, sweep_chunk
 from .metrics import evaluate_metrics, parse_metric
