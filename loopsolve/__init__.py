@@ -60,6 +60,13 @@ def sweep(mech, start, stop, step, **kwargs):
     return _sweep(mech, start, stop, step, **kwargs)
 
 
+def study(mech, vary, start, stop, step, **kwargs):
+    """Design study over many parameter sets: see :func:`loopsolve.studies.study` (needs the ``study`` extra)."""
+    from .studies import study as _study
+
+    return _study(mech, vary, start, stop, step, **kwargs)
+
+
 __all__ = [
     "__version__",
     "AssemblyError",
@@ -90,5 +97,6 @@ __all__ = [
     "models_dir",
     "slider_crank",
     "solve",
+    "study",
     "sweep",
 ]

@@ -179,6 +179,31 @@ def build_parser() -> argparse.ArgumentParser:
                    "(default: the unknowns)")
     p.add_argument("-o", "--output", required=True, help=".html file")
     p.set_defaults(func=cmd_view)
+    p = sub.add_parser("study", help="sweep every design of a parameter grid or sample (xarray Dataset out)")
+    p.add_argument("model", help="model file (TOML)")
+    p.add_argument("--vary", action="append", required=True, metavar="NAME=SPEC",
+                   help="a varied parameter: NAME=START:STOP:COUNT (grid), NAME=V1,V2,... (list) or "
+                   "NAME=LOW:HIGH (box, with --samples/--lhs); repeat for more parameters")
+    p.add_argument("--samples", type=int, metavar="N", help="N random designs from the box instead of the grid")
+    p.add_argument("--lhs", type=int, metavar="N", help="N designs of a Latin hypercube of the box")
+    p.add_argument("--seed", type=int, default=0, help="seed of --samples/--lhs (default 0)")
+    p.add_argument("--from", dest="start", required=True, help="first input value")
+    p.add_argument("--to", dest="stop", required=True, help="last input value")
+    p.add_argument("--step", required=True, help="output step")
+    p.add_argument("--speed", help="input speed (default: the model's, else 1)")
+    p.add_argument("--accel", help="input acceleration (default: the model's, else 0)")
+    p.add_argument("--jerk", help="input jerk (default: the model's, else 0)")
+    p.add_argument("--mode", metavar="SIGNATURE", help="assembly mode of every design (sweeps them one by one)")
+    p.add_argument("--metric", action="append", default=[], metavar="NAME=EXPR",
+                   help="a reduction over the input, e.g. mu=min(abs(sin(theta4 - theta3))), or a built-in: "
+                   "transmission(a, b), swing(v), stroke(v), time_ratio(v), max_acc(v), grashof(a, b, c, d)")
+    p.add_argument("--sensitivity", action="store_true", help="add d<unknown>/d<parameter> at every row")
+    p.add_argument("--chunk", type=int, default=256, help="designs per chunk / Dask task (default 256)")
+    p.add_argument("--workers", type=int, metavar="N", help="run on a local Dask cluster of N worker processes")
+    p.add_argument("--scheduler", metavar="ADDRESS", help="run on the Dask cluster at ADDRESS (tcp://host:port)")
+    p.add_argument("-o", "--output", required=True, help=".nc (netCDF), .zarr or .csv (long format)")
+    p.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
+    p.set_defaults(func=cmd_study)
     return parser
 
 
@@ -277,6 +302,30 @@ def cmd_view(args) -> int:
     check_output(args.output)
     write_html(_sweep_for(args), args.output, args.vars)
     print(f"wrote {args.output}", file=sys.stderr)
+    return EXIT_OK
+
+
+def cmd_study(args) -> int:
+    from .designs import parse_vary
+    from .errors import ModelError
+    from .studies import study
+
+    mech = _load(args.model)
+    vary = {}
+    for text in args.vary:
+        name, values = parse_vary(text)
+        if name in vary:
+            raise ModelError(f"--vary {name} given twice")
+        vary[name] = values
+    ds = study(mech, vary, args.start, args.stop, args.step, samples=args.samples, lhs=args.lhs, seed=args.seed,
+               metrics=args.metric, sensitivity=args.sensitivity, speed=args.speed, accel=args.accel,
+               jerk=args.jerk, mode=args.mode, chunk_size=args.chunk, workers=args.workers,
+               scheduler=args.scheduler, out=args.output, progress=None if not args.quiet else False)
+    counts = {}
+    for s in ds["status"].values.tolist():
+        counts[s] = counts.get(s, 0) + 1
+    print(f"wrote {args.output}: {ds.sizes['design']} designs ("
+          + ", ".join(f"{v} {k}" for k, v in sorted(counts.items())) + ")", file=sys.stderr)
     return EXIT_OK
 
 

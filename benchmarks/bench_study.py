@@ -1,0 +1,217 @@
+"""Benchmark of design studies (not a test): many crank-rocker designs at once.
+
+1. **2000 designs × 361 points** (θ2 = 0°, 1°, …, 360°), positions, velocities and accelerations
+   (``derivatives=2``) of a crank-rocker family (r1 = 60, r4 = 45 mm fixed; r2 and r3 from a
+   seeded sample of a box of crank-rockers), in this process:
+
+   * ``ls.study`` (lockstep continuation; the whole Dataset with every column and point);
+   * ``pylinkage``'s numba kernel ``Linkage.step_fast_with_kinematics`` looped over the
+     designs the way its optimizers do: one linkage, new constraints and starting pose per
+     design (``set_completely``), then the kernel;
+   * the closed form, numpy on all designs at once (:mod:`loopsolve.classic` half-angle
+     position, velocity and acceleration formulas on (designs, points) arrays).
+
+   Prints the median times, the ratios, and the largest error of loopsolve and pylinkage
+   against the closed form.
+
+2. **Zarr on a 2-worker local Dask cluster** (``--designs``, default 10⁵; ``--chunk``): the
+   study streamed to a ``.zarr`` store; prints the wall time, design-points per second, the
+   store size and the peak resident memory of the client and of each worker process
+   (``ru_maxrss``), which a chunk bounds.
+
+Run from the repository root::
+
+    pip install -e .[bench,study] numba
+    python benchmarks/bench_study.py                    # both parts
+    python benchmarks/bench_study.py --part kernel      # part 1 only
+    nice python benchmarks/bench_study.py --part zarr --designs 20000
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import os
+import resource
+import shutil
+import statistics
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+import loopsolve as ls
+from loopsolve import classic as C
+
+ROOT = Path(__file__).resolve().parents[1]
+MODEL = ROOT / "models" / "thesis_crank_rocker.toml"
+R1, R4 = 60.0, 45.0
+OMEGA = 10 * 2 * math.pi / 60  # the model's 10 rpm
+BOX = {"r2": (15.0, 28.0), "r3": (55.0, 75.0)}  # every design a Grashof crank-rocker
+
+
+def designs(n, seed=0):
+    from loopsolve.designs import sample
+
+    return sample(BOX, n, seed=seed)
+
+
+def best_times(fns, repeats):
+    """Best-of-``repeats`` time of each function, the runs interleaved (the machine is shared: the
+    minimum is the least disturbed run of each, and interleaving exposes all to the same load)."""
+    times = {k: [] for k in fns}
+    outs = {}
+    for _ in range(repeats):
+        for k, fn in fns.items():
+            t = time.perf_counter()
+            outs[k] = fn()
+            times[k].append(time.perf_counter() - t)
+    return {k: (min(v), statistics.median(v)) for k, v in times.items()}, outs
+
+
+def closed_form(r2, r3, x):
+    """θ3, θ4, ω3, ω4, α3, α4 (rad, rad/s, rad/s²) of all designs (D, 1) at all inputs (K,) at once."""
+    t2 = np.radians(x)[None, :]
+    r2, r3 = r2[:, None], r3[:, None]
+    t3, t4 = C.fourbar_position(R1, r2, r3, R4, t2, mode=1)  # open: the model's mode
+    w3, w4 = C.fourbar_velocity(r2, r3, R4, t2, t3, t4, OMEGA)
+    a3, a4 = C.fourbar_acceleration(r2, r3, R4, t2, t3, t4, OMEGA, w3, w4, 0.0)
+    return t3, t4, w3, w4, a3, a4
+
+
+def wrap(a):
+    return (a + math.pi) % (2 * math.pi) - math.pi
+
+
+def part_kernel(args):
+    mech = ls.load(MODEL)
+    d = designs(args.kernel_designs)
+    r2, r3 = d.values["r2"], d.values["r3"]
+    x = np.arange(361.0)
+    D = len(r2)
+    print(f"== {D} crank-rocker designs x {len(x)} points, positions + velocities + accelerations ==")
+    ls.study(mech, d.slice(0, 10), 0, 360, 1, derivatives=2)  # imports, compile, warm caches
+
+    fns = {"loopsolve": lambda: ls.study(mech, d, 0, 360, 1, derivatives=2, chunk_size=args.chunk_kernel,
+                                         progress=False),
+           "closed form": lambda: closed_form(r2, r3, x)}
+    kernel = None
+    try:
+        import pylinkage as pl
+
+        try:
+            import numba  # noqa: F401
+
+            kernel = "numba"
+        except ImportError:
+            kernel = "pure Python (numba not installed)"
+        o1, o2 = pl.Ground(0.0, 0.0, name="O2"), pl.Ground(R1, 0.0, name="O4")
+        crank = pl.Crank(anchor=o1, radius=25.0, angular_velocity=2 * math.pi / 360, initial_angle=0.0, name="B")
+        c4 = closed_form(r2, r3, x[:1])[1][:, 0]
+        rocker = pl.RRRDyad(crank.output, o2, distance1=70.0, distance2=R4, x=R1 + R4 * math.cos(c4[0]),
+                            y=R4 * math.sin(c4[0]), name="C")
+        lk = pl.Linkage([o1, o2, crank, rocker], name="crank-rocker")
+        lk.set_input_velocity(crank, omega=OMEGA, alpha=0.0)
+        lk.step_fast_with_kinematics(iterations=361)  # JIT compile outside the timing
+        poses = [[(0.0, 0.0), (R1, 0.0), (float(r2[i]), 0.0),
+                  (R1 + R4 * math.cos(c4[i]), R4 * math.sin(c4[i]))] for i in range(D)]
+
+        def run_pylinkage():
+            out = []
+            for i in range(D):  # as its optimizers do: one linkage, new constraints and pose per design
+                lk.set_completely([float(r2[i]), float(r3[i]), R4], poses[i])
+                lk.set_input_velocity(crank, omega=OMEGA, alpha=0.0)
+                out.append(lk.step_fast_with_kinematics(iterations=361))
+            return out
+
+        fns["pylinkage"] = run_pylinkage
+    except ImportError as exc:
+        print(f"pylinkage skipped: {exc}")
+    times, outs = best_times(fns, args.repeats)
+    ds, cf = outs["loopsolve"], outs["closed form"]
+    err = 0.0
+    for name, ref in (("theta3", cf[0]), ("theta4", cf[1])):
+        err = max(err, float(np.max(np.abs(wrap(np.radians(ds[name].values) - ref)))))
+    for name, ref in (("theta3_vel", cf[2]), ("theta4_vel", cf[3]), ("theta3_acc", cf[4]), ("theta4_acc", cf[5])):
+        err = max(err, float(np.max(np.abs(ds[name].values - ref))))
+    t_ls, t_cf = times["loopsolve"][0], times["closed form"][0]
+    print(f"(best of {args.repeats} interleaved runs; median in brackets)")
+    print(f"loopsolve study ({int(ds.lockstep.sum())}/{D} designs lockstep): {t_ls:.3f} s "
+          f"[{times['loopsolve'][1]:.3f}]   max error vs closed form {err:.1e}")
+    print(f"closed form, numpy, all designs at once:      {t_cf:.4f} s [{times['closed form'][1]:.4f}]")
+    t_pl = None
+    if "pylinkage" in times:
+        t_pl = times["pylinkage"][0]
+        res = outs["pylinkage"]
+        e = {0: 0.0, 1: 0.0}
+        for i in range(0, D, max(1, D // 50)):  # pylinkage's θ4 against the closed form, on a sample of designs
+            Cp = np.asarray(res[i][0])[:, 3]
+            t4 = np.arctan2(Cp[:, 1], Cp[:, 0] - R1)
+            for shift in (0, 1):  # its row k may be the pose after k + 1 steps
+                ref = cf[1][i][shift:shift + len(t4)]
+                e[shift] = max(e[shift], float(np.max(np.abs(wrap(t4[:len(ref)] - ref)))))
+        print(f"pylinkage step_fast_with_kinematics ({kernel}) looped: {t_pl:.3f} s "
+              f"[{times['pylinkage'][1]:.3f}]   max θ4 error vs closed form {min(e.values()):.1e} "
+              f"(rows aligned {'as' if e[0] <= e[1] else 'one step after'} the input grid)")
+    print("-- ratios --")
+    if t_pl is not None:
+        print(f"pylinkage loop / loopsolve study : {t_pl / t_ls:.2f}x  (loopsolve faster when > 1)")
+    print(f"loopsolve study / closed form    : {t_ls / t_cf:.1f}x")
+    print(f"loopsolve design-points per second (one process): {D * len(x) / t_ls:,.0f}")
+
+
+def _rss_peak_mb():
+    r = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+    return r / 1024.0  # KiB on Linux
+
+
+def part_zarr(args):
+    from distributed import Client, LocalCluster
+
+    mech = ls.load(MODEL)
+    n = args.designs
+    d = designs(n, seed=1)
+    tmp = Path(tempfile.mkdtemp(prefix="loopsolve-bench-"))
+    store = tmp / "study.zarr"
+    print(f"== {n} designs x 361 points to Zarr on a 2-worker local cluster (chunk {args.chunk}, "
+          f"derivatives={args.derivatives}) ==")
+    try:
+        with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1",
+                          dashboard_address=":0") as cluster, Client(cluster) as client:
+            ls.study(mech, d.slice(0, 4), 0, 360, 1, client=client, progress=False)  # warm the workers
+            t = time.perf_counter()
+            ds = ls.study(mech, d, 0, 360, 1, client=client, chunk_size=args.chunk, out=store, progress=args.progress,
+                          derivatives=args.derivatives)
+            wall = time.perf_counter() - t
+            workers = client.run(_rss_peak_mb)
+        size = sum(f.stat().st_size for f in store.rglob("*") if f.is_file())
+        pts = n * 361
+        print(f"wall {wall:.1f} s, {pts / wall:,.0f} design-points/s, {int((ds.status == 'ok').sum())} ok, "
+              f"store {size / 1e9:.2f} GB")
+        print(f"peak RSS: client {_rss_peak_mb():.0f} MB; workers " +
+              ", ".join(f"{v:.0f} MB" for v in workers.values()))
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--part", choices=("all", "kernel", "zarr"), default="all")
+    ap.add_argument("--kernel-designs", type=int, default=2000)
+    ap.add_argument("--chunk-kernel", type=int, default=2000, help="designs per chunk in part 1 (default 2000)")
+    ap.add_argument("--repeats", type=int, default=5)
+    ap.add_argument("--designs", type=int, default=100_000, help="designs of part 2 (default 10^5)")
+    ap.add_argument("--chunk", type=int, default=1000, help="designs per Dask task in part 2 (default 1000)")
+    ap.add_argument("--derivatives", type=int, default=2, help="part 2: 2 = positions, velocities, accelerations")
+    ap.add_argument("--progress", action="store_true")
+    args = ap.parse_args()
+    os.environ.setdefault("LOOPSOLVE_CACHE_DIR", tempfile.mkdtemp(prefix="loopsolve-cache-"))
+    if args.part in ("all", "kernel"):
+        part_kernel(args)
+    if args.part in ("all", "zarr"):
+        part_zarr(args)
+
+
+if __name__ == "__main__":
+    main()
