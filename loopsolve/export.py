@@ -21,7 +21,7 @@ __all__ = ["to_json", "to_csv", "to_table", "state_table", "sweep_table", "iter_
            "fixed"]
 
 
-CHUNK = 1000  # rows formatted at a time when streaming a sweep
+CHUNK = 256  # rows formatted at a time when streaming a sweep
 _CONTROL = {c: f"\\x{c:02x}" for c in (*range(0x20), *range(0x7F, 0xA0))}
 
 

@@ -348,7 +348,7 @@ def test_long_csv_and_json_are_streamed(tmp_path):
     from loopsolve.files import write_text
 
     ck = ls.load(THESIS).compile()
-    n = 12000
+    n = 6000
     t2 = np.linspace(0, 2 * np.pi, n)
     z = np.column_stack([t2, np.full(n, 0.3), np.full(n, 1.4)])
     sw = ls.Sweep.from_arrays(ck, z, z * 0.1, z * 0.01, z * 0.001, modes=("-",) * n, mode="-")
@@ -365,7 +365,7 @@ def test_long_csv_and_json_are_streamed(tmp_path):
     for fmt, it in (("csv", export.iter_csv), ("json", export.iter_json)):
         small, _ = peak_of(third, fmt, it)
         peak, size = peak_of(sw, fmt, it)
-        assert size > 4_000_000
+        assert size > 2_000_000
         assert peak < size / 2, (fmt, peak, size)
         assert peak < 1.5 * small, (fmt, small, peak)  # three times the rows, about the same memory
     doc = json.loads((tmp_path / "big.json").read_text(encoding="utf-8"))
