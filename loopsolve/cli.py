@@ -371,6 +371,9 @@ def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
     debug = bool(os.environ.get("LOOPSOLVE_DEBUG"))
+    from . import export  # noqa: F401  (error formatting must not need an import when memory is short)
+
+    exhausted = ""
     with warnings.catch_warnings():
         warnings.showwarning = _show_warning
         _INPUTS[:] = _inputs_of(args)
@@ -391,8 +394,7 @@ def main(argv: list[str] | None = None) -> int:
         except (MemoryError, RecursionError) as exc:
             if debug:
                 raise
-            return _fail(f"error: out of memory or too deeply nested ({type(exc).__name__}); the model or the "
-                         "requested output is too large for this machine", EXIT_USAGE)
+            exhausted = type(exc).__name__  # reported below, once the exception's frames are freed
         except ArithmeticError as exc:
             if debug:
                 raise
@@ -410,6 +412,10 @@ def main(argv: list[str] | None = None) -> int:
                          "shows the traceback)", EXIT_SOLVE)
         finally:
             _INPUTS.clear()
+    # no imports or formatting helpers here: memory may be short
+    sys.stderr.write(f"loopsolve: error: out of memory or too deeply nested ({exhausted}); the model or the "
+                     "requested output is too large for this machine\n")
+    return EXIT_USAGE
 
 
 if __name__ == "__main__":  # pragma: no cover
