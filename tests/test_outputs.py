@@ -488,3 +488,28 @@ def test_closed_form_self_check():
     x = R2 * math.cos(1.0) + R3 * math.cos(t3) - R1 - R4 * math.cos(t4)
     y = R2 * math.sin(1.0) + R3 * math.sin(t3) - R4 * math.sin(t4)
     assert abs(x) < 1e-9 and abs(y) < 1e-9
+
+
+def test_numpy_and_multi_line_warnings_are_one_line_each(capsys, monkeypatch):
+    """A RuntimeWarning from generated code or numpy prints no source line (``c5 = v_0**3``)."""
+    import warnings
+
+    import numpy as np
+
+    import loopsolve.solve as solve_mod
+
+    real = solve_mod.solve
+
+    def noisy(*a, **k):
+        with np.errstate(over="warn"):
+            np.float64(1e308) * np.float64(10)
+        warnings.warn("first line\n  second line", ls.LoopsolveWarning)
+        return real(*a, **k)
+
+    monkeypatch.setattr(solve_mod, "solve", noisy)
+    status, out, err = call(capsys, "solve", THESIS, "--at", "90")
+    assert status == 0
+    lines = err.splitlines()
+    assert len(lines) == 2, lines
+    assert lines[0].startswith("loopsolve: warning: overflow encountered")
+    assert lines[1] == "loopsolve: warning: first line; second line"
