@@ -253,7 +253,16 @@ def _check_dir(directory: Path) -> None:
     st = os.stat(directory)
     if not stat.S_ISDIR(st.st_mode):
         raise _Untrusted(f"{directory} is not a directory")
-    _check_owner_mode(st, f"the cache directory {directory}")
+    try:
+        _check_owner_mode(st, f"the cache directory {directory}")
+    except _Untrusted as exc:
+        if hasattr(os, "getuid") and st.st_uid == os.getuid():
+            try:  # our own directory, made by an older version under a lax umask: make it private
+                os.chmod(directory, 0o700)  # for the next run; this run trusts none of its entries
+                raise _Untrusted(f"{exc} (now made private to you)") from None
+            except OSError:
+                pass
+        raise
 
 
 def _read_entry(path: Path, key: str) -> str | None:
