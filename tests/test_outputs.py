@@ -513,3 +513,15 @@ def test_numpy_and_multi_line_warnings_are_one_line_each(capsys, monkeypatch):
     assert len(lines) == 2, lines
     assert lines[0].startswith("loopsolve: warning: overflow encountered")
     assert lines[1] == "loopsolve: warning: first line; second line"
+
+
+def test_vectors_of_a_diagram_with_control_characters_round_trips():
+    import tomllib
+
+    from loopsolve.diagram import to_vector_model
+
+    diagram = tomllib.loads((ls.models_dir() / "thesis_crank_rocker_diagram.toml").read_text(encoding="utf-8"))
+    diagram["name"] = "four\x1b[31m\r\nbar\x00\x7f"
+    text = to_vector_model(diagram)
+    assert not any(c in text for c in "\x1b\r\x00\x7f")
+    assert tomllib.loads(text)["name"] == diagram["name"]
