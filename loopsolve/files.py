@@ -124,7 +124,7 @@ def check_target(path: str | os.PathLike, inputs: Iterable[str | os.PathLike] = 
     if not parent.is_dir():
         raise OutputError(f"cannot write {name!r}: the directory {os.fspath(parent)!r} does not exist")
     if target.exists() and not target.is_file():
-        raise OutputError(f"cannot write {name!r}: it is not a regular file")
+        raise OutputError(f"cannot write {name!r}: it is not a regular file (use -o - for standard output)")
     return target
 
 
