@@ -2,9 +2,9 @@
 
 Exit status: 0 success, 2 usage or model error (also: an output that cannot be written, a
 model too large or too deeply nested for memory), 3 the mechanism cannot be assembled or the
-solver failed (also: a numeric overflow, or an unexpected internal error). Errors are one line
-on stderr naming the cause, warnings one line ``loopsolve: warning: ...`` each
-(``LOOPSOLVE_DEBUG=1`` shows the traceback).
+solver failed (also: a numeric overflow or division by zero, or an unexpected internal error).
+Errors are one line on stderr naming the cause, warnings one line ``loopsolve: warning: ...``
+each (``LOOPSOLVE_DEBUG=1`` shows the traceback).
 
 Every command that writes a file goes through :func:`_write` (text) or :func:`_output` (a
 path for a writer such as a figure): the output never replaces an input file, is written to a
@@ -398,7 +398,7 @@ def main(argv: list[str] | None = None) -> int:
         except ArithmeticError as exc:
             if debug:
                 raise
-            return _fail(f"error: numeric overflow ({type(exc).__name__}: {exc}); check the magnitudes of the "
+            return _fail(f"error: numeric failure ({type(exc).__name__}: {exc}); check the magnitudes of the "
                          "model's numbers and of the command's values", EXIT_SOLVE)
         except OSError as exc:
             if debug:
