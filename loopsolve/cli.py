@@ -1,15 +1,25 @@
 """The ``loopsolve`` command line: a thin argparse layer over the public functions.
 
-Exit status: 0 success, 2 usage or model error, 3 the mechanism cannot be assembled or the
-solver failed. Errors are one line on stderr naming the cause (``LOOPSOLVE_DEBUG=1`` shows the
-traceback).
+Exit status: 0 success, 2 usage or model error (also: an output that cannot be written, a
+model too large or too deeply nested for memory), 3 the mechanism cannot be assembled or the
+solver failed (also: a numeric overflow or division by zero, or an unexpected internal error).
+Errors are one line on stderr naming the cause, warnings one line ``loopsolve: warning: ...``
+each (``LOOPSOLVE_DEBUG=1`` shows the traceback).
+
+Every command that writes a file goes through :func:`_write` (text) or :func:`_output` (a
+path for a writer such as a figure): the output never replaces an input file, is written to a
+temporary file in the target's directory and renamed when complete, so a failure (missing
+directory, read-only place, full disk) leaves any old file intact.
 """
 
 from __future__ import annotations
 
 import argparse
+import contextlib
 import os
 import sys
+import warnings
+from collections.abc import Iterable
 from pathlib import Path
 
 from .errors import LoopsolveError
@@ -21,7 +31,48 @@ EXIT_OK, EXIT_USAGE, EXIT_SOLVE = 0, 2, 3
 
 class _Parser(argparse.ArgumentParser):
     def error(self, message):  # one line, exit 2
-        self.exit(EXIT_USAGE, f"loopsolve: error: {message} (see `{self.prog} --help`)\n")
+        self.exit(EXIT_USAGE, f"loopsolve: error: {_one_line(message)} (see `{self.prog} --help`)\n")
+
+    def _get_values(self, action, arg_strings):
+        # `--at=--` is the value "--" (argparse would drop it and pass an empty list on)
+        if action.option_strings and action.nargs is None and arg_strings == ["--"]:
+            return self._get_value(action, "--")
+        return super()._get_values(action, arg_strings)
+
+
+def _one_line(text: str) -> str:
+    """One line of printable text (control characters shown as escapes)."""
+    from .export import printable
+
+    lines = [ln.strip() for ln in str(text).strip().splitlines() if ln.strip()]
+    return printable("; ".join(lines).replace(":; ", ": "))
+
+
+# The input files of the running command: an output never replaces one of them.
+_INPUTS: list[str] = []
+
+
+def _inputs_of(args) -> list[str]:
+    out = []
+    for attr in ("model", "models", "input_file", "inputs_files"):
+        v = getattr(args, attr, None)
+        for item in (v if isinstance(v, (list, tuple)) else [v]):
+            if isinstance(item, (str, os.PathLike)) and os.fspath(item) not in ("", "-"):
+                out.append(os.fspath(item))
+    return out
+
+
+@contextlib.contextmanager
+def _output(path: str | os.PathLike, inputs: Iterable[str] | None = None):
+    """A temporary path (same extension) for a writer; renamed onto ``path`` when the block succeeds.
+
+    For commands that hand a file name to a writer (figures, PDFs, pages): refuses an input
+    file as target, and leaves the old file intact on any failure.
+    """
+    from .files import atomic_output
+
+    with atomic_output(path, _INPUTS if inputs is None else inputs) as tmp:
+        yield tmp
 
 
 def _load(path: str):
@@ -30,22 +81,48 @@ def _load(path: str):
     return load(path)
 
 
-def _write(text: str, out: str | None) -> None:
+def _write(text: str | Iterable[str], out: str | None, inputs: Iterable[str] | None = None) -> None:
+    """Write text (or text chunks, streamed) as UTF-8 to standard output or, atomically, to ``out``."""
     if out in (None, "-"):
-        sys.stdout.write(text)
+        chunks = [text] if isinstance(text, str) else text
+        stream = sys.stdout
+        if (getattr(stream, "encoding", None) or "").lower().replace("-", "") != "utf8" and hasattr(stream, "buffer"):
+            stream.flush()
+            for chunk in chunks:
+                stream.buffer.write(chunk.encode("utf-8"))
+            stream.buffer.flush()
+        else:
+            for chunk in chunks:
+                stream.write(chunk)
     else:
-        Path(out).write_text(text, encoding="utf-8")
-        print(f"wrote {out}", file=sys.stderr)
+        from .files import write_text
+
+        write_text(out, text, _INPUTS if inputs is None else inputs)
+        print(f"wrote {_one_line(out)}", file=sys.stderr)
 
 
-def _render(obj, fmt: str) -> str:
+def _check_output(out: str | None) -> None:
+    """Fail before any work when ``out`` can never be written (an input, a directory, no such folder)."""
+    if out not in (None, "-"):
+        from .files import check_target
+
+        check_target(out, _INPUTS)
+
+
+def _render(obj, fmt: str):
+    """The text of a state or sweep: a string (table) or text chunks (CSV/JSON, streamed)."""
     from . import export
 
     if fmt == "json":
-        return export.to_json(obj) + "\n"
+        return _chain(export.iter_json(obj), "\n")
     if fmt == "csv":
-        return export.to_csv(obj)
+        return export.iter_csv(obj)
     return export.to_table(obj)
+
+
+def _chain(chunks, tail: str):
+    yield from chunks
+    yield tail
 
 
 def _rate_args(p: argparse.ArgumentParser) -> None:
@@ -61,6 +138,7 @@ def _rate_args(p: argparse.ArgumentParser) -> None:
 def cmd_solve(args) -> int:
     from .solve import solve
 
+    _check_output(args.output)
     mech = _load(args.model)
     state = solve(mech, args.at, speed=args.speed, accel=args.accel, jerk=args.jerk, input=args.input,
                   mode=args.mode)
@@ -69,6 +147,7 @@ def cmd_solve(args) -> int:
 
 
 def cmd_sweep(args) -> int:
+    _check_output(args.output)
     _write(_render(_sweep_for(args), args.format), args.output)
     return EXIT_OK
 
@@ -241,6 +320,7 @@ def _sweep_for(args):
 def cmd_vectors(args) -> int:
     from .diagram import to_vector_model
 
+    _check_output(args.output)
     _write(to_vector_model(_load(args.model)), args.output)
     return EXIT_OK
 
@@ -257,12 +337,14 @@ def cmd_modes(args) -> int:
 def cmd_latex(args) -> int:
     from .latex import to_latex, write_pdf
 
+    out = args.output or (Path(args.model).stem + ".pdf") if args.pdf else args.output
+    _check_output(out)
     mech = _load(args.model)
     tex = to_latex(mech, input=args.input, at=args.at, snippet=args.snippet)
     if args.pdf:
-        out = args.output or (Path(args.model).stem + ".pdf")
-        write_pdf(tex, out)
-        print(f"wrote {out}", file=sys.stderr)
+        with _output(out) as tmp:
+            write_pdf(tex, tmp)
+        print(f"wrote {_one_line(out)}", file=sys.stderr)
     else:
         _write(tex, args.output)
     return EXIT_OK
@@ -272,8 +354,11 @@ def cmd_plot(args) -> int:
     from .plotting import check_output, plot_sweep
 
     check_output(args.output, "figure")
-    plot_sweep(_sweep_for(args), args.vars, output=args.output)
-    print(f"wrote {args.output}", file=sys.stderr)
+    _check_output(args.output)
+    sw = _sweep_for(args)
+    with _output(args.output) as tmp:
+        plot_sweep(sw, args.vars, output=tmp)
+    print(f"wrote {_one_line(args.output)}", file=sys.stderr)
     return EXIT_OK
 
 
@@ -281,9 +366,11 @@ def cmd_draw(args) -> int:
     from .plotting import check_output, draw
 
     check_output(args.output, "figure")
+    _check_output(args.output)
     mech = _load(args.model)
-    draw(mech, args.at, input=args.input, mode=args.mode, vectors=args.vectors, output=args.output)
-    print(f"wrote {args.output}", file=sys.stderr)
+    with _output(args.output) as tmp:
+        draw(mech, args.at, input=args.input, mode=args.mode, vectors=args.vectors, output=tmp)
+    print(f"wrote {_one_line(args.output)}", file=sys.stderr)
     return EXIT_OK
 
 
@@ -291,17 +378,20 @@ def cmd_animate(args) -> int:
     from .plotting import animate, check_output
 
     check_output(args.output, "animation")
-    animate(_sweep_for(args), output=args.output, fps=args.fps, progress=None if not args.quiet else False)
-    print(f"wrote {args.output}", file=sys.stderr)
+    _check_output(args.output)
+    sw = _sweep_for(args)
+    with _output(args.output) as tmp:
+        animate(sw, output=tmp, fps=args.fps, progress=None if not args.quiet else False)
+    print(f"wrote {_one_line(args.output)}", file=sys.stderr)
     return EXIT_OK
 
 
 def cmd_view(args) -> int:
-    from .view import check_output, write_html
+    from .view import check_output, to_html
 
     check_output(args.output)
-    write_html(_sweep_for(args), args.output, args.vars)
-    print(f"wrote {args.output}", file=sys.stderr)
+    _check_output(args.output)
+    _write(to_html(_sweep_for(args), args.vars), args.output)
     return EXIT_OK
 
 
@@ -310,6 +400,7 @@ def cmd_study(args) -> int:
     from .errors import ModelError
     from .studies import study
 
+    _check_output(args.output)
     mech = _load(args.model)
     vary = {}
     for text in args.vary:
@@ -329,23 +420,69 @@ def cmd_study(args) -> int:
     return EXIT_OK
 
 
+def _show_warning(message, category, filename, lineno, file=None, line=None) -> None:
+    """Warnings as one line ``loopsolve: warning: <message>`` (never a source line)."""
+    try:
+        print(f"loopsolve: warning: {_one_line(message)}", file=sys.stderr if file is None else file)
+    except (OSError, ValueError):  # stderr closed
+        pass
+
+
+def _fail(message: str, status: int) -> int:
+    print(f"loopsolve: {_one_line(message)}", file=sys.stderr)
+    return status
+
+
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``loopsolve`` console script."""
     parser = build_parser()
     args = parser.parse_args(argv)
-    try:
-        return args.func(args)
-    except LoopsolveError as exc:
-        if os.environ.get("LOOPSOLVE_DEBUG"):
-            raise
-        msg = "; ".join(line.strip() for line in str(exc).strip().splitlines() if line.strip()).replace(":; ", ": ")
-        print(f"loopsolve: {type(exc).__name__}: {msg}", file=sys.stderr)
-        return exc.exit_code
-    except KeyboardInterrupt:
-        print("loopsolve: interrupted", file=sys.stderr)
-        return 130
-    except BrokenPipeError:
-        return EXIT_OK
+    debug = bool(os.environ.get("LOOPSOLVE_DEBUG"))
+    from . import export  # noqa: F401  (error formatting must not need an import when memory is short)
+
+    exhausted = ""
+    with warnings.catch_warnings():
+        warnings.showwarning = _show_warning
+        _INPUTS[:] = _inputs_of(args)
+        try:
+            return args.func(args)
+        except LoopsolveError as exc:
+            if debug:
+                raise
+            return _fail(f"{type(exc).__name__}: {exc}", exc.exit_code)
+        except KeyboardInterrupt:
+            print("loopsolve: interrupted", file=sys.stderr)
+            return 130
+        except BrokenPipeError:
+            with contextlib.suppress(OSError, ValueError):
+                devnull = os.open(os.devnull, os.O_WRONLY)
+                os.dup2(devnull, sys.stdout.fileno())
+            return EXIT_OK
+        except (MemoryError, RecursionError) as exc:
+            if debug:
+                raise
+            exhausted = type(exc).__name__  # reported below, once the exception's frames are freed
+        except ArithmeticError as exc:
+            if debug:
+                raise
+            return _fail(f"error: numeric failure ({type(exc).__name__}: {exc}); check the magnitudes of the "
+                         "model's numbers and of the command's values", EXIT_SOLVE)
+        except OSError as exc:
+            if debug:
+                raise
+            where = f" {exc.filename!r}" if getattr(exc, "filename", None) else ""
+            return _fail(f"error: cannot access{where}: {exc.strerror or exc}", EXIT_USAGE)
+        except Exception as exc:  # noqa: BLE001 — the contract is one line, never a traceback
+            if debug:
+                raise
+            return _fail(f"internal error: {type(exc).__name__}: {exc} (please report it; LOOPSOLVE_DEBUG=1 "
+                         "shows the traceback)", EXIT_SOLVE)
+        finally:
+            _INPUTS.clear()
+    # no imports or formatting helpers here: memory may be short
+    sys.stderr.write(f"loopsolve: error: out of memory or too deeply nested ({exhausted}); the model or the "
+                     "requested output is too large for this machine\n")
+    return EXIT_USAGE
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -12,59 +12,179 @@ import io
 import json
 import math
 
+import numpy as np
+
 from .results import State, Sweep, column_units
 from .units import Kind, unit_label
 
-__all__ = ["to_json", "to_csv", "to_table", "state_table", "sweep_table"]
+__all__ = ["to_json", "to_csv", "to_table", "state_table", "sweep_table", "iter_json", "iter_csv", "printable",
+           "fixed"]
+
+
+CHUNK = 256  # rows formatted at a time when streaming a sweep
+_CONTROL = {c: f"\\x{c:02x}" for c in (*range(0x20), *range(0x7F, 0xA0))}
+
+
+def printable(text: str) -> str:
+    r"""``text`` with control characters shown as ``\xNN`` (never raw terminal escapes).
+
+    Examples
+    --------
+    >>> from loopsolve.export import printable
+    >>> print(printable("four-bar\x1b[31m"))
+    four-bar\x1b[31m
+    """
+    return str(text).translate(_CONTROL)
 
 
 def mode_label(mech, signature: str) -> str:
     """``"-"`` or ``"- (open)"`` when the model names that mode."""
     names = [k for k, v in getattr(mech, "mode_aliases", {}).items() if v == signature]
-    return f"{signature} ({', '.join(names)})" if names else signature
+    return printable(f"{signature} ({', '.join(names)})" if names else signature)
 
 
-def _items(obj) -> tuple[list[dict], list, object]:
+def _chunks(sweep: Sweep, size: int = CHUNK):
+    """The sweep as consecutive sub-sweeps of at most ``size`` rows (views, no copies)."""
+    n = len(sweep)
+    for i in range(0, n, size):
+        j = min(n, i + size)
+        yield Sweep.from_arrays(sweep.compiled, sweep.z[i:j], sweep.z1[i:j], sweep.z2[i:j], sweep.z3[i:j],
+                                modes=sweep.modes[i:j], residual=sweep.residual[i:j], n_iter=sweep.n_iter[i:j],
+                                cond=sweep.cond[i:j], mode=sweep.mode, method=sweep.method, copy=False)
+
+
+def _keys(obj) -> list[str]:
+    ck = obj.compiled
+    keys = list(State(ck, *[np.zeros(len(ck.variables))] * 4, np.zeros((4, len(ck.points), 2))).row())
+    if isinstance(obj, Sweep) and len(set(obj.modes)) > 1:
+        keys.append("mode")
+    return keys
+
+
+def _row_lists(obj):
+    """Chunks of rows, each a list of value lists in :func:`_keys` order (mode as its label)."""
+    keys = _keys(obj)
+    mech = obj.compiled.mechanism
     if isinstance(obj, State):
-        return [obj.row()], [], obj.compiled
-    return obj.rows, list(obj.events), obj.compiled
+        row = obj.row()
+        yield [[row[k] for k in keys]]
+        return
+    labels = {m: mode_label(mech, m) for m in set(obj.modes)}
+    for part in _chunks(obj):
+        cols = part.columns
+        lists = []
+        for k in keys:
+            if k == "mode":
+                lists.append([labels[m] for m in part.modes])
+            else:
+                lists.append([_clean(v) for v in cols[k].tolist()])
+        yield [list(r) for r in zip(*lists)]
+
+
+def _clean(v: float) -> float | None:
+    v = float(v)
+    if not math.isfinite(v):
+        return None
+    return 0.0 if v == 0 else v
+
+
+def _header(obj) -> dict:
+    ck = obj.compiled
+    u = ck.mechanism.units
+    return {
+        "mechanism": ck.mechanism.name,
+        "input": ck.inputs[0],
+        "units": {"length": u.length, "angle": u.angle, **column_units(ck)},
+        "mode": obj.mode,
+    }
+
+
+def iter_json(obj: State | Sweep, *, indent: int | None = 1):
+    """The contract's JSON object as text chunks, rows formatted a chunk at a time.
+
+    ``"".join(iter_json(s))`` equals :func:`to_json`; writing the chunks to a file keeps memory
+    bounded however many rows the sweep has.
+    """
+    head = _header(obj)
+    events = [e.to_dict() for e in obj.events] if isinstance(obj, Sweep) else []
+    keys = _keys(obj)
+    pad = "" if indent is None else " " * indent
+    nl = "" if indent is None else "\n"
+    sep = ", " if indent is None else ","
+    dumps = lambda v: json.dumps(v, allow_nan=False)  # noqa: E731
+    yield "{" + nl + (sep + nl).join(f"{pad}{dumps(k)}: {dumps(v)}" for k, v in head.items())
+    yield sep + nl + f'{pad}"rows": [' + nl
+    first = True
+    for chunk in _row_lists(obj):
+        parts = []
+        for vals in chunk:
+            parts.append(("" if first else sep + nl) + pad * 2 + dumps(dict(zip(keys, vals))))
+            first = False
+        yield "".join(parts)
+    yield nl + pad + "]" + sep + nl + f'{pad}"events": {dumps(events)}'
+    if isinstance(obj, State) and obj.compiled.sliding:
+        comps = {v: obj.acceleration_components(v).to_dict() for v in obj.compiled.sliding}
+        yield sep + nl + f'{pad}"acceleration_components": {dumps(comps)}'
+    yield nl + "}"
 
 
 def to_json(obj: State | Sweep, *, indent: int | None = 1) -> str:
     """The contract's JSON object for a state or a sweep."""
-    rows, events, ck = _items(obj)
-    u = ck.mechanism.units
-    units = {"length": u.length, "angle": u.angle, **column_units(ck)}
-    doc = {
-        "mechanism": ck.mechanism.name,
-        "input": ck.inputs[0],
-        "units": units,
-        "mode": obj.mode,
-        "rows": rows,
-        "events": [e.to_dict() for e in events],
-    }
-    if isinstance(obj, State) and ck.sliding:
-        doc["acceleration_components"] = {v: obj.acceleration_components(v).to_dict() for v in ck.sliding}
-    return json.dumps(doc, indent=indent, allow_nan=False)
+    return "".join(iter_json(obj, indent=indent))
+
+
+def iter_csv(obj: State | Sweep):
+    """CSV text chunks: one header row ``name [unit]``, then the rows a chunk at a time."""
+    units = column_units(obj.compiled)
+    keys = _keys(obj)
+    buf = io.StringIO()
+    w = csv.writer(buf, lineterminator="\n")
+    w.writerow([f"{k} [{units[k]}]" if units.get(k) else k for k in keys])
+    yield buf.getvalue()
+    for chunk in _row_lists(obj):
+        buf = io.StringIO()
+        w = csv.writer(buf, lineterminator="\n")
+        w.writerows([["" if v is None else v if isinstance(v, str) else repr(v) for v in r] for r in chunk])
+        yield buf.getvalue()
 
 
 def to_csv(obj: State | Sweep) -> str:
     """CSV with one header row ``name [unit]``; events are not part of CSV (see JSON)."""
-    rows, _, ck = _items(obj)
-    units = column_units(ck)
-    buf = io.StringIO()
-    keys = list(rows[0]) if rows else list(units)
-    w = csv.writer(buf, lineterminator="\n")
-    w.writerow([f"{k} [{units[k]}]" if units.get(k) else k for k in keys])
-    for r in rows:
-        w.writerow(["" if r[k] is None else repr(float(r[k])) for k in keys])
-    return buf.getvalue()
+    return "".join(iter_csv(obj))
 
 
 def _fmt(v, width=14) -> str:
     if v is None or (isinstance(v, float) and not math.isfinite(v)):
         return "nan".rjust(width)
     return f"{v:{width}.6g}"
+
+
+def fixed(v) -> str:
+    """An input value in fixed notation (``1000000``, ``27.4``, never ``1e+06``).
+
+    Examples
+    --------
+    >>> from loopsolve.export import fixed
+    >>> fixed(1e6), fixed(27.4), fixed(-0.0), fixed(1 / 3)
+    ('1000000', '27.4', '0', '0.333333333')
+    """
+    if v is None or not math.isfinite(float(v)):
+        return "nan"
+    r = round(float(v), 9)
+    return np.format_float_positional(r + 0.0, precision=9, trim="-")
+
+
+def _column(values, *, is_input: bool = False) -> list[str]:
+    """Format one table column: values below 1e-12 of the column's largest magnitude print 0."""
+    vals = [None if v is None else float(v) for v in values]
+    if is_input:
+        return [fixed(v) for v in vals]
+    finite = [abs(v) for v in vals if v is not None and math.isfinite(v)]
+    floor = NOISE * max(finite) if finite else 0.0
+    return [_fmt(0.0 if v is not None and math.isfinite(v) and abs(v) < floor else v).strip() for v in vals]
+
+
+NOISE = 1e-12
 
 
 def _grid(headers: list[str], rows: list[list[str]]) -> str:
@@ -76,12 +196,19 @@ def _grid(headers: list[str], rows: list[list[str]]) -> str:
     return "\n".join(out)
 
 
+def _numeric_rows(labels: list[str], table: list[list]) -> list[list[str]]:
+    """Rows of a label then numbers, each number column formatted by :func:`_column`."""
+    cols = list(zip(*table)) if table else []
+    text = [_column(c) for c in cols]
+    return [[lab] + [t[i] for t in text] for i, lab in enumerate(labels)]
+
+
 def state_table(state: State) -> str:
     """A readable multi-section table of one state (variables, points, acceleration parts)."""
     ck = state.compiled
     u = ck.mechanism.units
     row = state.row()
-    head = (f"{ck.mechanism.name}: {ck.inputs[0]} = {state.input_value:g} "
+    head = (f"{printable(ck.mechanism.name)}: {ck.inputs[0]} = {fixed(state.input_value)} "
             f"{unit_label(ck.kinds[ck.index(ck.inputs[0])], u.angle, u.length)}, "
             f"input speed {row[ck.inputs[0] + '_vel']:g} {column_units(ck)[ck.inputs[0] + '_vel']}, "
             f"accel {row[ck.inputs[0] + '_acc']:g} {column_units(ck)[ck.inputs[0] + '_acc']}  "
@@ -97,19 +224,15 @@ def state_table(state: State) -> str:
         labels = [unit_label(k, u.angle, u.length) for k in rates]
         headers = ["angle" if kind is Kind.ANGLE else "length", f"position [{labels[0]}]",
                    f"velocity [{labels[1]}]", f"acceleration [{labels[2]}]", f"jerk [{labels[3]}]"]
-        rows = []
-        for n in names:
-            tag = f"{n} (input)" if n in ck.inputs else n
-            rows.append([tag] + [_fmt(row[n + s]).strip() for s in ("", "_vel", "_acc", "_jerk")])
-        sections.append(_grid(headers, rows))
+        tags = [f"{n} (input)" if n in ck.inputs else n for n in names]
+        values = [[row[n + s] for s in ("", "_vel", "_acc", "_jerk")] for n in names]
+        sections.append(_grid(headers, _numeric_rows(tags, values)))
     if ck.points:
         L = u.length
         headers = ["point", f"x [{L}]", f"y [{L}]", f"v_x [{L}/s]", f"v_y [{L}/s]",
                    f"a_x [{L}/s^2]", f"a_y [{L}/s^2]", f"j_x [{L}/s^3]", f"j_y [{L}/s^3]"]
-        rows = []
-        for p in ck.points:
-            rows.append([p] + [_fmt(row[f"{p}_{c}{s}"]).strip() for s in ("", "_vel", "_acc", "_jerk") for c in "xy"])
-        sections.append(_grid(headers, rows))
+        values = [[row[f"{p}_{c}{s}"] for s in ("", "_vel", "_acc", "_jerk") for c in "xy"] for p in ck.points]
+        sections.append(_grid(headers, _numeric_rows(list(ck.points), values)))
     if ck.sliding:
         L = u.length
         headers = ["vector", f"tangential r*alpha [{L}/s^2]", f"normal -r*omega^2 [{L}/s^2]",
@@ -128,11 +251,18 @@ def sweep_table(sweep: Sweep, *, columns: list[str] | None = None) -> str:
     units = column_units(ck)
     if columns is None:
         columns = [ck.inputs[0]] + [n + s for n in ck.unknowns for s in ("", "_vel", "_acc")]
-    headers = [f"{c} [{units[c]}]" for c in columns]
-    rows = [[_fmt(r[c]).strip() for c in columns] for r in sweep.rows]
-    out = f"{ck.mechanism.name}: sweep of {ck.inputs[0]} ({len(rows)} rows, mode {mode_label(ck.mechanism, sweep.mode)})\n" + _grid(headers, rows)
+    cols = sweep.columns
+    varying = len(set(sweep.modes)) > 1
+    headers = [f"{c} [{units[c]}]" for c in columns] + (["mode"] if varying else [])
+    text = [_column(cols[c].tolist(), is_input=c in ck.inputs) for c in columns]
+    if varying:
+        labels = {m: mode_label(ck.mechanism, m) for m in set(sweep.modes)}
+        text.append([labels[m] for m in sweep.modes])
+    rows = [list(r) for r in zip(*text)] if text else []
+    out = (f"{printable(ck.mechanism.name)}: sweep of {ck.inputs[0]} ({len(sweep)} rows, mode "
+           f"{mode_label(ck.mechanism, sweep.mode)})\n" + _grid(headers, rows))
     for e in sweep.events:
-        out += f"\n{e.kind.value} at {ck.inputs[0]} = {e.input:.10g}: {e.message}"
+        out += f"\n{e.kind.value} at {ck.inputs[0]} = {e.input:.10g}: {printable(e.message)}"
     return out + "\n"
 
 

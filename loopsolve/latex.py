@@ -970,7 +970,8 @@ def to_latex(mech: Mechanism, *, input: str | Sequence[str] | None = None, at=No
     if inline:
         return _render_inline(items)
     if snippet:
-        return "%% loopsolve: %s\n" % mech.name.replace("\n", " ") + _render_body(items, snippet=True)
+        name = "".join(" " if ord(c) < 0x20 or 0x7F <= ord(c) < 0xA0 else c for c in mech.name)
+        return "%% loopsolve: %s\n" % name + _render_body(items, snippet=True)
     return _document(mech.name, _render_body(items, snippet=False))
 
 

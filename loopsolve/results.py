@@ -200,7 +200,8 @@ class Sweep:
     Immutable. ``z``, ``z1``, ``z2``, ``z3`` are ``(N, nvar)`` arrays (internal units, one row
     per output point in the order traversed); ``modes`` the signature at every point,
     ``residual``/``n_iter``/``cond`` the solver's figures. ``columns`` maps every column name
-    of the output contract to an array (display units); ``states`` gives one :class:`State`
+    of the output contract to an array (display units; plus a ``mode`` column of signatures when
+    the rows are not all in one mode, as through limits); ``states`` gives one :class:`State`
     per point (built on first use); ``events`` lists limits, singular points, mode changes;
     ``mode`` is the starting mode and ``method`` how the points were solved.
 
@@ -317,6 +318,8 @@ class Sweep:
                 for c, axis in (("x", 0), ("y", 1)):
                     for k, suffix in enumerate(_SUFFIX):
                         out[f"{p}_{c}{suffix}"] = pts[:, k, j, axis] + 0.0
+            if len(set(self.modes)) > 1:  # a sweep through limits: every row states its own mode
+                out["mode"] = np.array(self.modes, dtype=object)
             for v in out.values():
                 v.setflags(write=False)
             self._cache["columns"] = out
@@ -327,7 +330,7 @@ class Sweep:
         cols = self.columns
         keys = list(cols)
         lists = [cols[k].tolist() for k in keys]
-        return [{k: _clean(v) for k, v in zip(keys, vals)} for vals in zip(*lists)]
+        return [{k: v if k == "mode" else _clean(v) for k, v in zip(keys, vals)} for vals in zip(*lists)]
 
     def __getitem__(self, key: str) -> np.ndarray:
         cols = self.columns

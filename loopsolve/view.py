@@ -37,7 +37,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .errors import LoopsolveError, ModelError
+from .errors import ModelError
 
 __all__ = ["to_html", "write_html", "page_data", "check_output", "Page", "MAX_INLINE_ROWS"]
 
@@ -456,12 +456,10 @@ def write_html(sweep, output, vars=None, *, extra_series=None, title=None) -> Pa
     """
     check_output(output)
     text = to_html(sweep, vars, extra_series=extra_series, title=title)
-    path = Path(output)
-    try:
-        path.write_text(text, encoding="utf-8")
-    except OSError as exc:
-        raise LoopsolveError(f"cannot write {str(output)!r}: {exc.strerror or exc}") from None
-    return path
+    from .files import write_text
+
+    write_text(output, text, ())
+    return Path(output)
 
 
 def check_output(output) -> None:
