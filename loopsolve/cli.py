@@ -186,13 +186,13 @@ def _sweep_args(p: argparse.ArgumentParser) -> None:
 
 
 def _sweep_for(args):
-    from .tracking import sweep
+    from .sweep import sweep
 
     mech = _load(args.model)
     start, stop, through = args.start, args.stop, args.through_limits
     if start is None or stop is None:
         from .solve import display_value, input_value
-        from .tracking import default_range
+        from .sweep import default_range
 
         ck = mech.compile(args.input)
         step = display_value(ck, input_value(ck, args.step))

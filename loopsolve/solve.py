@@ -233,7 +233,8 @@ def start_position(ck: CompiledKinematics, x: float, *, mode=None, guess: dict |
     Examples
     --------
     >>> ck = ls.fourbar(60, 25, 70, 45).compile()
-    >>> z, residual, _ = ls.solve.start_position(ck, math.radians(90), mode="crossed")
+    >>> from loopsolve.solve import start_position
+    >>> z, residual, _ = start_position(ck, math.radians(90), mode="crossed")
     >>> ck.signature(z), residual < 1e-12
     ('+', True)
     """
@@ -256,7 +257,7 @@ def start_position(ck: CompiledKinematics, x: float, *, mode=None, guess: dict |
     try:
         return solve_position(ck, z0, settings=settings, display_input=disp)
     except AssemblyError as exc:  # name the nearest assemblable inputs (or the modes, if the guesses were poor)
-        from .tracking import assembly_failure
+        from .sweep import assembly_failure
 
         raise assembly_failure(ck, x, exc) from None
 

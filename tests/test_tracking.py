@@ -14,7 +14,7 @@ import loopsolve as ls
 from loopsolve import classic as C
 from loopsolve.cli import main
 from loopsolve.solve import solve_position
-from loopsolve.tracking import StepControl, _progress, grid, nearest_assemblable, reachable_ranges
+from loopsolve.sweep import StepControl, _progress, grid, nearest_assemblable, reachable_ranges
 
 TWO_PI = 2 * math.pi
 RAD = math.radians
