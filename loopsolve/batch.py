@@ -101,7 +101,7 @@ def block_dets_v(ck, J):
         M = np.stack([np.stack([J[e * n + c] * cs[c] for c in cols], axis=-1) for e in eqs], axis=-2)  # (N, k, k)
         if len(cols) == 1:
             d = M[:, 0, 0]
-            h = (d != 0).astype(float)
+            h = np.minimum(np.abs(d) / float(ck.scale), 1.0)
         elif len(cols) == 2:
             d = M[:, 0, 0] * M[:, 1, 1] - M[:, 0, 1] * M[:, 1, 0]
             h = np.abs(d) / (0.5 * np.sum(M * M, axis=(1, 2)))

@@ -57,6 +57,12 @@ __all__ = ["StepControl", "Kernel", "Node", "Path", "Tracer", "RowSolution", "fi
 _NEAR_SINGULAR = 1e-7
 #: a sweep does not start where the regularity (≈ 2/cond of the scaled blocks) is below this
 _START_REGULAR = 1e-5
+#: internal steps are at most this fraction of the separation ratio ρ (:meth:`Kernel.rho`)
+_TRUST = 0.25
+#: below this ρ the branches touch within round-off (an exact change point) ...
+_RHO_TOUCH = 1e-5
+#: ... and the tracer passes the branch point with a step of this length
+_PASS_STEP = 1e-4
 
 
 @dataclass(frozen=True, slots=True)
@@ -112,6 +118,7 @@ class Node:
     residual: float = 0.0
     n_iter: int = 0
     J: list | None = None
+    rho: float | None = None  # separation ratio of [Φ_q Φ_x] (Kernel.rho), computed when needed
 
 
 @dataclass(slots=True)
@@ -481,6 +488,12 @@ class Tracer:
                                     f"{self._display(a.z[k.ix]):.10g}{self._unit()} (StepControl.max_nodes)"))
                 break
             at_bound = False
+            if a.rho is None:
+                a.rho = k.rho(a.z, a.J if a.J is not None else k.jac_f(a.z, k.p))
+            # trust radius: a fraction of the separation ratio, so that a step cannot reach another
+            # piece of the solution set (near change points) nor cut a sharp turn; below the floor
+            # the branches touch within round-off (an exact change point): pass straight through
+            h = min(h, max(_TRUST * a.rho, c.min_step * 1e3, _PASS_STEP if a.rho < _RHO_TOUCH else 0.0))
             if natural:
                 b, at_bound = self._natural_step(a, prev_natural, h)
                 if b is None and at_bound and a.z[k.ix] == (self.g.hi if a.t[n] > 0 else self.g.lo):
@@ -519,6 +532,10 @@ class Tracer:
                                 b = nb
                                 end = True
                         break
+            if b.sig == a.sig and (a.t[n] > 0) != (b.t[n] > 0) and abs(a.t[n]) + abs(b.t[n]) > 1e-6:
+                h *= 0.5  # the input turned back without a fold in between: the step was too long
+                if h >= c.min_step:
+                    continue
             if b.sig != a.sig:
                 s = self._locate(a, b)
                 if s is None:
@@ -531,10 +548,17 @@ class Tracer:
                         break
                     continue
                 reversed_ = (a.t[n] > 0) != (b.t[n] > 0)
-                fold = reversed_ and self._is_fold(s)
-                if reversed_ and not fold:
-                    # the corrector jumped onto the other branch of a change point: take a smaller step
+                fold = self._is_fold(s)
+                if reversed_ != fold:
+                    # the located singular point does not explain the step (a fold crossed without
+                    # the input turning back, or the input turning at a branch point): the step left
+                    # the piece it started on; take a smaller one
                     h *= 0.5
+                    if h < c.min_step:
+                        x = self._display(a.z[k.ix])
+                        events.append(Event(EventKind.SINGULAR, x, f"singular position near {name} = {x:.10g}"
+                                            f"{self._unit()} that could not be classified; the rows stop here"))
+                        break
                     continue
                 xs = s.z[k.ix]
                 disp = self._display(xs)
@@ -542,24 +566,23 @@ class Tracer:
                     s.kind = "fold"
                     nodes.append(s)
                     seg_sig.append(a.sig)
-                    msg = (f"limit position at {name} = {disp:.12g}{self._unit()}: the input cannot go further "
-                           f"on mode {self._label(a.sig)} (toggle/fold)")
+                    msg = f"limit position (toggle/fold): the input cannot go further on mode {self._label(a.sig)}"
                     if not self.through:
                         events.append(Event(EventKind.LIMIT, disp, msg + "; the rows stop here (use "
                                             "--through-limits to continue around it)"))
                         break
                     events.append(Event(EventKind.LIMIT, disp, msg))
                     events.append(Event(EventKind.MODE_CHANGE, disp,
-                                        f"continuing around the limit position at {name} = {disp:.12g}"
-                                        f"{self._unit()} onto mode {self._label(b.sig)}; the input turns back"))
+                                        f"continuing around the limit position onto mode {self._label(b.sig)}; "
+                                        "the input turns back"))
                     folds += 1
                 else:
                     s.kind = "singular"
                     nodes.append(s)
                     seg_sig.append(a.sig)
                     events.append(Event(EventKind.SINGULAR, disp,
-                                        f"singular position (change point: the branches touch) at {name} = "
-                                        f"{disp:.12g}{self._unit()}: Φ_q is singular there; continuing on the smooth "
+                                        "singular position (change point: the branches touch): Φ_q is singular "
+                                        "there; continuing on the smooth "
                                         f"branch, whose signature changes from {self._label(a.sig)} to "
                                         f"{self._label(b.sig)}"))
                 a = s

@@ -93,10 +93,10 @@ class Kernel:
         out, had = [], []
         for eqs, cols in self.blocks:
             k = len(cols)
-            if k == 1:
+            if k == 1:  # relative to the model's length scale (the column is scaled already)
                 d = J[eqs[0] * n + cols[0]]
                 out.append(d)
-                had.append(1.0 if d != 0 else 0.0)
+                had.append(min(1.0, abs(d) / self.scale))
                 continue
             if k == 2:
                 e0, e1 = eqs
@@ -138,6 +138,46 @@ class Kernel:
                 return z, it, True, first
             prev = st
         return z, max_iter, False, first
+
+    def rho(self, z, J) -> float:
+        """Separation ratio σ_min/σ_max of the scaled ``[Φ_q  Φ_x]`` (n × (n+1)); 1 for no unknowns.
+
+        The curve Φ = 0 is a regular 1-manifold where it is > 0. It bounds how sharply the
+        curve turns (radius of curvature ≳ ρ in scaled units, the second derivatives of the
+        rotating loop vectors being as large as the first) and how close another piece of the
+        solution set can pass: a second solution at distance δ across the curve needs
+        σ_min ≲ M δ / 2 (Taylor), M ≈ σ_max. Steps and corrections within a fraction of ρ
+        therefore stay on the piece they started on. ρ is small only near change points
+        (the branches touch) and where two pieces nearly touch (near-change-point designs);
+        at a simple fold it stays of order one.
+        """
+        n = self.n
+        if n == 0:
+            return 1.0
+        cs = self.colscale
+        fx = self.jx(z)
+        wx = self.wx
+        rows = [[J[e * n + c] * cs[c] for c in range(n)] + [fx[e] / wx] for e in range(n)]
+        if n == 2:
+            a, b = rows
+            g11 = sum(v * v for v in a)
+            g22 = sum(v * v for v in b)
+            g12 = sum(u * v for u, v in zip(a, b))
+            # det(A Aᵀ) by Cauchy-Binet: the sum of the squared 2×2 minors (no cancellation)
+            m01 = a[0] * b[1] - a[1] * b[0]
+            m02 = a[0] * b[2] - a[2] * b[0]
+            m12 = a[1] * b[2] - a[2] * b[1]
+            det = m01 * m01 + m02 * m02 + m12 * m12
+            tr = g11 + g22
+            lmax = 0.5 * (tr + math.sqrt(max((g11 - g22) ** 2 + 4 * g12 * g12, 0.0)))
+            if not lmax > 0:
+                return 0.0
+            return math.sqrt(max(det / lmax, 0.0) / lmax)
+        try:
+            sv = np.linalg.svd(np.array(rows), compute_uv=False)
+        except np.linalg.LinAlgError:
+            return 0.0
+        return float(sv[-1] / sv[0]) if sv[0] > 0 else 0.0
 
     def residual(self, z) -> float:
         return max(abs(v) for v in self.phi_f(z, self.p)) if self.n else 0.0

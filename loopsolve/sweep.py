@@ -12,13 +12,15 @@ from __future__ import annotations
 
 import math
 import sys
+import warnings
 
 import numpy as np
 
 from . import batch
 from .continuation import (Kernel, Node, Path, RowSolution, StepControl, Tracer, fill_node_rows, first_node,
                            solve_rows_scalar)
-from .errors import AssemblyError, ConvergenceError, ModelError, SingularPositionError, SolveError
+from .errors import (AssemblyError, ConvergenceError, LoopsolveWarning, ModelError, SingularPositionError,
+                     SolveError)
 from .newton import Newton
 from .results import Event, EventKind, Sweep
 from .solve import display_value, initial_z, input_rates, input_value, start_position
@@ -263,8 +265,11 @@ def _parse_range(ck, start, stop, step):
         h = math.radians(float(step)) if ck.mechanism.units.angle == "deg" else float(step)
     else:
         h = float(step)
-    if h == 0 or not math.isfinite(h):
-        raise ModelError("--step must be a nonzero number")
+    if not (math.isfinite(x0) and math.isfinite(x1)):
+        raise ModelError(f"the sweep range of {name} must be finite (got {start!r} to {stop!r})")
+    if not (h > 0 and math.isfinite(h)):
+        raise ModelError(f"--step {step!r}: the output step must be a positive number (the direction of the "
+                         "sweep is from --from to --to)")
     deg = None
     if kind is Kind.ANGLE and ck.mechanism.units.angle == "deg":
         d0 = float(start) if not isinstance(start, str) else math.degrees(x0)
@@ -273,35 +278,62 @@ def _parse_range(ck, start, stop, step):
     return x0, x1, h, kind, deg
 
 
-def _make_grid(x0, x1, h, kind, through_limits, deg=None) -> Grid:
+#: default cap on the output rows of one sweep (``max_rows=``, ``--max-rows``)
+MAX_ROWS = 1_000_000
+
+
+def _make_grid(x0, x1, h, kind, through_limits, deg=None, max_rows=MAX_ROWS) -> Grid:
+    """The output grid ``x0 + k·h`` towards ``x1``, and the input range [x0, x1] the tracer covers.
+
+    The rows are counted before anything is allocated: more than ``max_rows`` is a ModelError.
+    """
     h = math.copysign(abs(h), x1 - x0) if x1 != x0 else abs(h)
-    n = max(int(math.floor((x1 - x0) / h + 1e-9)), 0)
+    count = (x1 - x0) / h
+    full_turn = through_limits and kind is Kind.ANGLE and abs(x1 - x0) >= 2 * math.pi - 1e-9
+    m = 2 * math.pi / abs(h) if full_turn else 0.0
+    total = count + m + 1
+    if not (total <= max_rows):  # also inf and nan (a step below the range's resolution)
+        rows = f"{total:.3g}" if math.isfinite(total) else "too many"
+        raise ModelError(f"the sweep would have {rows} rows (from the range and --step), more than the limit of "
+                         f"{max_rows:g}: use a larger --step or a smaller range, or raise the limit with "
+                         "--max-rows (max_rows=)")
+    n = max(int(math.floor(count + 1e-9)), 0)
     g = Grid(x0, h, 0, n, x0, x0, deg)
+    if n and g.value(n) == g.value(n - 1):
+        raise ModelError(f"--step {abs(h):g} is below the resolution of the input values in this range")
     xs, xn = g.value(0), g.value(n)
-    lo, hi = min(xs, xn), max(xs, xn)
+    if abs(x1 - xn) <= 1e-9 * abs(h):  # the end is the last grid value (up to round-off)
+        x1 = xn
+    # the tracer covers the whole requested range (a limit between the last grid value and the
+    # end is reported), and at least the grid (the last grid value may pass x1 by round-off)
+    lo, hi = min(xs, xn, x1), max(xs, xn, x1)
     kmin, kmax = 0, n
-    if through_limits and kind is Kind.ANGLE and abs(x1 - x0) >= 2 * math.pi - 1e-9:
+    if full_turn:
         # a full turn of the input: every angle is in range; the path may go back past the start
-        m = int(math.floor(2 * math.pi / abs(h) + 1e-9))
-        kmin = -m
+        kmin = -int(math.floor(m + 1e-9))
         if h > 0:
-            lo = x0 - 2 * math.pi
+            lo = xs - 2 * math.pi
         else:
-            hi = x0 + 2 * math.pi
+            hi = xs + 2 * math.pi
     return Grid(x0, h, kmin, kmax, lo, hi, deg)
 
 
 def sweep(mech, start, stop, step, *, speed=None, accel=None, jerk=None, input: str | None = None,
           mode: str | None = None, guess: dict | None = None, compiled=None,
           through_limits: bool = False, progress: bool | None = None, method: str = "auto",
-          derivatives: int = 3, control: StepControl = StepControl(), settings: Newton = Newton()) -> Sweep:
+          derivatives: int = 3, control: StepControl = StepControl(), settings: Newton = Newton(),
+          max_rows: int = MAX_ROWS) -> Sweep:
     """Sweep the input from ``start`` to ``stop`` by ``step`` (display units), tracking the mode.
 
     Parameters
     ----------
     mech : Mechanism
     start, stop, step : float or str
-        Output grid of the input, in the model's units or with a unit (``"1.5rad"``).
+        The input range and the output step, in the model's units or with a unit (``"1.5rad"``).
+        The rows are at ``start + k·step`` (k = 0, 1, ...) towards ``stop``; ``stop`` itself is a
+        row only when it falls on that grid. ``step`` is positive (the direction is from ``start``
+        to ``stop``). The tracker covers the whole range: a limit position anywhere between
+        ``start`` and ``stop`` is reported, also one after the last row.
     speed, accel, jerk : float or str, optional
         Rates of the input (default: the model's, else 1, 0, 0).
     input : str, optional
@@ -326,6 +358,8 @@ def sweep(mech, start, stop, step, *, speed=None, accel=None, jerk=None, input: 
         not needed.
     control : StepControl
         Internal step control.
+    max_rows : int
+        Refuse (``ModelError``, before any work) a grid of more rows than this (default 10⁶).
 
     Returns
     -------
@@ -340,6 +374,14 @@ def sweep(mech, start, stop, step, *, speed=None, accel=None, jerk=None, input: 
         The mechanism cannot be assembled at ``start`` (names the nearest assemblable inputs).
     SingularPositionError
         ``start`` is a singular position.
+    ModelError
+        A bad range or step, or more than ``max_rows`` rows.
+
+    Warns
+    -----
+    LoopsolveWarning
+        The sweep stopped at a limit position (or could not continue) before ``stop``: one line
+        naming the input value; the rows up to there are returned.
 
     Examples
     --------
@@ -359,7 +401,8 @@ def sweep(mech, start, stop, step, *, speed=None, accel=None, jerk=None, input: 
         raise ModelError(f"derivatives={derivatives!r}: expected 1 (velocities), 2 (accelerations) or 3 (jerks)")
     ck = compiled if compiled is not None else mech.compile(input)
     x0, x1, h, kind, deg = _parse_range(ck, start, stop, step)
-    g = _make_grid(x0, x1, h, kind, through_limits, deg)
+    g = _make_grid(x0, x1, h, kind, through_limits, deg, max_rows=max_rows)
+    x0 = g.value(0)  # start exactly on the first grid value (the two may differ by an ulp)
     rates = input_rates(ck, speed, accel, jerk)
     z0, _, _ = start_position(ck, x0, mode=mode, guess=guess, settings=settings)
     kern = Kernel(ck)
@@ -408,9 +451,25 @@ def sweep(mech, start, stop, step, *, speed=None, accel=None, jerk=None, input: 
         code, res, its = code[keep], res[keep], its[keep]
     names = np.empty(len(sol.sigs), dtype=object)
     names[:] = sol.sigs
+    _announce_stop(ck, path.events, through_limits)
     return Sweep.from_arrays(ck, Z.T, Z1.T, Z2.T, Z3.T, modes=tuple(names[code]), residual=res, n_iter=its,
                              cond=cond, events=tuple(events), mode=first.sig,
                              method="batched" if use_batch else "tracked", copy=False)
+
+
+def _announce_stop(ck, events, through_limits: bool) -> None:
+    """One :class:`LoopsolveWarning` line when the sweep stopped before the end of its range."""
+    from .solve import _input_unit
+
+    for e in events:
+        stop = (e.kind is EventKind.LIMIT and not through_limits) or (
+            e.kind is EventKind.SINGULAR and "the rows stop here" in e.message)
+        if stop:
+            what = "a limit position (toggle)" if e.kind is EventKind.LIMIT else "a singular position"
+            hint = "; --through-limits (through_limits=True) goes around it" if e.kind is EventKind.LIMIT else ""
+            warnings.warn(f"{ck.mechanism.source or ck.mechanism.name}: the sweep stops at {what} at "
+                          f"{ck.inputs[0]} = {e.input:.10g}{_input_unit(ck)}{hint}", LoopsolveWarning, stacklevel=3)
+            return
 
 
 # ============================================================================= reachable ranges
