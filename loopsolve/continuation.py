@@ -520,8 +520,8 @@ class Tracer:
             # the input leaves the range inside an arclength step: stop on the bound
             xa, xb = a.z[k.ix], b.z[k.ix]
             if not natural:
-                for bound in (self.g.lo, self.g.hi):
-                    if (xa - bound) * (xb - bound) < 0 or (xb == bound and xa != bound):
+                for bound, out in ((self.g.lo, -1.0), (self.g.hi, 1.0)):
+                    if (xb - xa) * out > 0 and ((xa - bound) * (xb - bound) < 0 or (xb == bound and xa != bound)):
                         sol = self.solve_at(a, b, bound, b.sig if b.sig == a.sig else a.sig)
                         if sol is not None:
                             zb, res, it = sol
@@ -532,7 +532,7 @@ class Tracer:
                                 b = nb
                                 end = True
                         break
-            if b.sig == a.sig and (a.t[n] > 0) != (b.t[n] > 0) and abs(a.t[n]) + abs(b.t[n]) > 1e-6:
+            if b.sig == a.sig and a.kind != "fold" and (a.t[n] > 0) != (b.t[n] > 0):
                 h *= 0.5  # the input turned back without a fold in between: the step was too long
                 if h >= c.min_step:
                     continue
@@ -566,6 +566,8 @@ class Tracer:
                     s.kind = "fold"
                     nodes.append(s)
                     seg_sig.append(a.sig)
+                    if self.through and first.kind == "fold" and folds and abs(xs - first.z[k.ix]) <= 1e3 * k.x_tol:
+                        break  # back at the limit position the sweep started from: the circuit is closed
                     msg = f"limit position (toggle/fold): the input cannot go further on mode {self._label(a.sig)}"
                     if not self.through:
                         events.append(Event(EventKind.LIMIT, disp, msg + "; the rows stop here (use "
@@ -711,13 +713,62 @@ def solve_rows_scalar(tracer: Tracer, path: Path, rows, g, sol: RowSolution, whi
         sol.its[r] = it
 
 
-def first_node(kern: Kernel, z, d: float) -> Node:
+def _fold_start(kern: Kernel, z, J, sig_wanted: str | None) -> Node | None:
+    """The start node when the start is a limit position (a fold of the input), else None.
 
+    At a fold Φ_q is singular but [Φ_q Φ_x] is not: its null vector is the tangent, normal to
+    the input axis. The point is refined on the hyperplane through it normal to the tangent,
+    and the tangent is oriented into the assembly mode ``sig_wanted`` (the solved start's, when
+    it has one): both directions enter the reachable range, one mode each.
+    """
+    n = kern.n
+    if n == 0 or kern.rho(z, J) < 1e-4:
+        return None  # Φ_x in the range of Φ_q: a change point or worse, not a fold
+    A = np.empty((n, n + 1))
+    A[:, :n] = np.asarray(J, dtype=float).reshape(n, n) * np.asarray(kern.colscale)
+    A[:, n] = np.asarray(kern.jx(z)) / kern.wx
+    t = [float(v) for v in np.linalg.svd(A)[2][-1]]
+    if abs(t[n]) > 0.1:
+        return None
+    t[n] = 0.0
+    zz, _, ok, _ = kern.aug_newton(list(z), t, sum(a * b for a, b in zip(t, kern.yhat(z))), 12)
+    if not ok or not kern.residual(zz) <= kern.tol:
+        return None
+    best = None
+    for sgn in (1.0, -1.0):  # the mode on each side
+        tt = [sgn * v for v in t]
+        y = [a + 1e-4 * b for a, b in zip(kern.yhat(zz), tt)]
+        zt = list(zz)
+        kern.set_yhat(zt, y)
+        zt, _, ok, _ = kern.aug_newton(zt, tt, sum(a * b for a, b in zip(tt, y)), 12)
+        if not ok:
+            continue
+        sig = kern.sig(kern.dets(kern.jac_f(zt, kern.p))[0])
+        if "0" in sig:
+            continue
+        if best is None or sig == sig_wanted:
+            best = (tt, sig)
+    if best is None:
+        return None
+    Jz = kern.jac_f(zz, kern.p)
+    return Node(zz, best[0], best[1], kind="fold", grid=None, residual=kern.residual(zz), J=Jz)
+
+
+def first_node(kern: Kernel, z, d: float, *, allow_fold: bool = False) -> Node:
+    """The tracer's first node at the solved start ``z``, heading in input direction ``d``.
+
+    Raises :class:`SingularPositionError` at a singular start, except, with ``allow_fold``, at a
+    limit position: the node is then the fold itself (``kind="fold"``, no row) heading into the
+    start's assembly mode.
+    """
     z = [float(v) for v in z]
     J = kern.jac_f(z, kern.p)
     dets, had = kern.dets(J)
     du = kern.dudx(z, J)
     if du is None or min(had, default=1.0) < _START_REGULAR:
+        node = _fold_start(kern, z, J, kern.sig(dets)) if allow_fold else None
+        if node is not None:
+            return node
         name = kern.ck.inputs[0]
         disp = display_value(kern.ck, z[kern.ix], name)
         raise SingularPositionError(
@@ -726,4 +777,3 @@ def first_node(kern: Kernel, z, d: float) -> Node:
             "about 1e-5 of one); start the sweep slightly away from it", input_value=disp, result=np.array(z))
     t = kern.natural_tangent(du, d)
     return Node(z, t, kern.sig(dets), grid=0, residual=kern.residual(z), J=J)
-

@@ -29,6 +29,10 @@ SINGULAR_COND = 1e10
 #: ... and so is one where the position uncertainty exceeds this fraction of the distance to
 #: the nearest singular configuration (see :func:`solve_rates`)
 SINGULAR_RATIO = 1e-2
+#: an input this close (display units, relative above 1) to a located limit position is at it
+_AT_LIMIT = 1e-9
+#: relative round-off of a loop closure: the residual a position is known to, at best
+_EPS_POSITION = 8 * 2.220446049250313e-16
 
 
 def input_value(ck: CompiledKinematics, value, name: str | None = None) -> float:
@@ -171,7 +175,9 @@ def solve_rates(ck: CompiledKinematics, z: np.ndarray, rates: Sequence[float], *
     if J.size:
         sv = np.linalg.svd(J, compute_uv=False) if np.all(np.isfinite(J)) else np.array([np.inf, 0.0])
         cond = float(sv[0] / sv[-1]) if sv[-1] > 0 else math.inf
-        residual = float(np.max(np.abs(ck.phi(z))))
+        # the position is never known better than round-off of the loop sums, even where the
+        # residual happens to come out exactly 0 (a closed form landing on a limit position)
+        residual = max(float(np.max(np.abs(ck.phi(z)))), _EPS_POSITION * float(ck.scale))
         indistinct = math.isfinite(cond) and cond * cond * residual / float(sv[0]) > SINGULAR_RATIO
     else:
         cond, indistinct = 1.0, False
@@ -256,7 +262,17 @@ def start_position(ck: CompiledKinematics, x: float, *, mode=None, guess: dict |
         z0[ck.input_idx[0]] = x
     try:
         return solve_position(ck, z0, settings=settings, display_input=disp)
-    except AssemblyError as exc:  # name the nearest assemblable inputs (or the modes, if the guesses were poor)
+    except AssemblyError as exc:
+        # no real solution at x (AssemblyError naming the nearest assemblable inputs), or poor
+        # guesses (ConvergenceError naming the modes that exist there)
+        from .sweep import assembly_failure
+
+        raise assembly_failure(ck, x, exc) from None
+    except ConvergenceError as exc:  # Newton ran out of iterations: is there anything to find?
+        from .modes import _modes_at
+
+        if _modes_at(ck, x):
+            raise
         from .sweep import assembly_failure
 
         raise assembly_failure(ck, x, exc) from None
@@ -312,5 +328,19 @@ def solve(mech: Mechanism, at=None, *, speed=None, accel=None, jerk=None, input:
     disp = display_value(ck, x, name)
     z, residual, n_iter = start_position(ck, x, mode=mode, guess=guess, settings=settings)
     sig = ck.signature(z)
-    z1, z2, z3, pts, cond = solve_rates(ck, z, input_rates(ck, speed, accel, jerk), display_input=disp)
+    try:
+        z1, z2, z3, pts, cond = solve_rates(ck, z, input_rates(ck, speed, accel, jerk), display_input=disp)
+    except SingularPositionError as exc:
+        # Newton also converges (linearly) to a near-solution just beyond a limit position: a
+        # singular position where no real one exists is an input outside the assemblable range
+        from .modes import _modes_at
+
+        if not _modes_at(ck, x):
+            from .sweep import assembly_failure
+
+            err = assembly_failure(ck, x, exc)
+            near = getattr(err, "nearest", None) or ()
+            if not any(abs(v - disp) <= _AT_LIMIT * max(1.0, abs(disp)) for v in near):
+                raise err from None  # beyond the limit, not at it
+        raise
     return State(ck, z, z1, z2, z3, pts, sig, residual, n_iter, cond)

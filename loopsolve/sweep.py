@@ -407,7 +407,7 @@ def sweep(mech, start, stop, step, *, speed=None, accel=None, jerk=None, input: 
     z0, _, _ = start_position(ck, x0, mode=mode, guess=guess, settings=settings)
     kern = Kernel(ck)
     d = 1.0 if g.step > 0 else -1.0
-    first = first_node(kern, z0, d)
+    first = first_node(kern, z0, d, allow_fold=True)
     n_grid = g.kmax - g.kmin + 1
     use_batch = method == "batched" or (method == "auto" and n_grid >= AUTO_BATCH)
     bar = _progress(n_grid, progress)
@@ -427,6 +427,10 @@ def sweep(mech, start, stop, step, *, speed=None, accel=None, jerk=None, input: 
         if bar is not None:
             bar.close()
     events = list(path.events) + sol.events
+    if first.kind == "fold":
+        xf = display_value(ck, first.z[ck.input_idx[0]])
+        events.insert(0, Event(EventKind.LIMIT, xf, "limit position (toggle/fold) where the sweep starts: no row "
+                               f"there (the rates are undefined); the sweep enters mode {first.sig}"))
     ok = sol.ok
     every = bool(ok.all())
     ix = ck.input_idx[0]
@@ -484,7 +488,12 @@ def _assemblable_at(ck, x) -> list:
 
 
 def _limit_towards(ck, kern, z, x_to) -> float | None:
-    """Track from the assemblable ``z`` towards ``x_to``; the limit input found on the way, if any."""
+    """Track from the assemblable ``z`` towards ``x_to``: the limit input found on the way, None if none.
+
+    The tracker cannot step across a gap in the assemblable input however narrow (its steps
+    stay within the separation ratio, see :class:`loopsolve.continuation.Tracer`), so the first
+    limit on the way is the end of the reachable interval in that direction.
+    """
     x_from = z[kern.ix]
     lo, hi = min(x_from, x_to), max(x_from, x_to)
     g = Grid(x_from, x_to - x_from, 0, 1, lo, hi)
@@ -495,7 +504,7 @@ def _limit_towards(ck, kern, z, x_to) -> float | None:
     tr = Tracer(kern, g, StepControl(), land=False, through_limits=False, x_start=x_from)
     path = tr.trace(first)
     for e in path.events:
-        if e.kind is EventKind.LIMIT:
+        if e.kind is EventKind.LIMIT or (e.kind is EventKind.SINGULAR and "the rows stop here" in e.message):
             return path.nodes[-1].z[kern.ix]
     return None
 
@@ -503,55 +512,59 @@ def _limit_towards(ck, kern, z, x_to) -> float | None:
 def default_range(ck, step: float, *, mode=None) -> tuple[float, float, bool]:
     """Sensible sweep range when the user gives none: ``(start, stop, through_limits)``, display units.
 
-    A full turn from 0 when the mechanism can be assembled at 0 (a length input: ±4 length
-    scales around its guess); otherwise the reachable interval that holds the input's guess:
-    from its first grid point inside to beyond its far end, traced with ``through_limits`` so
-    the sweep turns at each limit position and follows the whole circuit.
+    A full turn from 0 when the input turns fully (a length input: its reachable interval
+    within ±4 length scales of its guess); otherwise the reachable interval that holds the
+    input's guess, from its limit position (located exactly, :func:`reachable_ranges`) to one
+    step beyond its far end, traced with ``through_limits`` so that the sweep turns at the far
+    limit and follows the whole circuit back to the start.
 
     Examples
     --------
     >>> default_range(ls.fourbar(60, 25, 70, 45).compile(), 4)
     (0.0, 360.0, False)
     >>> default_range(ls.load(ls.models_dir() / "double_rocker.toml").compile(), 4)
-    (28.0, 72.0, True)
+    (24.146847997, 72.146847997, True)
     """
     i = ck.input_idx[0]
     angle = ck.kinds[i] is Kind.ANGLE
-    if angle:
-        turn = display_value(ck, 2 * math.pi)
-        try:
-            start_position(ck, 0.0, mode=mode)
-            return 0.0, float(turn), False
-        except SolveError:
-            pass
     ranges = reachable_ranges(ck)
     if not ranges:
         raise AssemblyError(f"{ck.mechanism.source or ck.mechanism.name}: no assemblable input value found "
                             f"for {ck.inputs[0]}; check the link lengths")
+    if angle and ranges == [(-math.pi, math.pi)]:
+        return 0.0, float(display_value(ck, 2 * math.pi)), False
     g = ck.mechanism.variable(ck.inputs[0]).guess
     g = 0.0 if g is None else g
-    a, b = next(((a, b) for a, b in ranges if a <= g <= b), ranges[0])
-    if not angle and len(ranges) == 1 and (a, b) == ranges[0]:
-        lo, hi = display_value(ck, a), display_value(ck, b)
-        return float(lo), float(hi), False
+
+    def holds(r):
+        a, b = r
+        if not angle:
+            return a <= g <= b
+        return a <= a + (g - a) % (2 * math.pi) <= b
+
+    a, b = next((r for r in ranges if holds(r)), ranges[0])
     lo, hi = display_value(ck, a), display_value(ck, b)
-    # start inside (clear of the limit, where the rates are undefined); end beyond the far
-    # limit so that the sweep turns there and traces the whole circuit back over the grid
-    start = math.floor(lo / step + 1e-9) * step + step
-    if start >= hi:  # the range is narrower than the step
-        start = 0.5 * (lo + hi)
-    stop = math.ceil(hi / step - 1e-9) * step + (step if math.isclose(hi % step, 0.0, abs_tol=1e-9) else 0.0)
-    return float(start), float(stop), True
+    if not angle and len(ranges) == 1:
+        return float(lo), float(hi), False
+    # start on the limit position (rounded inwards to 1e-9 of a display unit: the sweep starts
+    # there with a `limit` event); stop one step beyond the far limit, so that the sweep turns
+    # there and traces the whole circuit back over the grid
+    start = math.ceil(lo * 1e9) / 1e9
+    stop = start + (math.floor((hi - start) / step) + 1) * step
+    return float(start), float(round(stop, 9)), True
 
 
 def reachable_ranges(ck, *, samples: int | None = None) -> list[tuple[float, float]]:
     """Intervals of the driving input (internal units) where the mechanism can be assembled.
 
     The input is sampled (a full turn for an angle; ±4 length scales around the guess for a
-    length), every assembly mode is found at each sample (:func:`loopsolve.modes.all_solutions`),
-    and each end of a run of assemblable samples is located exactly by tracking towards the
-    next sample until the limit position. Ranges narrower than the sampling step can be
-    missed. A fully rotating angle input gives one interval of length 2π.
+    length) and every assembly mode is found at each sample (:func:`loopsolve.modes.all_solutions`).
+    From every assemblable sample each mode is tracked towards both neighbouring samples; the
+    tracker stops at the first limit position on the way, located to ~1e-9, so every gap
+    between assemblable samples is found however narrow, and its ends are the located folds.
+    (An assemblable island narrower than the sampling step between two samples where the
+    mechanism cannot be assembled would be missed.) A fully rotating angle input gives one
+    interval of length 2π; an interval that wraps ends above π.
 
     Examples
     --------
@@ -561,6 +574,7 @@ def reachable_ranges(ck, *, samples: int | None = None) -> list[tuple[float, flo
     """
     kern = Kernel(ck)
     angle = kern.angle_x
+    ix = kern.ix
     g0 = ck.mechanism.variable(ck.inputs[0]).guess
     g0 = 0.0 if g0 is None else float(g0)
     if angle:
@@ -570,51 +584,59 @@ def reachable_ranges(ck, *, samples: int | None = None) -> list[tuple[float, flo
         m = samples or 200
         xs = [g0 - 4 * ck.scale + 8 * ck.scale * i / (m - 1) for i in range(m)]
     sols = [_assemblable_at(ck, x) for x in xs]
-    ok = [bool(s) for s in sols]
-    if all(ok):
-        if angle:
-            return [(-math.pi, math.pi)]
-        return [(xs[0], xs[-1])]
-    if not any(ok):
+    if not any(sols):
         return []
-    out = []
-    idx = range(m)
-    if angle:  # rotate so that the list starts with a non-assemblable sample
-        r = ok.index(False)
-        idx = [(r + i) % m for i in range(m)]
-    runs = []
-    cur = None
-    for i in idx:
-        if ok[i] and cur is None:
-            cur = [i, i]
-        elif ok[i]:
-            cur[1] = i
-        elif cur is not None:
-            runs.append(cur)
-            cur = None
-    if cur is not None:
-        runs.append(cur)
     step = xs[1] - xs[0]
-    for i0, i1 in runs:
-        x_lo = xs[i0]
-        x_hi = xs[i1]
-        if angle and x_hi < x_lo:
-            x_hi += 2 * math.pi
-        ends = []
-        for (xi, zs), toward in (((x_lo, sols[i0]), x_lo - step), ((x_hi, sols[i1]), x_hi + step)):
-            best = None
-            for z in zs:
-                z = np.array(z, dtype=float)
-                z[kern.ix] = xi
-                lim = _limit_towards(ck, kern, z, toward)
-                if lim is None:
-                    lim = toward
-                if best is None or abs(lim - xi) > abs(best - xi):
-                    best = lim
-            ends.append(best if best is not None else xi)
-        out.append((ends[0], ends[1]))
-    out.sort()
-    return out
+
+    def reach(zs, x_from, x_to):
+        """How far the modes ``zs`` at ``x_from`` get towards ``x_to`` (None: no mode there)."""
+        best = None
+        for z in zs:
+            z = np.array(z, dtype=float)
+            z[ix] = x_from
+            lim = _limit_towards(ck, kern, z, x_to)
+            if lim is None:
+                return x_to
+            if best is None or abs(lim - x_from) > abs(best - x_from):
+                best = lim
+        return best
+
+    pieces = []
+    for i in range(m if angle else m - 1):
+        xa, xb = xs[i], xs[i] + step
+        j = (i + 1) % m
+        ea = reach(sols[i], xa, xb) if sols[i] else None
+        if ea == xb:
+            pieces.append((xa, xb))
+            continue
+        eb = reach(sols[j], xb, xa) if sols[j] else None
+        if eb == xa:
+            pieces.append((xa, xb))
+            continue
+        if ea is not None:
+            pieces.append((xa, ea))
+        if eb is not None:
+            pieces.append((eb, xb))
+    for i, z in enumerate(sols):  # isolated assemblable samples (between two gaps)
+        if z and not any(a <= xs[i] <= b for a, b in pieces):
+            pieces.append((xs[i], xs[i]))
+    pieces.sort()
+    out: list[list[float]] = []
+    for a, b in pieces:
+        if out and a <= out[-1][1] + 1e-12 * (1 + abs(a)):
+            out[-1][1] = max(out[-1][1], b)
+        else:
+            out.append([a, b])
+    if angle:
+        end = xs[0] + 2 * math.pi
+        if len(out) == 1 and out[0][0] <= xs[0] and out[0][1] >= end - 1e-12:
+            return [(-math.pi, math.pi)]
+        if len(out) > 1 and out[0][0] <= xs[0] and out[-1][1] >= end - 1e-12:
+            first = out.pop(0)  # the interval through ±π
+            out[-1][1] = first[1] + 2 * math.pi
+    res = [(float(a), float(b)) for a, b in out]
+    res.sort()
+    return res
 
 
 def nearest_assemblable(ck, x: float) -> tuple[float, ...]:
