@@ -721,19 +721,10 @@ def _fold_start(kern: Kernel, z, J, sig_wanted: str | None) -> Node | None:
     and the tangent is oriented into the assembly mode ``sig_wanted`` (the solved start's, when
     it has one): both directions enter the reachable range, one mode each.
     """
-    n = kern.n
-    if n == 0 or kern.rho(z, J) < 1e-4:
-        return None  # Φ_x in the range of Φ_q: a change point or worse, not a fold
-    A = np.empty((n, n + 1))
-    A[:, :n] = np.asarray(J, dtype=float).reshape(n, n) * np.asarray(kern.colscale)
-    A[:, n] = np.asarray(kern.jx(z)) / kern.wx
-    t = [float(v) for v in np.linalg.svd(A)[2][-1]]
-    if abs(t[n]) > 0.1:
+    found = kern.fold_point(z, J)
+    if found is None:
         return None
-    t[n] = 0.0
-    zz, _, ok, _ = kern.aug_newton(list(z), t, sum(a * b for a, b in zip(t, kern.yhat(z))), 12)
-    if not ok or not kern.residual(zz) <= kern.tol:
-        return None
+    zz, t = found
     best = None
     for sgn in (1.0, -1.0):  # the mode on each side
         tt = [sgn * v for v in t]

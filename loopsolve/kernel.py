@@ -179,6 +179,61 @@ class Kernel:
             return 0.0
         return float(sv[-1] / sv[0]) if sv[0] > 0 else 0.0
 
+    def fold_point(self, z, J):
+        """``(z*, t)``: the limit position (fold of the input) next to ``z`` and its tangent, or None.
+
+        At a fold Φ_q is singular but [Φ_q Φ_x] is not (ρ of order one): its null vector is the
+        tangent, normal to the input axis. The fold is the regular root of the extended system
+        Φ(u, x) = 0, det B(u, x) = 0 (B the diagonal block that is singular there), solved by
+        Newton in (u, x) with the determinant's gradient by central differences.
+        """
+        n = self.n
+        if n == 0 or self.rho(z, J) < 1e-4:
+            return None  # Φ_x in the range of Φ_q: a change point or worse, not a fold
+        j = min(range(len(self.blocks)), key=lambda b: self.dets(J)[1][b])
+        z = list(z)
+        w = self.w
+        for _ in range(30):
+            Jz = self.jac_f(z, self.p)
+            f = list(self.phi_f(z, self.p)) + [self.dets(Jz)[0][j]]
+            A = np.empty((n + 1, n + 1))
+            A[:n, :n] = np.asarray(Jz, dtype=float).reshape(n, n)
+            A[:n, n] = self.jx(z)
+            y = self.yhat(z)
+            for c in range(n + 1):  # d det / d y_c by central differences (scaled coordinates)
+                hh = 1e-6
+                zp, zm = list(z), list(z)
+                yp, ym = list(y), list(y)
+                yp[c] += hh
+                ym[c] -= hh
+                self.set_yhat(zp, yp)
+                self.set_yhat(zm, ym)
+                dp = self.dets(self.jac_f(zp, self.p))[0][j]
+                dm = self.dets(self.jac_f(zm, self.p))[0][j]
+                A[n, c] = (dp - dm) / (2 * hh) * w[c]
+            try:
+                dz = np.linalg.solve(A, -np.asarray(f))
+            except np.linalg.LinAlgError:
+                return None
+            if not np.all(np.isfinite(dz)):
+                return None
+            for k, i in enumerate(self.iu):
+                z[i] += float(dz[k])
+            z[self.ix] += float(dz[n])
+            if float(np.max(np.abs(dz * np.asarray(w)))) <= 1e-15 * (1 + max(abs(v) for v in self.yhat(z))):
+                break
+        if not self.residual(z) <= self.tol:
+            return None
+        Jz = self.jac_f(z, self.p)
+        A = np.empty((n, n + 1))
+        A[:, :n] = np.asarray(Jz, dtype=float).reshape(n, n) * np.asarray(self.colscale)
+        A[:, n] = np.asarray(self.jx(z)) / self.wx
+        t = [float(v) for v in np.linalg.svd(A)[2][-1]]
+        if abs(t[n]) > 1e-3:
+            return None
+        t[n] = 0.0
+        return z, t
+
     def residual(self, z) -> float:
         return max(abs(v) for v in self.phi_f(z, self.p)) if self.n else 0.0
 

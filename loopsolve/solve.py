@@ -342,5 +342,14 @@ def solve(mech: Mechanism, at=None, *, speed=None, accel=None, jerk=None, input:
             near = getattr(err, "nearest", None) or ()
             if not any(abs(v - disp) <= _AT_LIMIT * max(1.0, abs(disp)) for v in near):
                 raise err from None  # beyond the limit, not at it
+        # at a limit Newton stops ~sqrt(round-off) short of the position: report the located fold
+        from .kernel import Kernel
+
+        kern = Kernel(ck)
+        found = kern.fold_point([float(v) for v in z], kern.jac_f([float(v) for v in z], kern.p))
+        if found is not None and abs(found[0][kern.ix] - x) <= _AT_LIMIT * max(1.0, abs(x)):
+            zf = np.array(found[0], dtype=float)
+            zf[kern.ix] = x
+            solve_rates(ck, zf, (1.0, 0.0, 0.0), display_input=disp)  # raises with the refined positions
         raise
     return State(ck, z, z1, z2, z3, pts, sig, residual, n_iter, cond)
