@@ -29,7 +29,7 @@ SINGULAR_COND = 1e10
 #: ... and so is one where the position uncertainty exceeds this fraction of the distance to
 #: the nearest singular configuration (see :func:`solve_rates`)
 SINGULAR_RATIO = 1e-2
-#: an input this close (display units, relative above 1) to a located limit position is at it
+#: an input this close (display units) to a located limit position is at it
 _AT_LIMIT = 1e-9
 #: relative round-off of a loop closure: the residual a position is known to, at best
 _EPS_POSITION = 8 * 2.220446049250313e-16
@@ -265,8 +265,14 @@ def start_position(ck: CompiledKinematics, x: float, *, mode=None, guess: dict |
     except AssemblyError as exc:
         # no real solution at x (AssemblyError naming the nearest assemblable inputs), or poor
         # guesses (ConvergenceError naming the modes that exist there)
+        from .modes import _modes_at
         from .sweep import assembly_failure
 
+        modes = _modes_at(ck, x)
+        if modes and _coincide(ck, [m.z for m in modes]):
+            # a limit position: the modes meet there, and Newton stalls from guesses on one side
+            z = np.array(modes[0].z, dtype=float)
+            return z, float(np.max(np.abs(ck.phi(z)))), 0
         raise assembly_failure(ck, x, exc) from None
     except ConvergenceError as exc:  # Newton ran out of iterations: is there anything to find?
         from .modes import _modes_at
@@ -276,6 +282,18 @@ def start_position(ck: CompiledKinematics, x: float, *, mode=None, guess: dict |
         from .sweep import assembly_failure
 
         raise assembly_failure(ck, x, exc) from None
+
+
+def _coincide(ck, zs) -> bool:
+    """Whether the positions ``zs`` are one pose (within 1e-6 in scaled units, angles modulo 2π)."""
+    w = np.array([1.0 if k is Kind.ANGLE else 1.0 / ck.scale for k in ck.kinds])
+    ang = np.array([k is Kind.ANGLE for k in ck.kinds])
+    for z in zs[1:]:
+        d = np.asarray(z) - np.asarray(zs[0])
+        d = np.where(ang, (d + math.pi) % (2 * math.pi) - math.pi, d)
+        if float(np.max(np.abs(d * w))) > 1e-6:
+            return False
+    return True
 
 
 def solve(mech: Mechanism, at=None, *, speed=None, accel=None, jerk=None, input: str | None = None,
@@ -340,14 +358,14 @@ def solve(mech: Mechanism, at=None, *, speed=None, accel=None, jerk=None, input:
 
             err = assembly_failure(ck, x, exc)
             near = getattr(err, "nearest", None) or ()
-            if not any(abs(v - disp) <= _AT_LIMIT * max(1.0, abs(disp)) for v in near):
+            if not any(abs(v - disp) <= max(_AT_LIMIT, 1e-15 * abs(disp)) for v in near):
                 raise err from None  # beyond the limit, not at it
         # at a limit Newton stops ~sqrt(round-off) short of the position: report the located fold
         from .kernel import Kernel
 
         kern = Kernel(ck)
         found = kern.fold_point([float(v) for v in z], kern.jac_f([float(v) for v in z], kern.p))
-        if found is not None and abs(found[0][kern.ix] - x) <= _AT_LIMIT * max(1.0, abs(x)):
+        if found is not None and abs(display_value(ck, found[0][kern.ix]) - disp) <= max(_AT_LIMIT, 1e-15 * abs(disp)):
             zf = np.array(found[0], dtype=float)
             zf[kern.ix] = x
             solve_rates(ck, zf, (1.0, 0.0, 0.0), display_input=disp)  # raises with the refined positions
