@@ -489,7 +489,7 @@ def _nearest_text(ck, near) -> str:
     if not near:
         return "; no assemblable input was found nearby: check the link lengths"
     unit = _input_unit(ck)
-    vals = " or ".join(f"{v:.10g}{unit}" for v in near)
+    vals = " or ".join(f"{v if abs(v) >= 1e-9 else 0.0:.10g}{unit}" for v in near)  # no -4e-15 for 0
     return f"; the nearest assemblable input values are {ck.inputs[0]} = {vals}"
 
 

@@ -29,6 +29,8 @@ from .units import Kind
 __all__ = ["StepControl", "sweep", "grid", "reachable_ranges", "default_range", "nearest_assemblable",
            "assembly_failure", "AUTO_BATCH"]
 
+#: a start this close (display units) to a located limit position starts on it
+_AT_LIMIT = 1e-9
 #: ``method="auto"`` uses the batched path from this many output points on
 AUTO_BATCH = 720
 
@@ -408,6 +410,11 @@ def sweep(mech, start, stop, step, *, speed=None, accel=None, jerk=None, input: 
     kern = Kernel(ck)
     d = 1.0 if g.step > 0 else -1.0
     first = first_node(kern, z0, d, allow_fold=True)
+    if first.kind == "fold" and abs(display_value(ck, first.z[kern.ix]) - display_value(ck, x0)) > _AT_LIMIT:
+        from .modes import _modes_at
+
+        if not _modes_at(ck, x0):  # Newton found a near-solution beyond the limit: not assemblable
+            raise assembly_failure(ck, x0, AssemblyError("beyond a limit position"))
     n_grid = g.kmax - g.kmin + 1
     use_batch = method == "batched" or (method == "auto" and n_grid >= AUTO_BATCH)
     bar = _progress(n_grid, progress)

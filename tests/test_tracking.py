@@ -427,6 +427,18 @@ class TestNarrowGaps:
                                                                                abs=1e-9)
 
 
+class TestStartAtALimit:
+    def test_start_on_a_limit_and_just_beyond(self):
+        lo = min(fold_angles(4, 3, 3.5, 5))
+        mech = ls.fourbar(4, 3, 3.5, 5, theta2=180)
+        for d in (0.0, -1e-9, 1e-9):
+            sw = mech.sweep(lo + d, 90, 10)
+            assert kinds(sw) == ["limit"] and sw.events[0].input == pytest.approx(lo, abs=1e-9)
+            assert sw["theta2"][0] == pytest.approx(lo + d + 10)
+        with pytest.raises(ls.AssemblyError):
+            mech.sweep(lo - 1e-7, 90, 10)
+
+
 class TestGridStart:
     @pytest.mark.parametrize("start", [27.4, 25.7, 27.1, 28.5, 67.9])
     def test_decimal_starts_keep_every_row(self, start, capsys):
