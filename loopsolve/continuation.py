@@ -146,6 +146,7 @@ class Tracer:
         self.through = through_limits
         self.x_start = x_start
         self.bar = bar
+        self.near = _NEAR_SINGULAR  # regularity below which a node is refused (see trace)
         self.cos_turn = math.cos(control.max_turn)
         self.cos_grow = math.cos(control.max_turn / 3)
 
@@ -167,7 +168,7 @@ class Tracer:
         k = self.k
         J = k.jac_f(z, k.p)
         dets, had = k.dets(J)
-        if min(had, default=1.0) < _NEAR_SINGULAR:
+        if min(had, default=1.0) < self.near:
             return None, dets, had  # too close to a singular position to take its mode or tangent
         if natural_d is not None:
             du = k.dudx(z, J)
@@ -307,7 +308,7 @@ class Tracer:
         # and the mode need no better; the rates are computed afresh at every row)
         cs0, cs1 = 1.0 / w0, 1.0 / w1
         nr = 0.5 * ((A * A + C * C) * cs0 * cs0 + (B * B + D * D) * cs1 * cs1)
-        if not abs(det) * cs0 * cs1 >= _NEAR_SINGULAR * nr:
+        if not abs(det) * cs0 * cs1 >= self.near * nr:
             return None, at_bound
         b0, b1 = k.rhs1_f(z, k.ex, p)
         n0 = (D * b0 - B * b1) / det * w0 * d
@@ -480,6 +481,7 @@ class Tracer:
         folds = 0
         start_sig = first.sig
         name = k.ck.inputs[0]
+        passing = None  # the node a pass step across a branch point was last tried from
         while True:
             a = nodes[-1]
             if len(nodes) > c.max_nodes:
@@ -493,7 +495,16 @@ class Tracer:
             # trust radius: a fraction of the separation ratio, so that a step cannot reach another
             # piece of the solution set (near change points) nor cut a sharp turn; below the floor
             # the branches touch within round-off (an exact change point): pass straight through
-            h = min(h, max(_TRUST * a.rho, c.min_step * 1e3, _PASS_STEP if a.rho < _RHO_TOUCH else 0.0))
+            if a.rho < _RHO_TOUCH:
+                if passing is not a:  # first try from this node: one step across the branch point
+                    h, passing = _PASS_STEP, a
+                self.near = _NEAR_SINGULAR
+            else:
+                h = min(h, max(_TRUST * a.rho, c.min_step * 1e3))
+                # a node this close to a singular position is refused so that the step straddles it;
+                # where the steps are short (ρ small: the determinant grows only like ρ·distance) the
+                # bound shrinks with them, or no step could ever get past
+                self.near = min(_NEAR_SINGULAR, 0.01 * a.rho * h)
             if natural:
                 b, at_bound = self._natural_step(a, prev_natural, h)
                 if b is None and at_bound and a.z[k.ix] == (self.g.hi if a.t[n] > 0 else self.g.lo):
@@ -548,8 +559,13 @@ class Tracer:
                         break
                     continue
                 reversed_ = (a.t[n] > 0) != (b.t[n] > 0)
-                fold = self._is_fold(s)
-                if reversed_ != fold:
+                fold = reversed_
+                # within the trust radius the input's turn classifies the point; the algebraic test
+                # (ψ·Φ_x ≠ 0 at a fold) must agree. Near a change point a fold's ψ·Φ_x is small
+                # (≈ the square root of the design's distance from the change point), so the test's
+                # threshold comes down to what separates it from an exact change point's round-off
+                tol = 1e-4 if k.rho(s.z, s.J) > 1e-3 else 1e-8
+                if reversed_ != self._is_fold(s, tol):
                     # the located singular point does not explain the step (a fold crossed without
                     # the input turning back, or the input turning at a branch point): the step left
                     # the piece it started on; take a smaller one
@@ -616,7 +632,7 @@ class Tracer:
                 h = min(h * 1.6, c.max_step)
         return path
 
-    def _is_fold(self, s: Node) -> bool:
+    def _is_fold(self, s: Node, tol: float = 1e-4) -> bool:
         """A fold (limit) rather than a branch point: ∂Φ/∂x is not in the range of the singular Φ_q.
 
         With ψ the left null vector of Φ_q, ψ·Φ_x ≠ 0 at a fold (the input cannot move) and
@@ -631,7 +647,7 @@ class Tracer:
             return False
         U, sv, _ = np.linalg.svd(J)
         psi = U[:, -1]
-        return abs(float(psi @ fx)) > 1e-4 * nf
+        return abs(float(psi @ fx)) > tol * nf
 
     def _same_as_start(self, z, z0) -> bool:
         k = self.k
