@@ -16,19 +16,29 @@ Algorithm (Allgower and Georg, *Introduction to Numerical Continuation Methods*,
 * **Pseudo-arclength steps** near folds: predictor along the unit tangent, corrector on
   Φ = 0 plus the hyperplane through the predictor normal to the tangent (the bordered
   Jacobian stays regular at a fold, where Φ_q does not).
+* **Trust radius.** Every step is at most a quarter of the node's separation ratio
+  ρ = σ_min/σ_max of the scaled [Φ_q Φ_x] (:meth:`Kernel.rho`). ρ bounds the curve's
+  radius of curvature and the distance at which another piece of the solution set can pass
+  (the second derivatives of rotating loop vectors are as large as the first), so a step and
+  its corrector stay on the piece they started from: a sweep cannot jump across a narrow gap
+  where the linkage cannot be assembled, however coarse the output grid. ρ is of order one
+  except near change points, where the internal steps shrink accordingly. Where ρ < 1e-5 the
+  branches touch within round-off (an exact change point) and one step of 1e-4 passes it.
 * Every accepted step is checked: the corrector converged in few iterations, it moved
-  little from the predictor, the tangent turned by less than ``max_turn``, and the
-  **mode signature** (signs of the determinants of the diagonal blocks of Φ_q) is unchanged.
-  A rejected step is halved.
-* A signature change that survives those checks means a zero of a block determinant
-  between the two nodes. It is located along the chord of the step by the Illinois
-  (regula falsi) method to ~1e-11 in scaled arc length, which puts a fold's input value
-  within ~1e-20 of the true limit (x is stationary there). If the input reversed, the point
-  is a **limit** (toggle/fold): the sweep stops there with a ``limit`` event, or with
-  ``through_limits`` goes on around the fold onto the other mode (``mode-change`` event),
-  back over the same output grid, until the circuit closes or the input leaves the range.
-  Otherwise the branches touch (a **change point**): a ``singular`` event, and the sweep
-  continues on the smooth branch.
+  little from the predictor, the tangent turned by less than ``max_turn``, the input did not
+  turn back, and the **mode signature** (signs of the determinants of the diagonal blocks of
+  Φ_q) is unchanged — unless a singular point between the two nodes explains it. A rejected
+  step is halved.
+* A signature change means a zero of a block determinant between the two nodes. It is
+  located along the chord of the step by the Illinois (regula falsi) method to ~1e-11 in
+  scaled arc length, which puts a fold's input value within ~1e-20 of the true limit (x is
+  stationary there). If the input turned back, the point is a **limit** (toggle/fold): the
+  sweep stops there with a ``limit`` event, or with ``through_limits`` goes on around the
+  fold onto the other mode (``mode-change`` event), back over the same output grid, until the
+  circuit closes or the input leaves the range. Otherwise the branches touch (a **change
+  point**): a ``singular`` event, and the sweep continues on the smooth branch. The
+  algebraic test (ψ·Φ_x ≠ 0 at a fold, ψ the left null vector of Φ_q) must agree, or the
+  step is retried shorter.
 
 Rows are the output grid values crossed, in the order traversed. Rates at every row are
 computed in one vectorized pass (:func:`loopsolve.batch.rates_v`). ``method="batched"``
