@@ -207,7 +207,7 @@ def _sweep_for(args):
     return sweep(mech, start, stop, args.step, speed=args.speed, accel=args.accel, jerk=args.jerk,
                  input=args.input, mode=args.mode, through_limits=through,
                  progress=None if not args.quiet else False, method=getattr(args, "method", "auto"),
-                 max_rows=args.max_rows)
+                 max_rows=args.max_rows, limit_rows=args.command == "plot")
 
 
 def cmd_vectors(args) -> int:

@@ -496,8 +496,8 @@ class Tracer:
             a = nodes[-1]
             if len(nodes) > c.max_nodes:
                 events.append(Event(EventKind.SINGULAR, self._display(a.z[k.ix]),
-                                    f"stopped after {c.max_nodes} internal steps at {name} = "
-                                    f"{self._display(a.z[k.ix]):.10g}{self._unit()} (StepControl.max_nodes)"))
+                                    f"stopped after {c.max_nodes} internal steps (StepControl.max_nodes); the rows "
+                                    "stop here"))
                 break
             at_bound = False
             if a.rho is None:
@@ -532,9 +532,9 @@ class Tracer:
                 if h < c.min_step:
                     x = self._display(a.z[k.ix])
                     events.append(Event(EventKind.SINGULAR, x,
-                                        f"branch tracking cannot continue beyond {name} = {x:.10g}{self._unit()} "
-                                        f"on mode {self._label(a.sig)} (no converged step down to the minimum "
-                                        "step); the rows stop here"))
+                                        f"branch tracking cannot continue beyond this input on mode "
+                                        f"{self._label(a.sig)} (no converged step down to the minimum step); the rows "
+                                        "stop here"))
                     break
                 continue
             end = at_bound
@@ -563,9 +563,9 @@ class Tracer:
                     h *= 0.5
                     if h < c.min_step:
                         x = self._display(a.z[k.ix])
-                        events.append(Event(EventKind.SINGULAR, x, f"singular position near {name} = {x:.10g}"
-                                            f"{self._unit()}: the mode signature changes but no crossing of a "
-                                            "singular configuration could be located; the rows stop here"))
+                        events.append(Event(EventKind.SINGULAR, x, "singular position nearby: the mode signature "
+                                            "changes but no crossing of a singular configuration could be located; "
+                                            "the rows stop here"))
                         break
                     continue
                 reversed_ = (a.t[n] > 0) != (b.t[n] > 0)
@@ -582,8 +582,8 @@ class Tracer:
                     h *= 0.5
                     if h < c.min_step:
                         x = self._display(a.z[k.ix])
-                        events.append(Event(EventKind.SINGULAR, x, f"singular position near {name} = {x:.10g}"
-                                            f"{self._unit()} that could not be classified; the rows stop here"))
+                        events.append(Event(EventKind.SINGULAR, x, "singular position nearby that could not be "
+                                            "classified; the rows stop here"))
                         break
                     continue
                 xs = s.z[k.ix]
@@ -729,8 +729,7 @@ def solve_rows_scalar(tracer: Tracer, path: Path, rows, g, sol: RowSolution, whi
         sol.code[r] = sol.code_of(s)
         if res is None:
             x = tracer._display(g.value(kk))
-            sol.events.append(Event(EventKind.SINGULAR, x, f"no converged solution at {kern.ck.inputs[0]} = "
-                                    f"{x:.10g} on mode {s}; row left out"))
+            sol.events.append(Event(EventKind.SINGULAR, x, f"no converged solution on mode {s}; row left out"))
             sol.ok[r] = False
             continue
         z, rr, it = res

@@ -324,7 +324,7 @@ def sweep(mech, start, stop, step, *, speed=None, accel=None, jerk=None, input: 
           mode: str | None = None, guess: dict | None = None, compiled=None,
           through_limits: bool = False, progress: bool | None = None, method: str = "auto",
           derivatives: int = 3, control: StepControl = StepControl(), settings: Newton = Newton(),
-          max_rows: int = MAX_ROWS) -> Sweep:
+          max_rows: int = MAX_ROWS, limit_rows: bool = False) -> Sweep:
     """Sweep the input from ``start`` to ``stop`` by ``step`` (display units), tracking the mode.
 
     Parameters
@@ -362,6 +362,9 @@ def sweep(mech, start, stop, step, *, speed=None, accel=None, jerk=None, input: 
         Internal step control.
     max_rows : int
         Refuse (``ModelError``, before any work) a grid of more rows than this (default 10⁶).
+    limit_rows : bool
+        Also a row at every limit position the sweep reaches (off the grid: the located input,
+        the positions there, NaN rates), so that plotted branches meet at their fold.
 
     Returns
     -------
@@ -436,11 +439,13 @@ def sweep(mech, start, stop, step, *, speed=None, accel=None, jerk=None, input: 
     events = list(path.events) + sol.events
     if first.kind == "fold":
         xf = display_value(ck, first.z[ck.input_idx[0]])
-        events.insert(0, Event(EventKind.LIMIT, xf, "limit position (toggle/fold) where the sweep starts: no row "
-                               f"there (the rates are undefined); the sweep enters mode {first.sig}"))
+        events.insert(0, Event(EventKind.LIMIT, xf, "limit position (toggle/fold) where the sweep starts (the "
+                               f"rates are undefined there); the sweep enters mode {first.sig}"))
     ok = sol.ok
     every = bool(ok.all())
     ix = ck.input_idx[0]
+    key = np.where(rows.node >= 0, rows.node, rows.seg + 0.5)  # position of each row along the path
+    key = key if every else key[ok]
     Z = sol.Z if every else sol.Z[:, ok]
     Z[ix] = rows.x if every else rows.x[ok]
     J = None
@@ -455,17 +460,43 @@ def sweep(mech, start, stop, step, *, speed=None, accel=None, jerk=None, input: 
     if np.any(bad):
         for i in np.flatnonzero(bad):
             x = display_value(ck, Z[ix, i])
-            events.append(Event(EventKind.SINGULAR, x, f"singular position at {ck.inputs[0]} = {x:.10g}: Φ_q is "
-                                "singular (rates undefined); row left out"))
+            events.append(Event(EventKind.SINGULAR, x, "singular position: Φ_q is singular (rates undefined); "
+                                "row left out"))
         keep = ~bad
         Z, Z1, Z2, Z3, cond = Z[:, keep], Z1[:, keep], Z2[:, keep], Z3[:, keep], cond[keep]
-        code, res, its = code[keep], res[keep], its[keep]
+        code, res, its, key = code[keep], res[keep], its[keep], key[keep]
+    if limit_rows:
+        Z, Z1, Z2, Z3, cond, code, res, its = _insert_limit_rows(ck, path, sol, key, rates, Z, Z1, Z2, Z3, cond,
+                                                                code, res, its)
     names = np.empty(len(sol.sigs), dtype=object)
     names[:] = sol.sigs
     _announce_stop(ck, path.events, through_limits)
     return Sweep.from_arrays(ck, Z.T, Z1.T, Z2.T, Z3.T, modes=tuple(names[code]), residual=res, n_iter=its,
                              cond=cond, events=tuple(events), mode=first.sig,
                              method="batched" if use_batch else "tracked", copy=False)
+
+
+def _insert_limit_rows(ck, path, sol, key, rates, Z, Z1, Z2, Z3, cond, code, res, its):
+    """Add a row at every limit position the path passes (positions of the located fold, NaN rates)."""
+    folds = [(i, nd) for i, nd in enumerate(path.nodes) if nd.kind == "fold"]
+    if not folds:
+        return Z, Z1, Z2, Z3, cond, code, res, its
+    ix = ck.input_idx[0]
+    pos = np.searchsorted(key, [i for i, _ in folds], side="right")
+    fz = np.array([nd.z for _, nd in folds], dtype=float).T
+    nan = np.full_like(fz, np.nan)
+    r1, r2, r3 = nan.copy(), nan.copy(), nan.copy()
+    for r, v in ((r1, rates[0]), (r2, rates[1]), (r3, rates[2])):
+        r[ix] = v
+        for j in ck.input_idx[1:]:
+            r[j] = 0.0
+    for j in ck.input_idx[1:]:
+        fz[j] = path.nodes[0].z[j]
+    fsig = [path.seg_sig[i - 1] if i > 0 else nd.sig for i, nd in folds]
+    fcode = np.array([sol.code_of(sg) for sg in fsig], dtype=np.int64)
+    return (np.insert(Z, pos, fz, axis=1), np.insert(Z1, pos, r1, axis=1), np.insert(Z2, pos, r2, axis=1),
+            np.insert(Z3, pos, r3, axis=1), np.insert(cond, pos, np.inf), np.insert(code, pos, fcode),
+            np.insert(res, pos, [nd.residual for _, nd in folds]), np.insert(its, pos, 0))
 
 
 def _announce_stop(ck, events, through_limits: bool) -> None:

@@ -526,3 +526,19 @@ class TestDefaultRange:
         assert kinds(sw) == ["limit", "limit", "mode-change"]
         assert [e.input for e in sw.events] == pytest.approx([lo, hi, hi], abs=1e-9)
         assert sw["theta2"][0] == pytest.approx(start + 4)
+
+
+class TestLimitRows:
+    @pytest.mark.parametrize("method", ["tracked", "batched"])
+    def test_a_row_at_each_limit_position(self, method):
+        mech = ls.load(ls.models_dir() / "double_rocker.toml")
+        lo, hi = sorted(fold_angles(60, 50, 20, 45))
+        with pytest.warns(ls.LoopsolveWarning):
+            sw = mech.sweep(60, 180, 10, limit_rows=True, method=method)
+        assert list(sw["theta2"][:2]) == [60, 70] and sw["theta2"][2] == pytest.approx(hi, abs=1e-9) and len(sw) == 3
+        assert abs(math.sin(math.radians(sw["theta4"][2] - sw["theta3"][2]))) < 1e-9  # coupler, rocker aligned
+        assert np.isnan(sw["theta3_vel"][2]) and np.isfinite(sw["theta3_vel"][1])
+        full = mech.sweep(lo + 1e-10, hi + 4, 4, through_limits=True, limit_rows=True, method=method)
+        x = full["theta2"]
+        assert x[0] == pytest.approx(lo, abs=1e-9) and x[-1] == pytest.approx(lo, abs=1e-9)
+        assert np.sum(np.abs(x - hi) < 1e-9) == 1 and len(full) == 2 * 12 + 1
