@@ -490,7 +490,6 @@ class Tracer:
         prev_natural: Node | None = None
         folds = 0
         start_sig = first.sig
-        name = k.ck.inputs[0]
         passing = None  # the node a pass step across a branch point was last tried from
         while True:
             a = nodes[-1]
@@ -719,7 +718,6 @@ def fill_node_rows(path: Path, rows, sol: RowSolution) -> np.ndarray:
 
 def solve_rows_scalar(tracer: Tracer, path: Path, rows, g, sol: RowSolution, which) -> None:
     """Solve the given rows one by one with the tracker's corrector on their segment."""
-    kern = tracer.k
     for r in which:
         seg = int(rows.seg[r])
         kk = int(rows.ks[r])

@@ -17,7 +17,7 @@ import warnings
 import numpy as np
 
 from . import batch
-from .continuation import (Kernel, Node, Path, RowSolution, StepControl, Tracer, fill_node_rows, first_node,
+from .continuation import (Kernel, Path, RowSolution, StepControl, Tracer, fill_node_rows, first_node,
                            solve_rows_scalar)
 from .errors import (AssemblyError, ConvergenceError, LoopsolveWarning, ModelError, SingularPositionError,
                      SolveError)
@@ -398,8 +398,6 @@ def sweep(mech, start, stop, step, *, speed=None, accel=None, jerk=None, input: 
     >>> [e.kind.value for e in lim.events], round(lim.events[0].input, 8), len(lim)
     (['limit'], 341.42665028, 5)
     """
-    from . import batch
-
     if method not in ("auto", "tracked", "batched"):
         raise ModelError(f"method {method!r}: expected 'auto', 'tracked' or 'batched'")
     if derivatives not in (1, 2, 3):
