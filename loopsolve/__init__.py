@@ -31,6 +31,11 @@ from .model import Mechanism, MechanismBuilder, build_mechanism  # noqa: E402
 from .modelfile import dumps, load, loads, models_dir  # noqa: E402
 from .results import Event, EventKind, State, Sweep  # noqa: E402
 
+# the submodules solve and sweep are loaded before the functions of the same names are defined
+# below, so that importing them later cannot replace ``loopsolve.solve``/``loopsolve.sweep``
+from . import solve as _solve_module  # noqa: E402, F401
+from . import sweep as _sweep_module  # noqa: E402, F401
+
 
 def derive(mech, input=None):
     """Symbolic derivation: see :func:`loopsolve.symbolic.derive` (imports sympy)."""
@@ -54,8 +59,8 @@ def solve(mech, at=None, **kwargs):
 
 
 def sweep(mech, start, stop, step, **kwargs):
-    """Sweep the input: see :func:`loopsolve.tracking.sweep`."""
-    from .tracking import sweep as _sweep
+    """Sweep the input: see :func:`loopsolve.sweep.sweep`."""
+    from .sweep import sweep as _sweep
 
     return _sweep(mech, start, stop, step, **kwargs)
 

@@ -2,7 +2,7 @@
 
 ``sweep(..., method="batched")`` (or ``"auto"`` for dense grids) does this:
 
-1. **Coarse tracked pass.** The tracker of :mod:`loopsolve.tracking` follows the solution
+1. **Coarse tracked pass.** The tracer of :mod:`loopsolve.continuation` follows the solution
    curve at internal steps of at most 1° of scaled arc length, with every check of the tracked
    path (mode signature at every step, limits, change points), but without landing on the
    output grid.
@@ -101,7 +101,7 @@ def block_dets_v(ck, J):
         M = np.stack([np.stack([J[e * n + c] * cs[c] for c in cols], axis=-1) for e in eqs], axis=-2)  # (N, k, k)
         if len(cols) == 1:
             d = M[:, 0, 0]
-            h = (d != 0).astype(float)
+            h = np.minimum(np.abs(d) / float(ck.scale), 1.0)
         elif len(cols) == 2:
             d = M[:, 0, 0] * M[:, 1, 1] - M[:, 0, 1] * M[:, 1, 0]
             h = np.abs(d) / (0.5 * np.sum(M * M, axis=(1, 2)))
@@ -217,20 +217,20 @@ def _sign_dets_v(ck, J):
 def solve_rows(tracer, path, rows, g):
     """Positions of the output rows: vectorized where the path is regular, tracked elsewhere.
 
-    Internal to :func:`loopsolve.tracking.sweep` (``method="batched"``).
+    Internal to :func:`loopsolve.sweep.sweep` (``method="batched"``).
 
     Returns the tracker's row solution (positions, mode codes, residuals, iterations) with the
     Jacobians of the vectorized rows kept for the rates.
     """
-    from .tracking import _fill_node_rows, _RowSolution, _solve_rows_scalar
+    from .continuation import RowSolution, fill_node_rows, solve_rows_scalar
 
     kern = tracer.k
     ck = kern.ck
     n, ix, nv = kern.n, kern.ix, kern.nv
     nodes = path.nodes
     N = len(rows)
-    sol = _RowSolution(N, nv)
-    other = _fill_node_rows(path, rows, sol)
+    sol = RowSolution(N, nv)
+    other = fill_node_rows(path, rows, sol)
     sol.J = np.empty((n * n, N))
     sol.J_ok = np.zeros(N, dtype=bool)
     # segments on which a cubic in the input is a reliable warm start
@@ -302,5 +302,5 @@ def solve_rows(tracer, path, rows, g):
             sol.J[:, gv] = J[:, good]
             sol.J_ok[gv] = True
         redo_mask[vec[~good]] = True
-    _solve_rows_scalar(tracer, path, rows, g, sol, np.flatnonzero(redo_mask))
+    solve_rows_scalar(tracer, path, rows, g, sol, np.flatnonzero(redo_mask))
     return sol

@@ -186,9 +186,12 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("sweep", help="sweep the input, tracking the assembly mode")
     p.add_argument("model", help="model file (TOML)")
-    p.add_argument("--from", dest="start", required=True, help="first input value")
-    p.add_argument("--to", dest="stop", required=True, help="last input value")
-    p.add_argument("--step", required=True, help="output step (the internal step adapts)")
+    p.add_argument("--from", dest="start", required=True, help="first input value (the first row)")
+    p.add_argument("--to", dest="stop", required=True, help="end of the range: rows at --from + k*step up to "
+                   "--to (a row only when on that grid); limits anywhere up to --to are reported")
+    p.add_argument("--step", required=True, help="output step, positive (the direction is from --from to --to; "
+                   "the internal step adapts)")
+    p.add_argument("--max-rows", type=int, default=1_000_000, help="refuse a grid of more rows (default 1000000)")
     _rate_args(p)
     p.add_argument("--through-limits", action="store_true",
                    help="at a limit position, continue around the fold onto the other mode")
@@ -289,22 +292,23 @@ def build_parser() -> argparse.ArgumentParser:
 def _sweep_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("--from", dest="start", help="first input value (default: 0, or where the mechanism "
                    "can be assembled)")
-    p.add_argument("--to", dest="stop", help="last input value (default: a full turn, or the end of the "
+    p.add_argument("--to", dest="stop", help="end of the range (default: a full turn, or the end of the "
                    "reachable range, traced around its limits)")
-    p.add_argument("--step", default="4", help="output step (default 4)")
+    p.add_argument("--step", default="4", help="output step, positive (default 4)")
+    p.add_argument("--max-rows", type=int, default=1_000_000, help="refuse a grid of more rows (default 1000000)")
     _rate_args(p)
     p.add_argument("--through-limits", action="store_true", help="continue around limit positions")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
 
 
 def _sweep_for(args):
-    from .tracking import sweep
+    from .sweep import sweep
 
     mech = _load(args.model)
     start, stop, through = args.start, args.stop, args.through_limits
     if start is None or stop is None:
         from .solve import display_value, input_value
-        from .tracking import default_range
+        from .sweep import default_range
 
         ck = mech.compile(args.input)
         step = display_value(ck, input_value(ck, args.step))
@@ -314,7 +318,8 @@ def _sweep_for(args):
         through = through or d_through
     return sweep(mech, start, stop, args.step, speed=args.speed, accel=args.accel, jerk=args.jerk,
                  input=args.input, mode=args.mode, through_limits=through,
-                 progress=None if not args.quiet else False, method=getattr(args, "method", "auto"))
+                 progress=None if not args.quiet else False, method=getattr(args, "method", "auto"),
+                 max_rows=args.max_rows, limit_rows=args.command == "plot")
 
 
 def cmd_vectors(args) -> int:

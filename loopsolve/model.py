@@ -245,8 +245,8 @@ class Mechanism:
         return solve(self, at, **kwargs)
 
     def sweep(self, start, stop, step, **kwargs):
-        """Sweep the input: see :func:`loopsolve.tracking.sweep`."""
-        from .tracking import sweep
+        """Sweep the input: see :func:`loopsolve.sweep.sweep`."""
+        from .sweep import sweep
 
         return sweep(self, start, stop, step, **kwargs)
 

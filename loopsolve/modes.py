@@ -458,7 +458,7 @@ def select_mode(mech, x_internal: float, mode: str, *, compiled=None) -> np.ndar
             + f"; the modes at {name} = {disp:g} are: {_mode_names(mech, _modes_at(ck, x_internal))}")
     modes = _modes_at(ck, x_internal)
     if not modes:
-        from .tracking import nearest_assemblable
+        from .sweep import nearest_assemblable
 
         near = nearest_assemblable(ck, x_internal)
         raise AssemblyError(
@@ -489,7 +489,7 @@ def _nearest_text(ck, near) -> str:
     if not near:
         return "; no assemblable input was found nearby: check the link lengths"
     unit = _input_unit(ck)
-    vals = " or ".join(f"{v:.10g}{unit}" for v in near)
+    vals = " or ".join(f"{v if abs(v) >= 1e-9 else 0.0:.10g}{unit}" for v in near)  # no -4e-15 for 0
     return f"; the nearest assemblable input values are {ck.inputs[0]} = {vals}"
 
 

@@ -29,6 +29,10 @@ SINGULAR_COND = 1e10
 #: ... and so is one where the position uncertainty exceeds this fraction of the distance to
 #: the nearest singular configuration (see :func:`solve_rates`)
 SINGULAR_RATIO = 1e-2
+#: an input this close (display units) to a located limit position is at it
+_AT_LIMIT = 1e-9
+#: relative round-off of a loop closure: the residual a position is known to, at best
+_EPS_POSITION = 8 * 2.220446049250313e-16
 
 
 def input_value(ck: CompiledKinematics, value, name: str | None = None, *, reduce: bool = True) -> float:
@@ -177,7 +181,9 @@ def solve_rates(ck: CompiledKinematics, z: np.ndarray, rates: Sequence[float], *
     if J.size:
         sv = np.linalg.svd(J, compute_uv=False) if np.all(np.isfinite(J)) else np.array([np.inf, 0.0])
         cond = float(sv[0] / sv[-1]) if sv[-1] > 0 else math.inf
-        residual = float(np.max(np.abs(ck.phi(z))))
+        # the position is never known better than round-off of the loop sums, even where the
+        # residual happens to come out exactly 0 (a closed form landing on a limit position)
+        residual = max(float(np.max(np.abs(ck.phi(z)))), _EPS_POSITION * float(ck.scale))
         indistinct = math.isfinite(cond) and cond * cond * residual / float(sv[0]) > SINGULAR_RATIO
     else:
         cond, indistinct = 1.0, False
@@ -246,7 +252,8 @@ def start_position(ck: CompiledKinematics, x: float, *, mode=None, guess: dict |
     Examples
     --------
     >>> ck = ls.fourbar(60, 25, 70, 45).compile()
-    >>> z, residual, _ = ls.solve.start_position(ck, math.radians(90), mode="crossed")
+    >>> from loopsolve.solve import start_position
+    >>> z, residual, _ = start_position(ck, math.radians(90), mode="crossed")
     >>> ck.signature(z), residual < 1e-12
     ('+', True)
     """
@@ -268,10 +275,38 @@ def start_position(ck: CompiledKinematics, x: float, *, mode=None, guess: dict |
         z0[ck.input_idx[0]] = x
     try:
         return solve_position(ck, z0, settings=settings, display_input=disp)
-    except AssemblyError as exc:  # name the nearest assemblable inputs (or the modes, if the guesses were poor)
-        from .tracking import assembly_failure
+    except AssemblyError as exc:
+        # no real solution at x (AssemblyError naming the nearest assemblable inputs), or poor
+        # guesses (ConvergenceError naming the modes that exist there)
+        from .modes import _modes_at
+        from .sweep import assembly_failure
+
+        modes = _modes_at(ck, x)
+        if modes and _coincide(ck, [m.z for m in modes]):
+            # a limit position: the modes meet there, and Newton stalls from guesses on one side
+            z = np.array(modes[0].z, dtype=float)
+            return z, float(np.max(np.abs(ck.phi(z)))), 0
+        raise assembly_failure(ck, x, exc) from None
+    except ConvergenceError as exc:  # Newton ran out of iterations: is there anything to find?
+        from .modes import _modes_at
+
+        if _modes_at(ck, x):
+            raise
+        from .sweep import assembly_failure
 
         raise assembly_failure(ck, x, exc) from None
+
+
+def _coincide(ck, zs) -> bool:
+    """Whether the positions ``zs`` are one pose (within 1e-6 in scaled units, angles modulo 2π)."""
+    w = np.array([1.0 if k is Kind.ANGLE else 1.0 / ck.scale for k in ck.kinds])
+    ang = np.array([k is Kind.ANGLE for k in ck.kinds])
+    for z in zs[1:]:
+        d = np.asarray(z) - np.asarray(zs[0])
+        d = np.where(ang, (d + math.pi) % (2 * math.pi) - math.pi, d)
+        if float(np.max(np.abs(d * w))) > 1e-6:
+            return False
+    return True
 
 
 def solve(mech: Mechanism, at=None, *, speed=None, accel=None, jerk=None, input: str | None = None,
@@ -324,5 +359,28 @@ def solve(mech: Mechanism, at=None, *, speed=None, accel=None, jerk=None, input:
     disp = display_value(ck, x, name)
     z, residual, n_iter = start_position(ck, x, mode=mode, guess=guess, settings=settings)
     sig = ck.signature(z)
-    z1, z2, z3, pts, cond = solve_rates(ck, z, input_rates(ck, speed, accel, jerk), display_input=disp)
+    try:
+        z1, z2, z3, pts, cond = solve_rates(ck, z, input_rates(ck, speed, accel, jerk), display_input=disp)
+    except SingularPositionError as exc:
+        # Newton also converges (linearly) to a near-solution just beyond a limit position: a
+        # singular position where no real one exists is an input outside the assemblable range
+        from .modes import _modes_at
+
+        if not _modes_at(ck, x):
+            from .sweep import assembly_failure
+
+            err = assembly_failure(ck, x, exc)
+            near = getattr(err, "nearest", None) or ()
+            if not any(abs(v - disp) <= max(_AT_LIMIT, 1e-15 * abs(disp)) for v in near):
+                raise err from None  # beyond the limit, not at it
+        # at a limit Newton stops ~sqrt(round-off) short of the position: report the located fold
+        from .kernel import Kernel
+
+        kern = Kernel(ck)
+        found = kern.fold_point([float(v) for v in z], kern.jac_f([float(v) for v in z], kern.p))
+        if found is not None and abs(display_value(ck, found[0][kern.ix]) - disp) <= max(_AT_LIMIT, 1e-15 * abs(disp)):
+            zf = np.array(found[0], dtype=float)
+            zf[kern.ix] = x
+            solve_rates(ck, zf, (1.0, 0.0, 0.0), display_input=disp)  # raises with the refined positions
+        raise
     return State(ck, z, z1, z2, z3, pts, sig, residual, n_iter, cond)

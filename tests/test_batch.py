@@ -10,7 +10,7 @@ import pytest
 import loopsolve as ls
 from loopsolve import batch
 from loopsolve import classic as C
-from loopsolve.tracking import AUTO_BATCH
+from loopsolve.sweep import AUTO_BATCH
 
 THESIS = ls.load(ls.models_dir() / "thesis_crank_rocker.toml")
 

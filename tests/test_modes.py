@@ -7,7 +7,7 @@ import math
 
 import numpy as np
 import pytest
-from hypothesis import given, settings
+from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
 import loopsolve as ls
@@ -60,25 +60,41 @@ class TestFourbar:
             assert m.positions["theta2"] == 90
 
     @settings(max_examples=25, deadline=None)
-    @given(r=st.tuples(*[st.floats(0.5, 5.0) for _ in range(4)]), t2=st.floats(-180, 180))
-    def test_random_fourbars_have_the_closed_form_modes(self, r, t2):
-        r1, r2, r3, r4 = r
+    @given(r12=st.tuples(st.floats(0.5, 5.0), st.floats(0.5, 5.0)), r3=st.floats(0.5, 5.0),
+           t2=st.floats(-180, 180), t3=st.floats(-180, 180))
+    def test_random_fourbars_have_the_closed_form_modes(self, r12, r3, t2, t3):
+        # built around an assembled pose: C = B + r3 e^{i t3}, r4 = |C - O4|; so every example
+        # has two real modes, one of them the pose it was built from
+        r1, r2 = r12
+        b = complex(r2 * math.cos(math.radians(t2)), r2 * math.sin(math.radians(t2)))
+        c = b + r3 * complex(math.cos(math.radians(t3)), math.sin(math.radians(t3)))
+        r4 = abs(c - r1)
+        assume(r4 > 0.2)
+        bd = abs(r1 - b)
+        margin = min(r3 + r4 - bd, bd - abs(r3 - r4))
+        assume(margin > 1e-6 * (r1 + r2 + r3 + r4))  # at a toggle the two modes coincide
         ck = FOURBAR.compile()
         mech = FOURBAR.with_parameters(r1=r1, r2=r2, r3=r3, r4=r4)
         modes = assembly_modes(mech, t2, compiled=mech.compile())
-        bd = math.hypot(r1 - r2 * math.cos(math.radians(t2)), r2 * math.sin(math.radians(t2)))
-        margin = min(r3 + r4 - bd, bd - abs(r3 - r4))
-        if margin < -1e-9:
-            assert modes == ()
-            return
-        if margin < 1e-6:
-            return  # at a toggle the two modes coincide
         assert [m.signature for m in modes] == ["+", "-"]
         for m, cm in zip(modes, (-1, 1)):
-            t3, t4 = C.fourbar_position(r1, r2, r3, r4, math.radians(t2), cm)
-            assert abs(wrap(math.radians(m.positions["theta3"]) - t3)) < 1e-9
-            assert abs(wrap(math.radians(m.positions["theta4"]) - t4)) < 1e-9
+            t3c, t4c = C.fourbar_position(r1, r2, r3, r4, math.radians(t2), cm)
+            assert abs(wrap(math.radians(m.positions["theta3"]) - t3c)) < 1e-9
+            assert abs(wrap(math.radians(m.positions["theta4"]) - t4c)) < 1e-9
+        assert min(abs(wrap(math.radians(m.positions["theta3"] - t3))) for m in modes) < 1e-9
         assert ck.module is mech.compile().module  # one compiled module per structure
+
+    @settings(max_examples=25, deadline=None)
+    @given(r12=st.tuples(st.floats(0.5, 5.0), st.floats(0.5, 5.0)), r3=st.floats(0.5, 5.0),
+           t2=st.floats(-180, 180), extra=st.floats(1e-7, 2.0), short=st.booleans())
+    def test_beyond_the_triangle_inequality_there_is_no_mode(self, r12, r3, t2, extra, short):
+        # r4 just too long (r4 > r3 + |BO4|) or too short (r4 < |BO4| - r3): no real mode
+        r1, r2 = r12
+        bd = abs(r1 - r2 * complex(math.cos(math.radians(t2)), math.sin(math.radians(t2))))
+        r4 = bd - r3 - extra if short else r3 + bd + extra
+        assume(r4 > 0.1)
+        mech = FOURBAR.with_parameters(r1=r1, r2=r2, r3=r3, r4=r4)
+        assert assembly_modes(mech, t2, compiled=mech.compile()) == ()
 
     def test_not_assemblable_gives_no_mode(self):
         assert ls.fourbar(4, 3, 3.5, 5).modes(0) == ()

@@ -69,7 +69,7 @@ def _assert_colourful(im) -> None:
 
 def rows_of(model: Path, *args: str) -> int:
     """Number of output rows of the sweep the picture commands make with the same options."""
-    from loopsolve.tracking import default_range
+    from loopsolve.sweep import default_range
 
     mech = ls.load(model)
     kw = dict(zip(args[::2], args[1::2]))

@@ -14,7 +14,7 @@ import loopsolve as ls
 from loopsolve import classic as C
 from loopsolve.cli import main
 from loopsolve.solve import solve_position
-from loopsolve.tracking import StepControl, _progress, grid, nearest_assemblable, reachable_ranges
+from loopsolve.sweep import StepControl, _progress, default_range, grid, nearest_assemblable, reachable_ranges
 
 TWO_PI = 2 * math.pi
 RAD = math.radians
@@ -223,7 +223,7 @@ class TestChangePoints:
         mech = ls.fourbar(5, 2, 4, 3, theta2=10)
         sw = mech.sweep(10, 370, 10, method=method)
         assert kinds(sw) == ["singular"]
-        assert sw.events[0].input == pytest.approx(180, abs=1e-5)
+        assert sw.events[0].input == pytest.approx(180, abs=2e-8)
         assert "change point" in sw.events[0].message
         x = sw["theta2"]
         assert set(np.array(sw.modes)[x < 180]) == {"-"} and set(np.array(sw.modes)[x > 180]) == {"+"}
@@ -233,7 +233,7 @@ class TestChangePoints:
     def test_parallelogram(self):
         sw = ls.fourbar(4, 2, 4, 2, theta2=10).sweep(10, 370, 10)
         assert kinds(sw) == ["singular", "singular"]
-        assert [e.input for e in sw.events] == pytest.approx([180, 360], abs=1e-5)
+        assert [e.input for e in sw.events] == pytest.approx([180, 360], abs=2e-8)
 
 
 # ----------------------------------------------------------------------------- errors and start
@@ -360,3 +360,185 @@ def test_step_control_bounds_the_internal_step():
     a = mech.sweep(0, 360, 90, control=StepControl(max_step=RAD(0.5)), method="tracked")
     b = mech.sweep(0, 360, 90, method="tracked")
     assert np.allclose(a.z, b.z, atol=1e-12)
+
+
+# ----------------------------------------------------------------------------- issue 9 reproducers
+
+GAP = (4.810642113, 3.574599603, 7.945621763, 9.18169356)  # S + L - P - Q = 2.9e-5: a 0.235° gap at 0
+FAR = (1.7602295198117748, 3.762080090646547, 1.5153328493542173, 4.006972653043114)
+
+
+def fold_angles(r1, r2, r3, r4):
+    """Input angles (deg) where coupler and rocker are collinear (law of cosines)."""
+    out = []
+    for d in (r3 + r4, abs(r3 - r4)):
+        c = (r1 * r1 + r2 * r2 - d * d) / (2 * r1 * r2)
+        if abs(c) <= 1:
+            out.append(math.degrees(math.acos(c)))
+    return out
+
+
+def gap_model(tmp_path):
+    path = tmp_path / "gap.toml"
+    path.write_text(ls.dumps(ls.fourbar(*GAP, theta2=40, mode="crossed")))
+    return path
+
+
+class TestNarrowGaps:
+    def test_gap_is_a_limit_not_a_change_point(self, tmp_path, capsys):
+        edge = min(fold_angles(*GAP))
+        assert edge == pytest.approx(0.1176, abs=1e-4)
+        for method in ("tracked", "batched"):
+            with pytest.warns(ls.LoopsolveWarning, match="limit position"):
+                assert main(["sweep", str(gap_model(tmp_path)), "--from", "40", "--to", "-320", "--step", "40",
+                             "--mode", "crossed", "--format", "json", "--method", method]) == 0
+            doc = json.loads(capsys.readouterr().out)
+            assert [r["theta2"] for r in doc["rows"]] == [40]
+            assert [e["kind"] for e in doc["events"]] == ["limit"]
+            assert doc["events"][0]["input"] == pytest.approx(edge, abs=1e-9)
+
+    def test_solve_in_the_gap_names_the_located_folds(self, tmp_path, capsys):
+        edge = min(fold_angles(*GAP))
+        assert main(["solve", str(gap_model(tmp_path)), "--at", "0", "--mode", "crossed"]) == 3
+        err = capsys.readouterr().err
+        assert "AssemblyError" in err and f"{edge:.10g}" in err and f"-{edge:.10g}" in err
+        ck = ls.fourbar(*GAP).compile()
+        assert nearest_assemblable(ck, 0.0) == pytest.approx((-edge, edge), abs=1e-9)
+        (lo, hi), = reachable_ranges(ck)
+        assert (math.degrees(lo), math.degrees(hi)) == pytest.approx((edge, 360 - edge), abs=1e-9)
+
+    @pytest.mark.parametrize("method", ["tracked", "batched"])
+    @pytest.mark.parametrize("mode", ["open", "crossed"])
+    def test_limit_far_from_the_start(self, method, mode):
+        # true limit: -179.850025 deg (coupler and rocker stretched out)
+        lim = -max(fold_angles(*FAR))
+        assert lim == pytest.approx(-179.850025, abs=1e-6)
+        mech = ls.fourbar(*FAR, theta2=-123.9110129647841, mode=mode)
+        with pytest.warns(ls.LoopsolveWarning, match="limit position"):
+            sw = mech.sweep(-123.9110129647841, -483.91, 44.851226743352335, mode=mode, method=method)
+        assert kinds(sw) == ["limit"] and sw.events[0].input == pytest.approx(lim, abs=1e-9)
+        assert np.all(sw["theta2"] > lim) and len(sw) == 2
+
+    def test_limit_between_the_last_row_and_the_end(self):
+        with pytest.warns(ls.LoopsolveWarning):
+            sw = ls.fourbar(4, 3, 3.5, 5, theta2=300).sweep(300, 345, 10)
+        assert list(sw["theta2"]) == [300, 310, 320, 330, 340]
+        assert kinds(sw) == ["limit"] and sw.events[0].input == pytest.approx(max(fold_angles(4, 3, 3.5, 5)) * -1 + 360,
+                                                                               abs=1e-9)
+
+
+class TestStartAtALimit:
+    def test_start_on_a_limit_and_just_beyond(self):
+        lo = min(fold_angles(4, 3, 3.5, 5))
+        mech = ls.fourbar(4, 3, 3.5, 5, theta2=180)
+        for d in (0.0, -1e-9, 1e-9):
+            sw = mech.sweep(lo + d, 90, 10)
+            assert kinds(sw) == ["limit"] and sw.events[0].input == pytest.approx(lo, abs=1e-9)
+            assert sw["theta2"][0] == pytest.approx(lo + d + 10)
+        with pytest.raises(ls.AssemblyError):
+            mech.sweep(lo - 1e-7, 90, 10)
+
+
+class TestGridStart:
+    @pytest.mark.parametrize("start", [27.4, 25.7, 27.1, 28.5, 67.9])
+    def test_decimal_starts_keep_every_row(self, start, capsys):
+        path = str(ls.models_dir() / "double_rocker.toml")
+        assert main(["sweep", path, "--from", str(start), "--to", "70", "--step", "5", "--format", "json"]) == 0
+        doc = json.loads(capsys.readouterr().out)
+        n = int(math.floor((70 - start) / 5 + 1e-9)) + 1
+        assert [r["theta2"] for r in doc["rows"]] == pytest.approx([start + 5 * k for k in range(n)], abs=1e-12)
+        assert doc["events"] == []
+
+    def test_string_and_float_arguments_agree(self):
+        mech = ls.load(ls.models_dir() / "double_rocker.toml")
+        a = mech.sweep("27.4", "70", "5")
+        b = mech.sweep(27.4, 70, 5)
+        c = mech.sweep("27.4deg", "70deg", "5deg")
+        assert len(a) == len(b) == len(c) == 9
+        assert np.max(np.abs(a.z - b.z)) < 1e-12 and np.max(np.abs(c.z - b.z)) < 1e-12
+
+
+class TestStopAnnounced:
+    def test_python_warning_names_the_input_once(self):
+        with pytest.warns(ls.LoopsolveWarning) as rec:
+            sw = ls.load(ls.models_dir() / "double_rocker.toml").sweep(60, 180, 10)
+        lim = sw.events[0].input
+        assert len(rec) == 1 and "\n" not in str(rec[0].message) and f"{lim:.10g}" in str(rec[0].message)
+        assert f"{lim:.10g}" not in sw.events[0].message  # the table prints the input next to it
+
+    @pytest.mark.parametrize("fmt", ["table", "csv", "json"])
+    def test_cli_warns_on_stderr_in_every_format(self, tmp_path, fmt):
+        import os
+        import subprocess
+        import sys
+
+        out = tmp_path / f"out.{fmt}"
+        env = {**os.environ, "LOOPSOLVE_CACHE_DIR": str(tmp_path / "cache")}
+        r = subprocess.run([sys.executable, "-m", "loopsolve.cli", "sweep", str(ls.models_dir() / "double_rocker.toml"),
+                            "--from", "60", "--to", "180", "--step", "10", "--format", fmt, "-o", str(out)],
+                           capture_output=True, text=True, env=env)
+        assert r.returncode == 0
+        assert "LoopsolveWarning" in r.stderr or "warning" in r.stderr
+        assert "71.79004314" in r.stderr
+
+    def test_table_states_the_limit_once(self, capsys):
+        with pytest.warns(ls.LoopsolveWarning):
+            assert main(["sweep", str(ls.models_dir() / "double_rocker.toml"), "--from", "60", "--to", "180",
+                         "--step", "10"]) == 0
+        line = [ln for ln in capsys.readouterr().out.splitlines() if ln.startswith("limit")][0]
+        assert line.count("71.79") == 1
+
+
+class TestGridSemantics:
+    def test_negative_step_is_refused(self):
+        with pytest.raises(ls.ModelError, match="positive"):
+            ls.fourbar(60, 25, 70, 45).sweep(0, 90, -10)
+
+    def test_to_is_the_end_of_the_range(self):
+        sw = ls.load(ls.models_dir() / "thesis_crank_rocker.toml").sweep(0, 360, "0.5rad")
+        assert len(sw) == 13 and sw["theta2"][-1] == pytest.approx(6 * math.degrees(1.0), abs=1e-9)
+
+    @pytest.mark.parametrize("args", [("--to", "60", "--step", "1e-9"), ("--to", "60", "--step", "1e-300"),
+                                      ("--to", "1e18", "--step", "1")])
+    def test_enormous_grids_are_refused_quickly(self, args, capsys):
+        assert main(["sweep", str(ls.models_dir() / "double_rocker.toml"), "--from", "30", *args]) == 2
+        err = capsys.readouterr().err
+        assert "ModelError" in err and "--max-rows" in err and len(err.strip().splitlines()) == 1
+
+    def test_max_rows(self, capsys):
+        mech = ls.fourbar(60, 25, 70, 45)
+        with pytest.raises(ls.ModelError, match="max_rows"):
+            mech.sweep(0, 360, 1, max_rows=100)
+        assert len(mech.sweep(0, 360, 1, max_rows=361)) == 361
+        path = str(ls.models_dir() / "thesis_crank_rocker.toml")
+        assert main(["sweep", path, "--from", "0", "--to", "360", "--step", "1", "--max-rows", "10"]) == 2
+        assert main(["sweep", path, "--from", "0", "--to", "360", "--step", "1", "--max-rows", "400",
+                     "--format", "csv"]) == 0
+
+
+class TestDefaultRange:
+    def test_double_rocker_starts_on_its_limit(self):
+        ck = ls.load(ls.models_dir() / "double_rocker.toml").compile()
+        lo, hi = sorted(fold_angles(60, 50, 20, 45))
+        start, stop, through = default_range(ck, 4)
+        assert start == pytest.approx(lo, abs=1e-9) and through and stop > hi
+        sw = ck.mechanism.sweep(start, stop, 4, through_limits=True)
+        assert kinds(sw) == ["limit", "limit", "mode-change"]
+        assert [e.input for e in sw.events] == pytest.approx([lo, hi, hi], abs=1e-9)
+        assert sw["theta2"][0] == pytest.approx(start + 4)
+
+
+class TestLimitRows:
+    @pytest.mark.parametrize("method", ["tracked", "batched"])
+    def test_a_row_at_each_limit_position(self, method):
+        mech = ls.load(ls.models_dir() / "double_rocker.toml")
+        lo, hi = sorted(fold_angles(60, 50, 20, 45))
+        with pytest.warns(ls.LoopsolveWarning):
+            sw = mech.sweep(60, 180, 10, limit_rows=True, method=method)
+        assert list(sw["theta2"][:2]) == [60, 70] and sw["theta2"][2] == pytest.approx(hi, abs=1e-9) and len(sw) == 3
+        assert abs(math.sin(math.radians(sw["theta4"][2] - sw["theta3"][2]))) < 1e-9  # coupler, rocker aligned
+        assert np.isnan(sw["theta3_vel"][2]) and np.isfinite(sw["theta3_vel"][1])
+        full = mech.sweep(lo + 1e-10, hi + 4, 4, through_limits=True, limit_rows=True, method=method)
+        x = full["theta2"]
+        assert x[0] == pytest.approx(lo, abs=1e-9) and x[-1] == pytest.approx(lo, abs=1e-9)
+        assert np.sum(np.abs(x - hi) < 1e-9) == 1 and len(full) == 2 * 12 + 1
