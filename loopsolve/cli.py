@@ -311,7 +311,7 @@ def _sweep_for(args):
         from .sweep import default_range
 
         ck = mech.compile(args.input)
-        step = display_value(ck, input_value(ck, args.step))
+        step = display_value(ck, input_value(ck, args.step, reduce=False))
         d_start, d_stop, d_through = default_range(ck, step, mode=args.mode)
         start = d_start if start is None else start
         stop = d_stop if stop is None else stop

@@ -203,11 +203,11 @@ def grid_values(ck, start, stop, step):
     name = ck.inputs[0]
     kind = ck.kinds[ck.index(name)]
     deg = kind is Kind.ANGLE and ck.mechanism.units.angle == "deg"
-    x0, x1 = input_value(ck, start, name), input_value(ck, stop, name)
+    x0, x1 = input_value(ck, start, name, reduce=False), input_value(ck, stop, name, reduce=False)
     if isinstance(step, str) and _plain(step) is not None:
         step = _plain(step)
     if isinstance(step, str):
-        h = input_value(ck, step, name)
+        h = input_value(ck, step, name, reduce=False)
         hd = display_value(ck, h, name) if deg else h
     else:
         hd = float(step)

@@ -260,15 +260,19 @@ def _parse_range(ck, start, stop, step):
 
     name = ck.inputs[0]
     kind = ck.kinds[ck.index(name)]
-    x0, x1 = (input_value(ck, v, name) for v in (start, stop))
+    # sweep bounds and steps are never reduced modulo a turn (that would silently move the range)
+    x0, x1 = (input_value(ck, v, name, reduce=False) for v in (start, stop))
     if isinstance(step, str):
-        h = input_value(ck, step, name)
+        h = input_value(ck, step, name, reduce=False)
     elif kind is Kind.ANGLE:
         h = math.radians(float(step)) if ck.mechanism.units.angle == "deg" else float(step)
     else:
         h = float(step)
     if not (math.isfinite(x0) and math.isfinite(x1)):
         raise ModelError(f"the sweep range of {name} must be finite (got {start!r} to {stop!r})")
+    if kind is Kind.ANGLE and max(abs(x0), abs(x1)) > MAX_TURNS * 2 * math.pi:
+        raise ModelError(f"the sweep range of {name} ({start!r} to {stop!r}) lies beyond {MAX_TURNS} turns, where "
+                         "angles lose their digits: shift the range by whole turns towards 0")
     if not (h > 0 and math.isfinite(h)):
         raise ModelError(f"--step {step!r}: the output step must be a positive number (the direction of the "
                          "sweep is from --from to --to)")
@@ -279,6 +283,9 @@ def _parse_range(ck, start, stop, step):
         deg = (d0, math.copysign(abs(dh), x1 - x0) if x1 != x0 else abs(dh))
     return x0, x1, h, kind, deg
 
+
+#: sweep bounds of an angle input must lie within this many turns of 0
+MAX_TURNS = 65536
 
 #: default cap on the output rows of one sweep (``max_rows=``, ``--max-rows``)
 MAX_ROWS = 1_000_000

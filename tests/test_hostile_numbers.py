@@ -84,12 +84,12 @@ REFUSED = {
     "negative link": (model(r3="-70"), "vectors.r3.length", ["must be positive"]),
     "input in no loop": (model(eq='"r3 = r1 + r4"'), "variables.theta2", ["appears in no loop", "drives nothing"]),
     "parameter 30rpm": (model(r3='"30rpm"'), "parameters.r3", ["angular rate", "length"]),
-    "parameter beyond float range": (model(r3="1" + "0" * 400), "parameters.r3", ["not finite"]),
+    "parameter beyond float range": (model(r3="1" + "0" * 400), "parameters.r3", ["too large"]),
     "loop name with ESC": (model(extra="") .replace('equation = "r2', 'name = "a\\u001b[31m"\nequation = "r2'),
-                           "loops[0].name", ["not a valid loop name"]),
+                           "loops.0.name", ["control character"]),  # refused when the file is read
     "mode alias longer than signature": (model(extra='[modes]\nopen = "-"\nwide = "+-+"'), "modes.wide",
                                          ["signs"]),
-    "mode name with newline": (model(extra='[modes]\n"a\\nb" = "-"'), "modes.", ["mode name"]),
+    "mode name with newline": (model(extra='[modes]\n"a\\nb" = "-"'), "'a\\nb'", ["control character"]),
 }
 
 

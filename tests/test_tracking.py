@@ -389,10 +389,12 @@ class TestNarrowGaps:
         edge = min(fold_angles(*GAP))
         assert edge == pytest.approx(0.1176, abs=1e-4)
         for method in ("tracked", "batched"):
-            with pytest.warns(ls.LoopsolveWarning, match="limit position"):
-                assert main(["sweep", str(gap_model(tmp_path)), "--from", "40", "--to", "-320", "--step", "40",
-                             "--mode", "crossed", "--format", "json", "--method", method]) == 0
-            doc = json.loads(capsys.readouterr().out)
+            assert main(["sweep", str(gap_model(tmp_path)), "--from", "40", "--to", "-320", "--step", "40",
+                         "--mode", "crossed", "--format", "json", "--method", method]) == 0
+            out, err = capsys.readouterr()
+            # the command line prints the stop as one warning line on stderr
+            assert err.count("\n") == 1 and err.startswith("loopsolve: warning:") and "limit position" in err
+            doc = json.loads(out)
             assert [r["theta2"] for r in doc["rows"]] == [40]
             assert [e["kind"] for e in doc["events"]] == ["limit"]
             assert doc["events"][0]["input"] == pytest.approx(edge, abs=1e-9)
@@ -482,10 +484,11 @@ class TestStopAnnounced:
         assert "71.79004314" in r.stderr
 
     def test_table_states_the_limit_once(self, capsys):
-        with pytest.warns(ls.LoopsolveWarning):
-            assert main(["sweep", str(ls.models_dir() / "double_rocker.toml"), "--from", "60", "--to", "180",
-                         "--step", "10"]) == 0
-        line = [ln for ln in capsys.readouterr().out.splitlines() if ln.startswith("limit")][0]
+        assert main(["sweep", str(ls.models_dir() / "double_rocker.toml"), "--from", "60", "--to", "180",
+                     "--step", "10"]) == 0
+        out, err = capsys.readouterr()
+        assert err.startswith("loopsolve: warning:") and "71.79" in err
+        line = [ln for ln in out.splitlines() if ln.startswith("limit")][0]
         assert line.count("71.79") == 1
 
 
@@ -499,11 +502,18 @@ class TestGridSemantics:
         assert len(sw) == 13 and sw["theta2"][-1] == pytest.approx(6 * math.degrees(1.0), abs=1e-9)
 
     @pytest.mark.parametrize("args", [("--to", "60", "--step", "1e-9"), ("--to", "60", "--step", "1e-300"),
-                                      ("--to", "1e18", "--step", "1")])
+                                      ("--to", "1e7", "--step", "1")])
     def test_enormous_grids_are_refused_quickly(self, args, capsys):
         assert main(["sweep", str(ls.models_dir() / "double_rocker.toml"), "--from", "30", *args]) == 2
         err = capsys.readouterr().err
         assert "ModelError" in err and "--max-rows" in err and len(err.strip().splitlines()) == 1
+
+    def test_bounds_beyond_a_turn_limit_are_refused_not_reduced(self, capsys):
+        # --at reduces 1e17 exactly modulo a turn; a sweep bound must never be moved that way
+        assert main(["sweep", str(ls.models_dir() / "double_rocker.toml"), "--from", "30", "--to", "1e18",
+                     "--step", "1"]) == 2
+        err = capsys.readouterr().err
+        assert "ModelError" in err and "65536 turns" in err and len(err.strip().splitlines()) == 1
 
     def test_max_rows(self, capsys):
         mech = ls.fourbar(60, 25, 70, 45)
