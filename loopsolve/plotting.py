@@ -647,7 +647,15 @@ def _frame_from_layout(layout, s, st: _Structure, pos) -> _Frame:
             links.append((name, xy, i))
     kinds = {n: (str(spec.get("type", "R")).upper() if isinstance(spec, dict) else "R")
              for n, spec in joints_spec.items()}
+    carried: dict[str, int] = {}
+    for members in links_spec.values():
+        for n in set(members):
+            carried[n] = carried.get(n, 0) + 1
+    # a revolute joint named by one link only is a tracer point of that link: a dot, not a pin
+    tracers = [n for n in joints_spec if kinds[n] == "R" and carried.get(n, 0) == 1]
     for name, spec in joints_spec.items():
+        if name in tracers:
+            continue
         p = where[name]
         if kinds[name] == "P":
             angle = None
@@ -671,7 +679,7 @@ def _frame_from_layout(layout, s, st: _Structure, pos) -> _Frame:
         here = [n for n in joints_spec if np.linalg.norm(where[n] - p) < tol]
         named = [n for n in here if kinds[n] == "R"] or here
         labels.append((p, ", ".join(named), named[0]))
-    extra = [(where[p], p) for p in ck.points if p not in joints_spec]
+    extra = [(where[p], p) for p in ck.points if p not in joints_spec or p in tracers]
     return _Frame(links, pivots, blocks, guides, [], joints, extra,
                   labels + [(xy, p, p) for xy, p in extra], [], [])
 
@@ -843,12 +851,60 @@ def _render_moving(ax, frame: _Frame, style: _Style, *, label_fixed: bool = True
         out.append(ax.annotate("", xy=head, xytext=tail, zorder=7,
                                arrowprops=dict(arrowstyle="-|>", color="tab:blue", lw=1.4, shrinkA=0, shrinkB=0,
                                                mutation_scale=14)))
-        d = _unit(np.asarray(head) - tail)
-        n = np.array([-d[1], d[0]])
-        mid = (np.asarray(tail) + head) / 2
-        out.append(ax.annotate(tex_name(name), mid, xytext=tuple(9 * n), textcoords="offset points",
-                               ha="center", va="center", color="tab:blue", fontsize=10, zorder=8))
+    for (tail, head, name), (mid, n) in zip(frame.arrows, _arrow_label_sides(frame, style)):
+        ha = "left" if n[0] > 0.35 else "right" if n[0] < -0.35 else "center"
+        va = "bottom" if n[1] > 0.35 else "top" if n[1] < -0.35 else "center"
+        out.append(ax.annotate(tex_name(name), mid, xytext=tuple(7 * n), textcoords="offset points",
+                               ha=ha, va=va, color="tab:blue", fontsize=10, zorder=8,
+                               bbox=dict(boxstyle="round,pad=0.08", fc="white", ec="none", alpha=0.7)))
     out += _labels(ax, frame, style)
+    return out
+
+
+def _segment_distance(p, a, b) -> float:
+    ab = b - a
+    t = float(np.clip((p - a) @ ab / (ab @ ab), 0.0, 1.0)) if ab @ ab > 0 else 0.0
+    return float(np.hypot(*(p - a - t * ab)))
+
+
+def _inside(p, poly) -> bool:
+    """``p`` inside the convex polygon ``poly`` (corners in hull order)."""
+    signs = [float(np.cross(b - a, p - a)) for a, b in zip(poly, np.roll(poly, -1, axis=0))]
+    return all(s > 0 for s in signs) or all(s < 0 for s in signs)
+
+
+def _arrow_label_sides(frame: _Frame, style: _Style) -> list[tuple[np.ndarray, np.ndarray]]:
+    """For every vector arrow: its midpoint and the unit normal on the side its name goes.
+
+    The name sits beside the arrow, perpendicular to it, on the side that is clearer of the
+    links (bars, the inside of plates, frame lines) and of the other arrows and their names.
+    """
+    size = style.size
+    segs, plates = [], []
+    for _, xy, _ in frame.links:
+        xy = np.asarray(xy, dtype=float)
+        segs += [(xy[a], xy[b]) for a in range(len(xy)) for b in range(a + 1, len(xy))]
+        if len(xy) >= 3:
+            plates.append(xy[_hull_order(xy)])
+    segs += [(np.asarray(a, dtype=float), np.asarray(b, dtype=float)) for a, b in frame.ground_lines]
+    arrows = [(np.asarray(t, dtype=float), np.asarray(h, dtype=float)) for t, h, _ in frame.arrows]
+    placed: list[np.ndarray] = []
+    out = []
+    for k, (tail, head) in enumerate(arrows):
+        d = _unit(head - tail)
+        n = np.array([-d[1], d[0]])
+        mid = 0.5 * (tail + head)
+        best, best_score = n, -math.inf
+        for side in (n, -n):
+            p = mid + side * 0.9 * size
+            clear = min([_segment_distance(p, a, b) for a, b in segs]
+                        + [_segment_distance(p, a, b) for i, (a, b) in enumerate(arrows) if i != k]
+                        + [float(np.hypot(*(p - q))) for q in placed], default=10 * size)
+            score = min(clear, 2 * size) - sum(2 * size for poly in plates if _inside(p, poly))
+            if score > best_score + 1e-12:
+                best, best_score = side, score
+        placed.append(mid + best * 0.9 * size)
+        out.append((mid, best))
     return out
 
 
