@@ -326,11 +326,12 @@ def _generate(d: Diagram) -> dict[str, Any]:
     # two revolute joints of one link drawn at the same point are one joint declared twice
     for lk in top.links:
         rs = [j for j in lk.joints if isinstance(jmap[j], RevoluteJoint)]
-        for i, a in enumerate(rs):
-            for b in rs[i + 1:]:
-                if np.linalg.norm(at(a) - at(b)) <= tol:
-                    problems.append(f"joints {a!r} and {b!r} of link {lk.name!r} are drawn at the same point: "
-                                    "when links meet at one pin declare one joint carried by all of them")
+        xy = np.array([jmap[j].at for j in rs], dtype=float).reshape(-1, 2)
+        close = np.hypot(*(xy[:, None, :] - xy[None, :, :]).transpose(2, 0, 1)) <= tol
+        for i, k in zip(*np.nonzero(np.triu(close, 1))):
+            a, b = rs[i], rs[k]
+            problems.append(f"joints {a!r} and {b!r} of link {lk.name!r} are drawn at the same point: "
+                            "when links meet at one pin declare one joint carried by all of them")
 
     # reference angle of every rotation group (the variable theta_<rep>)
     ref: dict[str, float] = {GROUND: 0.0}
