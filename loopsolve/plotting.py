@@ -909,7 +909,8 @@ def _segment_distance(p, a, b) -> float:
 
 def _inside(p, poly) -> bool:
     """``p`` inside the convex polygon ``poly`` (corners in hull order)."""
-    signs = [float(np.cross(b - a, p - a)) for a, b in zip(poly, np.roll(poly, -1, axis=0))]
+    signs = [float((b[0] - a[0]) * (p[1] - a[1]) - (b[1] - a[1]) * (p[0] - a[0]))
+             for a, b in zip(poly, np.roll(poly, -1, axis=0))]
     return all(s > 0 for s in signs) or all(s < 0 for s in signs)
 
 

@@ -437,3 +437,115 @@ def test_cli_vectors_round_trip(tmp_path, name):
     assert a.row().keys() == b.row().keys()
     for k, v in a.row().items():
         assert b.row()[k] == pytest.approx(v, abs=1e-9), k
+
+
+class TestTracerPoints:
+    """A joint named by one link only is a point of that link (issue 9): the coupler curve."""
+
+    def test_coupler_point_against_the_closed_form(self):
+        mech = ls.load(MODELS / "fourbar_coupler_curve.toml")
+        assert mech.spec["points"]["P"] == "r_crank + r_coupler_P"
+        assert "P" not in "".join(lp.text for lp in mech.loops)  # a point, not in any loop
+        J = drawn(MODELS / "fourbar_coupler_curve.toml")
+        ab, ap = J["B"] - J["A"], J["P"] - J["A"]
+        gamma = angle(ap) - angle(ab)  # P's angle on the coupler, from the line A-B
+        r2, r3, r4, r1, rp = (np.linalg.norm(v) for v in (J["A"] - J["O2"], ab, J["B"] - J["O4"],
+                                                         J["O4"] - J["O2"], ap))
+        sw = mech.sweep(0, 360, 30)
+        for st in sw.states:
+            t2 = math.radians(st.input_value)
+            a = np.array([r2 * math.cos(t2), r2 * math.sin(t2)])
+            # B where the circles about A (r3) and O4 (r4) meet, on the drawn side of A -> O4
+            o4 = np.array([r1, 0.0])
+            d = np.linalg.norm(o4 - a)
+            along = (r3 ** 2 - r4 ** 2 + d ** 2) / (2 * d)
+            u = (o4 - a) / d
+            n = np.array([-u[1], u[0]])
+            b = a + along * u + math.sqrt(r3 ** 2 - along ** 2) * n  # the drawing has B left of A -> O4
+            t3 = angle(b - a)
+            p = a + rp * np.array([math.cos(t3 + gamma), math.sin(t3 + gamma)])
+            np.testing.assert_allclose([st["B_x"], st["B_y"]], b, atol=1e-8)
+            np.testing.assert_allclose([st["P_x"], st["P_y"]], p, atol=1e-8)
+
+    def test_point_listed_first_and_on_the_ground(self):
+        data = tomllib.loads((MODELS / "fourbar_coupler_curve.toml").read_text())
+        data["links"]["coupler"] = ["P", "A", "B"]  # the point first: theta_coupler is still A -> B
+        data["joints"]["Q"] = {"at": [30, -10]}
+        data["links"]["ground"] = ["O2", "O4", "Q"]  # a fixed point of the frame
+        mech = ls.build_mechanism(diagram.diagram_to_spec(data))
+        ref = ls.load(MODELS / "fourbar_coupler_curve.toml")
+        a, b = mech.solve(100), ref.solve(100)
+        for col in ("theta_coupler", "theta_rocker", "P_x", "P_y"):
+            assert a[col] == pytest.approx(b[col], abs=1e-9)
+        assert (a["Q_x"], a["Q_y"], a["Q_x_vel"]) == (pytest.approx(30), pytest.approx(-10), 0)
+
+    def test_a_forgotten_joint_still_says_so(self):
+        data = tomllib.loads(THESIS_DIAGRAM.read_text())
+        data["links"]["rocker"] = ["O4"]  # C now on the coupler only, and the rocker has one joint
+        with pytest.raises(TopologyError, match="joint 'C' is only on link 'coupler'"):
+            diagram.diagram_to_spec(data)
+        # a Watt I whose ternary crank and coupler name their shared pin differently: two points,
+        # and the mobility check says why it came out as 3
+        data = tomllib.loads((MODELS / "watt1_sixbar.toml").read_text())
+        data["joints"]["A2"] = {"at": data["joints"]["A"]["at"]}
+        data["links"]["coupler"] = ["A2", "B", "F"]
+        with pytest.raises(TopologyError, match=r"mobility is 3 .*A, A2 named by one link only are points"):
+            diagram.diagram_to_spec(data)
+
+
+def test_loop_equations_follow_the_walk():
+    """The generated loop is written in walking order (left side forward, right side backward)."""
+    mech = ls.load(MODELS / "watt1_sixbar.toml")
+    vals = mech.solve(60)
+    J = {n: np.array([vals[n + "_x"], vals[n + "_y"]]) for n in ("O2", "A", "E", "F", "G")}
+    # loop 2 walks O2 -> A -> F (left) and O2 -> E -> G -> F (right): each partial sum is a joint
+    left, right = mech.loops[1].text.split(" = ")
+    for side, stops in ((left, ("A", "F")), (right, ("E", "G", "F"))):
+        pos = np.zeros(2)
+        for name, stop in zip(side.split(" + "), stops):
+            pos = pos + _vector_xy(mech, vals, name)
+            np.testing.assert_allclose(pos, J[stop], atol=1e-9, err_msg=name)
+
+
+def _vector_xy(mech, state, name):
+    ck = state.compiled
+    length, ang = ck.vector_values(0, state.z)[ck.vectors.index(name)]
+    return np.array([length * math.cos(ang), length * math.sin(ang)])
+
+
+class TestInfoSpeed:
+    """Large models stay polynomial: a chain of many four-bars (generated here)."""
+
+    @staticmethod
+    def chain(n):
+        """n four-bars in series: the rocker of loop k carries the crank pin of loop k + 1."""
+        joints, links = {"O0": [0.0, 0.0]}, {"ground": ["O0"]}
+        t = math.radians(60)
+        joints["A0"] = [25 * math.cos(t), 25 * math.sin(t)]
+        links["crank"] = ["O0", "A0"]
+        pin = "A0"
+        for k in range(n):
+            ox = 60.0 * (k + 1)
+            joints[f"O{k + 1}"] = [ox, 0.0]
+            links["ground"].append(f"O{k + 1}")
+            px, py = joints[pin]
+            t2 = math.atan2(py, px - 60.0 * k)
+            t3, t4 = classic.fourbar_position(60, 25, 70, 45, t2, mode=+1)
+            joints[f"B{k}"] = [ox + 45 * math.cos(t4), 45 * math.sin(t4)]
+            links[f"coupler{k}"] = [pin, f"B{k}"]
+            links[f"rocker{k}"] = [f"O{k + 1}", f"B{k}"]
+            if k < n - 1:
+                joints[f"A{k + 1}"] = [ox + 25 * math.cos(t4), 25 * math.sin(t4)]
+                links[f"rocker{k}"].append(f"A{k + 1}")
+                pin = f"A{k + 1}"
+        return {"name": f"chain {n}", "units": {"length": "mm", "angle": "deg"},
+                "joints": {j: {"at": xy} for j, xy in joints.items()}, "links": links, "input": {"joint": "O0"}}
+
+    def test_chain_of_300_four_bars_has_300_short_loops(self):
+        spec = diagram.diagram_to_spec(self.chain(300))  # was: "more than 20000 cycles" after 26 s
+        assert len(spec["loops"]) == 300
+        # each loop is one four-bar: frame, crank (or the previous rocker's arm), coupler, rocker
+        assert spec["loops"][0]["equation"] == "r_crank + r_coupler0 = r_ground_O1 + r_rocker0"
+        for k, lp in enumerate(spec["loops"][1:], start=1):  # ground vectors start at the origin O0
+            assert lp["equation"] == (f"r_ground_O{k} + r_rocker{k - 1}_A{k} + r_coupler{k} = "
+                                      f"r_ground_O{k + 1} + r_rocker{k}")
