@@ -566,6 +566,7 @@ class GrashofClass(enum.Enum):
 
     DOUBLE_CRANK = "double crank"
     CRANK_ROCKER = "crank-rocker"
+    ROCKER_CRANK = "rocker-crank"
     DOUBLE_ROCKER = "double rocker"
     CHANGE_POINT = "change point"
     TRIPLE_ROCKER = "triple rocker"
@@ -590,11 +591,9 @@ def grashof(r1, r2, r3, r4):
     * ``S + L == P + Q`` (relative tolerance 1e-9): ``CHANGE_POINT``;
     * ``S + L > P + Q``: ``TRIPLE_ROCKER`` (no link fully rotates);
     * ``S + L < P + Q`` and the shortest link is the frame ``r1``: ``DOUBLE_CRANK``;
-      a side (crank ``r2`` or output ``r4``): ``CRANK_ROCKER``; the coupler ``r3``:
-      ``DOUBLE_ROCKER`` (Grashof double rocker, the coupler fully rotates).
-
-    When the shortest link is ``r4`` the result is still ``CRANK_ROCKER`` but it is a
-    rocker-crank: the output fully rotates while the input ``r2`` rocks.
+      the input ``r2``: ``CRANK_ROCKER``; the output ``r4``: ``ROCKER_CRANK`` (the output
+      fully rotates while the input rocks); the coupler ``r3``: ``DOUBLE_ROCKER`` (Grashof
+      double rocker, the coupler fully rotates).
 
     Parameters
     ----------
@@ -620,6 +619,8 @@ def grashof(r1, r2, r3, r4):
         return GrashofClass.DOUBLE_CRANK
     if shortest == 2:
         return GrashofClass.DOUBLE_ROCKER
+    if shortest == 3:
+        return GrashofClass.ROCKER_CRANK
     return GrashofClass.CRANK_ROCKER
 
 

@@ -251,6 +251,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("model", help="model file (TOML)")
     _sweep_args(p)
     p.add_argument("--fps", type=float, default=20.0, help="frames per second (default 20)")
+    p.add_argument("--max-frames", type=int, default=3600, metavar="N",
+                   help="refuse animations of more than N frames, before rendering (default 3600)")
     p.add_argument("-o", "--output", required=True, help=".gif or .mp4 file")
     p.set_defaults(func=cmd_animate)
 
@@ -380,13 +382,16 @@ def cmd_draw(args) -> int:
 
 
 def cmd_animate(args) -> int:
-    from .plotting import animate, check_output
+    from .plotting import animate, check_frames, check_output, frames_before_sweep
 
     check_output(args.output, "animation")
     _check_output(args.output)
+    n = frames_before_sweep(_load(args.model), args.start, args.stop, args.step, input=args.input, mode=args.mode)
+    check_frames(n or 0, args.max_frames)
     sw = _sweep_for(args)
     with _output(args.output) as tmp:
-        animate(sw, output=tmp, fps=args.fps, progress=None if not args.quiet else False)
+        animate(sw, output=tmp, fps=args.fps, progress=None if not args.quiet else False,
+                max_frames=args.max_frames)
     print(f"wrote {_one_line(args.output)}", file=sys.stderr)
     return EXIT_OK
 

@@ -71,6 +71,8 @@ class Diagram:
     modes: Mapping[str, str] = field(default_factory=dict)
     source: str | None = None
     raw: Mapping[str, Any] = field(default_factory=dict, repr=False)
+    #: points carried by one link only (``(name, (x, y), link)``, declaration order): tracer points
+    points: tuple[tuple[str, tuple[float, float], str], ...] = ()
 
 
 # =============================================================================
@@ -222,9 +224,37 @@ def parse_diagram(data: Mapping[str, Any], *, source: str | None = None) -> Diag
         modes = {}
     description = data.get("description")
     problems.raise_if_any()
+    links, joints, points = _split_points(links, joints, source)
     top = Topology(tuple(links), tuple(joints), where=source or "")
     return Diagram(name.strip(), length_unit, angle_unit, top, tuple(inputs), rates, dict(overrides),
-                   description, dict(modes), source, dict(data))
+                   description, dict(modes), source, dict(data), points)
+
+
+def _split_points(links: list[Link], joints: list, source: str | None):
+    """Separate the points carried by one link only (tracer points) from the joints.
+
+    A revolute joint that one link lists and no other link does joins nothing: it is a point
+    of that link (a coupler point), moving with the link's pose. It is taken out of the link's
+    joint list (so the link's reference joints are its first two real joints) and returned
+    as ``(name, (x, y), link)``. A prismatic joint on one link stays an error (a slider
+    joins two links), reported by the topology.
+    """
+    count: dict[str, list[str]] = {}
+    for lk in links:
+        for j in dict.fromkeys(lk.joints):
+            count.setdefault(j, []).append(lk.name)
+    pts = {j.name for j in joints if isinstance(j, RevoluteJoint) and len(count.get(j.name, ())) == 1}
+    # a link left with fewer than two joints keeps its points as joints: the topology then
+    # reports the joint named by one link only, which is the likelier mistake there
+    for lk in links:
+        if len({j for j in lk.joints if j not in pts}) < 2:
+            pts -= set(lk.joints)
+    if not pts:
+        return links, joints, ()
+    new_links = [Link(lk.name, tuple(j for j in lk.joints if j not in pts)) if set(lk.joints) & pts else lk
+                 for lk in links]
+    points = tuple((j.name, j.at, count[j.name][0]) for j in joints if j.name in pts)
+    return new_links, [j for j in joints if j.name not in pts], points
 
 
 # =============================================================================
@@ -296,11 +326,12 @@ def _generate(d: Diagram) -> dict[str, Any]:
     # two revolute joints of one link drawn at the same point are one joint declared twice
     for lk in top.links:
         rs = [j for j in lk.joints if isinstance(jmap[j], RevoluteJoint)]
-        for i, a in enumerate(rs):
-            for b in rs[i + 1:]:
-                if np.linalg.norm(at(a) - at(b)) <= tol:
-                    problems.append(f"joints {a!r} and {b!r} of link {lk.name!r} are drawn at the same point: "
-                                    "when links meet at one pin declare one joint carried by all of them")
+        xy = np.array([jmap[j].at for j in rs], dtype=float).reshape(-1, 2)
+        close = np.hypot(*(xy[:, None, :] - xy[None, :, :]).transpose(2, 0, 1)) <= tol
+        for i, k in zip(*np.nonzero(np.triu(close, 1))):
+            a, b = rs[i], rs[k]
+            problems.append(f"joints {a!r} and {b!r} of link {lk.name!r} are drawn at the same point: "
+                            "when links meet at one pin declare one joint carried by all of them")
 
     # reference angle of every rotation group (the variable theta_<rep>)
     ref: dict[str, float] = {GROUND: 0.0}
@@ -368,11 +399,23 @@ def _generate(d: Diagram) -> dict[str, Any]:
                 terms[vname] = 1
             star[lk.name][j] = terms
 
+    # tracer points: a vector from the carrying link's reference point, turning with the link
+    for pname, xy, lname in d.points:
+        lk = lmap[lname]
+        center = np.zeros(2) if lname == GROUND else at(lk.joints[0])
+        part = np.asarray(xy, dtype=float) - center
+        star[lname][pname] = {}
+        if np.linalg.norm(part) > tol:
+            vname = f"r_{lname}_{pname}"
+            vecs[vname] = _Vec(vname, math.atan2(part[1], part[0]), length=float(np.linalg.norm(part)),
+                               theta=theta_of(lname), ref=ref[rep[lname]])
+            star[lname][pname] = {vname: 1}
+
     # generated names must not collide (a link called ``a_b`` next to link ``a`` with joint ``b``)
     counts: dict[str, int] = {}
-    for lk in top.links:
-        for i, j in enumerate(lk.joints):
-            for vname in star[lk.name][j]:
+    for lname, by_joint in star.items():
+        for terms in by_joint.values():
+            for vname in terms:
                 counts[vname] = counts.get(vname, 0) + 1
     dup = sorted(n for n, c in counts.items() if c > 1)
     if dup:
@@ -401,14 +444,20 @@ def _generate(d: Diagram) -> dict[str, Any]:
                                 f"variable {var} twice; name each driven joint or link once")
         in_vars.append(var)
 
-    # loops (minimum cycle basis) and their vector sums
+    # loops (minimum cycle basis): their vector sums and the same vectors in walking order
     loop_terms: list[dict[str, int]] = []
+    loop_walks: list[list[tuple[int, str]]] = []
     for steps in top.loops():
         acc: dict[str, int] = {}
+        walk: list[tuple[int, str]] = []
         for link, j_in, j_out in steps:
             acc = _add(acc, star[link][j_out], +1)
             acc = _add(acc, star[link][j_in], -1)
+            # across the link from j_in back to its reference point, then out to j_out
+            walk += [(-c, v) for v, c in reversed(list(star[link][j_in].items()))]
+            walk += [(c, v) for v, c in star[link][j_out].items()]
         loop_terms.append(acc)
+        loop_walks.append(_cancel(walk))
 
     # mobility: Gruebler and the Jacobian rank at the drawn pose
     names = list(variables)
@@ -428,7 +477,16 @@ def _generate(d: Diagram) -> dict[str, Any]:
     if not in_vars and mob.gruebler > 0 and not mob.special:
         raise TopologyError(f"{where}no [input]: the mobility is {mob.gruebler} ({mob.formula()}); name the "
                             f"driven joint(s) in [input], e.g. joint = \"{top.links[0].joints[0]}\"")
-    check_inputs(mob, len(in_vars), where=d.source or d.name, inputs=[n for _, n in d.inputs])
+    try:
+        check_inputs(mob, len(in_vars), where=d.source or d.name, inputs=[n for _, n in d.inputs])
+    except TopologyError as exc:
+        if not d.points:
+            raise
+        note = (f"; note: {', '.join(p for p, _, _ in d.points)} named by one link only "
+                f"{'is a point' if len(d.points) == 1 else 'are points'} (tracer points), not joints: "
+                "list a joint on every link it connects")
+        raise TopologyError(str(exc) + note, problems=[p + note for p in exc.problems] if exc.problems
+                            else None) from None
     if mob.gruebler == 0:
         raise TopologyError(f"{where}mobility 0 ({mob.formula()}): a structure has no motion to solve")
     if len(names) - 2 * len(loop_terms) != mob.gruebler:  # pragma: no cover - guarded by _check_p_groups
@@ -452,6 +510,9 @@ def _generate(d: Diagram) -> dict[str, Any]:
                 if other not in center_terms:
                     center_terms[other] = _add(pos[j], star[other][j], -1)
                     queue.append(other)
+
+    for pname, _, lname in d.points:
+        pos[pname] = _add(center_terms[lname], star[lname][pname])
 
     # the spec
     used = set()
@@ -484,21 +545,21 @@ def _generate(d: Diagram) -> dict[str, Any]:
                                 "may override these: " + ", ".join(parameters))
         parameters[pname] = value
     loops = []
-    for i, terms in enumerate(loop_terms):
-        lhs, rhs = _terms_text(terms)
-        if not lhs and not rhs:
+    for i, walk in enumerate(loop_walks):
+        if not walk:
             raise TopologyError(f"{where}loop {i + 1} ({_loop_text(top.loops()[i])}) has no vector of nonzero "
                                 "length: its joints are drawn at one point")
-        if not lhs:
-            lhs, rhs = rhs, lhs
-        loops.append({"name": f"loop{i + 1}", "equation": f"{lhs} = {rhs or '0'}"})
+        loops.append({"name": f"loop{i + 1}", "equation": _walk_text(walk)})
+    declared = list(d.raw.get("joints", {})) if isinstance(d.raw.get("joints"), Mapping) else []
+    order = {n: i for i, n in enumerate(declared)}
+    names = [j.name for j in top.joints] + [p for p, _, _ in d.points]
     points = {}
-    for j in top.joints:
-        plus, minus = _terms_text(pos[j.name])
+    for name in sorted(names, key=lambda n: order.get(n, len(order))):
+        plus, minus = _terms_text(pos[name])
         text = plus + (" - " + " - ".join(minus.split(" + ")) if minus else "")
         if not plus and minus:
             text = "- " + " - ".join(minus.split(" + "))
-        points[j.name] = text or "0"
+        points[name] = text or "0"
 
     spec: dict[str, Any] = {"name": d.name}
     if d.description is not None:
@@ -515,6 +576,47 @@ def _generate(d: Diagram) -> dict[str, Any]:
         if key in d.raw:
             spec[key] = d.raw[key]
     return spec
+
+
+def _cancel(walk: list[tuple[int, str]]) -> list[tuple[int, str]]:
+    """A closed walk of signed vectors with every ``v, -v`` pair (also around the end) removed."""
+    out: list[tuple[int, str]] = []
+    for sign, v in walk:
+        if out and out[-1] == (-sign, v):
+            out.pop()
+        else:
+            out.append((sign, v))
+    while len(out) >= 2 and out[0] == (-out[-1][0], out[-1][1]):
+        out = out[1:-1]
+    return out
+
+
+def _walk_text(walk: list[tuple[int, str]]) -> str:
+    """The loop equation of a closed walk, written so that reading it gives the walk back.
+
+    The walk is turned to start after its last backward vector: ``a + b + c - d - e = 0`` is
+    written ``a + b + c = e + d`` (the left side forward, the right side backward, the
+    textbook form that draws the vectors tip to tail). A walk that changes direction more
+    than twice keeps every vector on the left: ``a - b + c - d = 0``.
+    """
+    n = len(walk)
+    starts = [k for k in range(n) if walk[k][0] > 0 and walk[k - 1][0] < 0]
+    if not starts:  # every vector points one way round
+        k0 = 0 if walk[0][0] > 0 else None
+        if k0 is None:
+            walk = [(-s, v) for s, v in reversed(walk)]
+        return " + ".join(v for _, v in walk) + " = 0"
+    rot = walk[starts[0]:] + walk[:starts[0]]
+    runs = sum(1 for k in range(n) if rot[k][0] != rot[k - 1][0])
+    if runs == 2:
+        m = next(k for k in range(n) if rot[k][0] < 0)
+        lhs = " + ".join(v for _, v in rot[:m])
+        rhs = " + ".join(v for _, v in reversed(rot[m:]))
+        return f"{lhs} = {rhs}"
+    text = rot[0][1]
+    for sign, v in rot[1:]:
+        text += f" {'+' if sign > 0 else '-'} {v}"
+    return text + " = 0"
 
 
 def _loop_text(steps) -> str:

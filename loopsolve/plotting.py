@@ -271,6 +271,7 @@ def plot_sweep(sweep, vars=None, *, output=None):
     fig = _new_figure((6.4 * len(groups) if len(groups) > 1 else 7.5, 8.0))
     axes = fig.subplots(3, len(groups), sharex=True, squeeze=False)
     suffixes = ("", "_vel", "_acc")
+    breaks, at_limit = _branch_breaks(sweep, x)
     for c, (unit, members) in enumerate(groups.items()):
         angular = unit in ("deg", "rad")
         titles = (("angle", "angular velocity", "angular acceleration") if angular else
@@ -278,11 +279,14 @@ def plot_sweep(sweep, vars=None, *, output=None):
         for r, suffix in enumerate(suffixes):
             ax = axes[r, c]
             for k, n in enumerate(members):
-                y = cols[n + suffix]
+                y = np.array(cols[n + suffix], dtype=float)
                 if r == 0 and angular and n in ck.variables:
                     y = _unwrapped(y, unit)
+                if r > 0:  # at a limit position the rates are unbounded: no value there
+                    y[at_limit] = np.nan
                 style = "-o" if len(x) < 40 else "-"
-                ax.plot(x, y, style, ms=3, lw=1.6, color=f"C{k}", label=tex_name(n))
+                xs, ys = _broken(x, y, breaks)
+                ax.plot(xs, ys, style, ms=3, lw=1.6, color=f"C{k}", label=tex_name(n))
             ax.set_ylabel(f"{titles[r]} [{_pretty_unit(units[members[0] + suffix])}]")
             ax.grid(True, alpha=0.35)
             lo, hi = ax.dataLim.intervaly
@@ -301,6 +305,42 @@ def plot_sweep(sweep, vars=None, *, output=None):
     if output is not None:
         _save(fig, output)
     return fig
+
+
+def _branch_breaks(sweep, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Where the plotted lines must not join consecutive rows, and the rows at a limit position.
+
+    Rows on different assembly modes are two branches: a line between them would be a jump
+    that the linkage never makes. They meet only through a row at the limit position (or mode
+    change) where the sweep turned, which then belongs to both branches. ``breaks[i]`` is true
+    when rows ``i`` and ``i + 1`` are not joined; ``at_limit[i]`` when row ``i`` sits at a limit
+    event (where the rates are unbounded).
+    """
+    n = len(x)
+    modes = list(getattr(sweep, "modes", ())) or [st.mode for st in sweep.states]
+    turns = [ev.input for ev in sweep.events if ev.kind.value in ("limit", "mode-change")]
+    limits = [ev.input for ev in sweep.events if ev.kind.value == "limit"]
+    scale = max(1.0, float(np.nanmax(np.abs(x)))) if n else 1.0
+
+    def near(xi, values):
+        return any(abs(xi - v) <= 1e-7 * scale for v in values)
+
+    junction = np.array([near(float(xi), turns) for xi in x], dtype=bool)
+    at_limit = np.array([near(float(xi), limits) for xi in x], dtype=bool)
+    breaks = np.zeros(max(n - 1, 0), dtype=bool)
+    for i in range(n - 1):
+        a, b = modes[i] if i < len(modes) else "", modes[i + 1] if i + 1 < len(modes) else ""
+        if a and b and a != b and not (junction[i] or junction[i + 1]):
+            breaks[i] = True
+    return breaks, at_limit
+
+
+def _broken(x: np.ndarray, y: np.ndarray, breaks: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``x``, ``y`` with a NaN between the rows that must not be joined (matplotlib lifts the pen there)."""
+    if not breaks.any():
+        return x, y
+    cut = np.flatnonzero(breaks) + 1
+    return (np.insert(np.asarray(x, dtype=float), cut, np.nan), np.insert(np.asarray(y, dtype=float), cut, np.nan))
 
 
 def _mark_events(ax, events, *, legend: bool) -> None:
@@ -647,7 +687,15 @@ def _frame_from_layout(layout, s, st: _Structure, pos) -> _Frame:
             links.append((name, xy, i))
     kinds = {n: (str(spec.get("type", "R")).upper() if isinstance(spec, dict) else "R")
              for n, spec in joints_spec.items()}
+    carried: dict[str, int] = {}
+    for members in links_spec.values():
+        for n in set(members):
+            carried[n] = carried.get(n, 0) + 1
+    # a revolute joint named by one link only is a tracer point of that link: a dot, not a pin
+    tracers = [n for n in joints_spec if kinds[n] == "R" and carried.get(n, 0) == 1]
     for name, spec in joints_spec.items():
+        if name in tracers:
+            continue
         p = where[name]
         if kinds[name] == "P":
             angle = None
@@ -671,7 +719,7 @@ def _frame_from_layout(layout, s, st: _Structure, pos) -> _Frame:
         here = [n for n in joints_spec if np.linalg.norm(where[n] - p) < tol]
         named = [n for n in here if kinds[n] == "R"] or here
         labels.append((p, ", ".join(named), named[0]))
-    extra = [(where[p], p) for p in ck.points if p not in joints_spec]
+    extra = [(where[p], p) for p in ck.points if p not in joints_spec or p in tracers]
     return _Frame(links, pivots, blocks, guides, [], joints, extra,
                   labels + [(xy, p, p) for xy, p in extra], [], [])
 
@@ -843,12 +891,61 @@ def _render_moving(ax, frame: _Frame, style: _Style, *, label_fixed: bool = True
         out.append(ax.annotate("", xy=head, xytext=tail, zorder=7,
                                arrowprops=dict(arrowstyle="-|>", color="tab:blue", lw=1.4, shrinkA=0, shrinkB=0,
                                                mutation_scale=14)))
-        d = _unit(np.asarray(head) - tail)
-        n = np.array([-d[1], d[0]])
-        mid = (np.asarray(tail) + head) / 2
-        out.append(ax.annotate(tex_name(name), mid, xytext=tuple(9 * n), textcoords="offset points",
-                               ha="center", va="center", color="tab:blue", fontsize=10, zorder=8))
+    for (tail, head, name), (mid, n) in zip(frame.arrows, _arrow_label_sides(frame, style)):
+        ha = "left" if n[0] > 0.35 else "right" if n[0] < -0.35 else "center"
+        va = "bottom" if n[1] > 0.35 else "top" if n[1] < -0.35 else "center"
+        out.append(ax.annotate(tex_name(name), mid, xytext=tuple(7 * n), textcoords="offset points",
+                               ha=ha, va=va, color="tab:blue", fontsize=10, zorder=8,
+                               bbox=dict(boxstyle="round,pad=0.08", fc="white", ec="none", alpha=0.7)))
     out += _labels(ax, frame, style)
+    return out
+
+
+def _segment_distance(p, a, b) -> float:
+    ab = b - a
+    t = float(np.clip((p - a) @ ab / (ab @ ab), 0.0, 1.0)) if ab @ ab > 0 else 0.0
+    return float(np.hypot(*(p - a - t * ab)))
+
+
+def _inside(p, poly) -> bool:
+    """``p`` inside the convex polygon ``poly`` (corners in hull order)."""
+    signs = [float((b[0] - a[0]) * (p[1] - a[1]) - (b[1] - a[1]) * (p[0] - a[0]))
+             for a, b in zip(poly, np.roll(poly, -1, axis=0))]
+    return all(s > 0 for s in signs) or all(s < 0 for s in signs)
+
+
+def _arrow_label_sides(frame: _Frame, style: _Style) -> list[tuple[np.ndarray, np.ndarray]]:
+    """For every vector arrow: its midpoint and the unit normal on the side its name goes.
+
+    The name sits beside the arrow, perpendicular to it, on the side that is clearer of the
+    links (bars, the inside of plates, frame lines) and of the other arrows and their names.
+    """
+    size = style.size
+    segs, plates = [], []
+    for _, xy, _ in frame.links:
+        xy = np.asarray(xy, dtype=float)
+        segs += [(xy[a], xy[b]) for a in range(len(xy)) for b in range(a + 1, len(xy))]
+        if len(xy) >= 3:
+            plates.append(xy[_hull_order(xy)])
+    segs += [(np.asarray(a, dtype=float), np.asarray(b, dtype=float)) for a, b in frame.ground_lines]
+    arrows = [(np.asarray(t, dtype=float), np.asarray(h, dtype=float)) for t, h, _ in frame.arrows]
+    placed: list[np.ndarray] = []
+    out = []
+    for k, (tail, head) in enumerate(arrows):
+        d = _unit(head - tail)
+        n = np.array([-d[1], d[0]])
+        mid = 0.5 * (tail + head)
+        best, best_score = n, -math.inf
+        for side in (n, -n):
+            p = mid + side * 0.9 * size
+            clear = min([_segment_distance(p, a, b) for a, b in segs]
+                        + [_segment_distance(p, a, b) for i, (a, b) in enumerate(arrows) if i != k]
+                        + [float(np.hypot(*(p - q))) for q in placed], default=10 * size)
+            score = min(clear, 2 * size) - sum(2 * size for poly in plates if _inside(p, poly))
+            if score > best_score + 1e-12:
+                best, best_score = side, score
+        placed.append(mid + best * 0.9 * size)
+        out.append((mid, best))
     return out
 
 
@@ -1059,7 +1156,72 @@ def _progress_bar(total: int, progress):
     return tqdm(total=total, unit="frame", desc="rendering", file=sys.stderr, leave=False)
 
 
-def animate(sweep, *, output, fps: float = 20, progress=None, vectors: bool = False, dpi: int = 100) -> Path:
+#: most frames an animation renders unless the caller raises it (``max_frames=``, ``--max-frames``)
+MAX_FRAMES = 3600
+
+
+def check_frames(n: int, max_frames: int | None = MAX_FRAMES) -> None:
+    """Refuse an animation of ``n`` frames above ``max_frames`` before anything is rendered.
+
+    Examples
+    --------
+    >>> from loopsolve.plotting import check_frames
+    >>> check_frames(361)
+    >>> check_frames(360001)
+    Traceback (most recent call last):
+    ...
+    loopsolve.errors.ModelError: the animation would have 360001 frames, more than the cap of 3600: use a larger --step (or a shorter --from/--to range), or raise the cap with --max-frames 360001 (max_frames= in Python)
+    """
+    if max_frames is None:
+        return
+    if not isinstance(max_frames, int) or isinstance(max_frames, bool) or max_frames < 1:
+        raise ModelError(f"max_frames must be a positive whole number, not {max_frames!r}")
+    if n > max_frames:
+        raise ModelError(f"the animation would have {n} frames, more than the cap of {max_frames}: use a larger "
+                         f"--step (or a shorter --from/--to range), or raise the cap with --max-frames {n} "
+                         "(max_frames= in Python)")
+
+
+def frames_before_sweep(mech, start, stop, step, *, input=None, mode=None) -> int | None:
+    """Number of frames an animation of the sweep ``start`` → ``stop`` by ``step`` has at least.
+
+    Counted from the grid before any sweep (``None`` when it cannot be known yet: a default
+    range that is not a full turn). Without ``start``/``stop`` the range is the command's
+    default: a full turn of an angle input when the linkage assembles at 0.
+
+    Examples
+    --------
+    >>> from loopsolve.plotting import frames_before_sweep
+    >>> frames_before_sweep(ls.fourbar(60, 25, 70, 45), None, None, "0.001")
+    360001
+    >>> frames_before_sweep(ls.fourbar(60, 25, 70, 45), "0", "90", "1")
+    91
+    """
+    from .errors import LoopsolveError
+    from .solve import display_value, input_value
+    from .units import Kind
+
+    try:
+        ck = mech.compile(input)
+        h = abs(float(display_value(ck, input_value(ck, step))))
+        if start is not None and stop is not None:
+            a, b = (float(display_value(ck, input_value(ck, v))) for v in (start, stop))
+        else:
+            if ck.kinds[ck.input_idx[0]] is not Kind.ANGLE:
+                return None
+            mech.solve(0, input=input, mode=mode)
+            turn = float(display_value(ck, 2 * math.pi))
+            a = 0.0 if start is None else float(display_value(ck, input_value(ck, start)))
+            b = a + turn if stop is None else float(display_value(ck, input_value(ck, stop)))
+    except (LoopsolveError, TypeError, ValueError, OverflowError):
+        return None  # the sweep itself reports what is wrong
+    if not (h > 0 and math.isfinite(h) and math.isfinite(a) and math.isfinite(b)):
+        return None
+    return int(math.floor(abs(b - a) / h * (1 + 1e-12) + 1e-9)) + 1
+
+
+def animate(sweep, *, output, fps: float = 20, progress=None, vectors: bool = False, dpi: int = 100,
+            max_frames: int | None = MAX_FRAMES) -> Path:
     """The linkage moving over a sweep: one frame per output row, with the traces of the points.
 
     Writes a GIF with Pillow, or an MP4 with matplotlib's ffmpeg writer when the ``ffmpeg``
@@ -1078,6 +1240,9 @@ def animate(sweep, *, output, fps: float = 20, progress=None, vectors: bool = Fa
         Draw the loop vectors as named arrows in every frame.
     dpi : int
         Resolution of the frames (the figure is 7 inches wide).
+    max_frames : int or None
+        Refuse (before rendering) a sweep with more rows than this (default 3600); ``None``:
+        no cap.
 
     Returns
     -------
@@ -1089,7 +1254,8 @@ def animate(sweep, *, output, fps: float = 20, progress=None, vectors: bool = Fa
     MissingDependencyError
         matplotlib or Pillow is missing, or ffmpeg for an MP4.
     ModelError
-        The suffix is not ``.gif``/``.mp4``, ``fps`` is not positive, or the sweep is empty.
+        The suffix is not ``.gif``/``.mp4``, ``fps`` is not positive, the sweep is empty or
+        has more rows than ``max_frames``.
 
     Examples
     --------
@@ -1108,6 +1274,7 @@ def animate(sweep, *, output, fps: float = 20, progress=None, vectors: bool = Fa
         raise ModelError(f"fps must be a positive number of frames per second, not {fps!r}")
     if not len(sweep):
         raise ModelError("cannot animate an empty sweep (no solved positions)")
+    check_frames(len(sweep), max_frames)
     frames, _ = _frames(list(sweep.states), vectors=vectors)
     style = _style(frames)
     fig = _new_figure(_figsize(style))

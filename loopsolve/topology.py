@@ -621,29 +621,38 @@ class Topology:
         n_needed = g.number_of_edges() - g.number_of_nodes() + 1
         if n_needed <= 0:
             return ()
-        cycles = []
-        for count, cyc in enumerate(nx.simple_cycles(g)):
-            if count >= _MAX_CYCLES:
-                raise TopologyError(f"{self.where + ': ' if self.where else ''}the link-joint graph has more "
-                                    f"than {_MAX_CYCLES} cycles; split the model")
-            cycles.append(_canonical_cycle(cyc, rank))
-        cycles.sort(key=lambda c: (len(c), [rank[n] for n in c]))
-        basis: list[tuple] = []
-        pivots: dict[int, int] = {}  # GF(2) elimination: leading bit -> reduced row
-        for cyc in cycles:
-            bits = 0
-            for a, b in zip(cyc, cyc[1:] + cyc[:1]):
-                bits ^= 1 << edges[frozenset((a, b))]
-            while bits:
-                lead = bits.bit_length() - 1
-                if lead in pivots:
-                    bits ^= pivots[lead]
-                else:
-                    pivots[lead] = bits
-                    basis.append(cyc)
+        # Greedy GF(2) elimination over the cycles sorted by length gives a minimum cycle basis.
+        # Only the shortest cycles are needed: enumerate those up to a length bound, and raise the
+        # bound until the basis is complete (the same basis as enumerating every cycle, without the
+        # exponential count of long cycles in a chain of many loops).
+        bound = 8  # a four-bar: four links and four joints
+        while True:
+            cycles = []
+            for count, cyc in enumerate(_short_cycles(g, rank, bound)):
+                if count >= _MAX_CYCLES:
+                    raise TopologyError(f"{self.where + ': ' if self.where else ''}the link-joint graph has more "
+                                        f"than {_MAX_CYCLES} cycles of up to {bound // 2} links; split the model")
+                cycles.append(_canonical_cycle(cyc, rank))
+            cycles.sort(key=lambda c: (len(c), [rank[n] for n in c]))
+            basis: list[tuple] = []
+            pivots: dict[int, int] = {}  # GF(2) elimination: leading bit -> reduced row
+            for cyc in cycles:
+                bits = 0
+                for a, b in zip(cyc, cyc[1:] + cyc[:1]):
+                    bits ^= 1 << edges[frozenset((a, b))]
+                while bits:
+                    lead = bits.bit_length() - 1
+                    if lead in pivots:
+                        bits ^= pivots[lead]
+                    else:
+                        pivots[lead] = bits
+                        basis.append(cyc)
+                        break
+                if len(basis) == n_needed:
                     break
-            if len(basis) == n_needed:
+            if len(basis) == n_needed or bound >= g.number_of_nodes():
                 break
+            bound += 2  # the link-joint graph is bipartite: every cycle has even length
         out = []
         for cyc in basis:
             steps = []
@@ -653,6 +662,39 @@ class Topology:
                     steps.append((node[1], cyc[i - 1][1], cyc[(i + 1) % n][1]))
             out.append(tuple(steps))
         return tuple(out)
+
+
+def _short_cycles(g, rank: Mapping, bound: int):
+    """Every simple cycle of the undirected graph ``g`` with at most ``bound`` nodes, once each.
+
+    A cycle is found from its lowest-ranked node, walking only through higher-ranked nodes,
+    and kept in the direction whose second node ranks below its last (depth-first search with
+    the path as a set; linear in the number of short paths, which stays small in a linkage
+    whatever its number of loops).
+    """
+    adj = {u: sorted(g[u], key=rank.__getitem__) for u in g}
+    for s in sorted(g, key=rank.__getitem__):
+        rs = rank[s]
+        path = [s]
+        on_path = {s}
+        stack = [iter(n for n in adj[s] if rank[n] > rs)]
+        while stack:
+            nxt = next(stack[-1], None)
+            if nxt is None:
+                stack.pop()
+                on_path.discard(path.pop())
+                continue
+            if len(path) < bound:
+                path.append(nxt)
+                on_path.add(nxt)
+                last = nxt
+                # close the cycle through s (at least three nodes; each direction once)
+                if len(path) >= 3 and s in g[last] and rank[path[1]] < rank[last]:
+                    yield list(path)
+                if len(path) < bound:
+                    stack.append(iter(n for n in adj[last] if rank[n] > rs and n not in on_path))
+                else:
+                    on_path.discard(path.pop())
 
 
 def _canonical_cycle(cyc: list, rank: Mapping) -> list:

@@ -201,12 +201,15 @@ def test_fourbar_velocity_vs_finite_difference(seed, mode):
     np.testing.assert_allclose(w4, fd4, rtol=1e-6, atol=1e-6 * np.abs(omega2).max())
 
 
-def test_fourbar_velocity_matches_notes_sign_at_thesis_point():
-    # omega3 = r2 sin(t2 - t4) / (r3 sin(t4 - t3)) omega2, the notes' sign, holds
+def test_fourbar_velocity_closes_the_velocity_loop_at_thesis_point():
+    # the velocity loop r2 w2 e(t2 + 90) + r3 w3 e(t3 + 90) = r4 w4 e(t4 + 90) (time derivative of
+    # r2 + r3 = r1 + r4), component by component, and w3 against a central difference of t3
     t2 = math.radians(30)
     t3, t4 = C.fourbar_position(60, 25, 70, 45, t2)
-    w3, _ = C.fourbar_velocity(25, 70, 45, t2, t3, t4, 2.0)
-    assert w3 == pytest.approx(25 * math.sin(t2 - t4) / (70 * math.sin(t4 - t3)) * 2.0, rel=1e-15)
+    w3, w4 = C.fourbar_velocity(25, 70, 45, t2, t3, t4, 2.0)
+    for f in (lambda t: -math.sin(t), math.cos):
+        lhs = 25 * 2.0 * f(t2) + 70 * w3 * f(t3)
+        assert lhs == pytest.approx(45 * w4 * f(t4), abs=1e-12 * 25 * 2.0)
     h = 1e-6
     fd = (C.fourbar_position(60, 25, 70, 45, t2 + h)[0] - C.fourbar_position(60, 25, 70, 45, t2 - h)[0]) / (2 * h)
     assert w3 == pytest.approx(2.0 * fd, rel=1e-6)
@@ -390,7 +393,7 @@ def test_case_ii_quadratic_leading_coefficient_zero():
         ((60, 25, 70, 45), C.GrashofClass.CRANK_ROCKER),  # thesis: 25 + 70 = 95 < 105
         ((2, 4, 5, 4.5), C.GrashofClass.DOUBLE_CRANK),
         ((4, 5, 2, 4.5), C.GrashofClass.DOUBLE_ROCKER),
-        ((4, 5, 4.5, 2), C.GrashofClass.CRANK_ROCKER),  # rocker-crank: r4 shortest
+        ((4, 5, 4.5, 2), C.GrashofClass.ROCKER_CRANK),  # r4 shortest: the output turns, the input rocks
         ((4, 2, 4, 2), C.GrashofClass.CHANGE_POINT),  # parallelogram
         ((3, 1, 3, 1 + 1e-12), C.GrashofClass.CHANGE_POINT),  # within 1e-9
         ((4, 3, 3.5, 5), C.GrashofClass.TRIPLE_ROCKER),
@@ -407,6 +410,7 @@ def test_grashof_values_and_errors():
     assert [g.value for g in C.GrashofClass] == [
         "double crank",
         "crank-rocker",
+        "rocker-crank",
         "double rocker",
         "change point",
         "triple rocker",

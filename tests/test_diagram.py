@@ -71,15 +71,23 @@ class TestGeneration:
         s1, s2 = mech.solve(120), other.solve(120)
         assert s1.mode != s2.mode
         assert s1["C_y"] > s2["C_y"]
-        # the mirrored drawing is the crossed mode of the same linkage: the classic closed form agrees
-        r = dict(r1=60, r2=25, r3=np.linalg.norm(c), r4=np.linalg.norm(J["C"] - o4))
-        for st, sign in ((s1, +1), (s2, -1)):
-            t3, t4 = classic.fourbar_position(r["r1"], r["r2"], r["r3"], r["r4"], math.radians(120), mode=sign)
-            cx = 25 * math.cos(math.radians(120)) + r["r3"] * math.cos(t3)
-            if abs(cx - st["C_x"]) > 1e-6:
-                t3, t4 = classic.fourbar_position(r["r1"], r["r2"], r["r3"], r["r4"], math.radians(120), mode=-sign)
-                cx = 25 * math.cos(math.radians(120)) + r["r3"] * math.cos(t3)
-            assert cx == pytest.approx(st["C_x"], abs=1e-9)
+        # the two drawings are the two assembly modes of one linkage: C is where the circles about
+        # B (radius r3) and O4 (radius r4) meet, on opposite sides of the line B-O4
+        r3, r4 = np.linalg.norm(c), np.linalg.norm(J["C"] - o4)
+        t2 = math.radians(120)
+        bb, o4p = np.array([25 * math.cos(t2), 25 * math.sin(t2)]), np.array([60.0, 0.0])
+        dist = np.linalg.norm(o4p - bb)
+        along = (r3 ** 2 - r4 ** 2 + dist ** 2) / (2 * dist)
+        u = (o4p - bb) / dist
+        n = np.array([-u[1], u[0]])
+        left = bb + along * u + math.sqrt(r3 ** 2 - along ** 2) * n
+        right = bb + along * u - math.sqrt(r3 ** 2 - along ** 2) * n
+        got = [np.array([st["C_x"], st["C_y"]]) for st in (s1, s2)]
+        # the drawn C lies left of B->O4 (positive cross product), so the drawing solves to `left`
+        (ux, uy), (vx, vy) = J["O4"] - J["B"], J["C"] - J["B"]
+        assert ux * vy - uy * vx > 0
+        np.testing.assert_allclose(got[0], left, atol=1e-9)
+        np.testing.assert_allclose(got[1], right, atol=1e-9)
         assert mech.solve(120)["C_x"] != pytest.approx(other.solve(120)["C_x"], abs=1e-3)
 
     def test_slider_crank_diagram_against_closed_form(self):
@@ -270,27 +278,109 @@ class TestInfo:
         assert len(d["loops"]) == 2
         assert d["blocks"] == [["theta_coupler", "theta_rocker"], ["theta_coupler2", "theta_output"]]
         assert d["topology"]["formula"] == "M = 3(6 - 1) - 2*7 = 1"
-        assert [fb["links"]["crank"] for fb in d["fourbars"]] == ["crank", "rocker"]
+        fb1, fb2 = d["fourbars"]
         J = drawn(MODELS / "watt2_sixbar.toml")
-        for fb in d["fourbars"]:
-            jn = fb["joints"]
-            r = [np.linalg.norm(J[a] - J[b]) for a, b in ((jn["crank_pivot"], jn["rocker_pivot"]),
-                                                           (jn["crank_pivot"], jn["crank_pin"]),
-                                                           (jn["crank_pin"], jn["rocker_pin"]),
-                                                           (jn["rocker_pin"], jn["rocker_pivot"]))]
-            lengths = fb["lengths"]
-            np.testing.assert_allclose([lengths[k] for k in ("ground", "crank", "coupler", "rocker")], r,
-                                       rtol=1e-9)
-            assert fb["grashof"] == classic.grashof(*r).value
-            mu = classic.transmission_angle_range(*r)
-            np.testing.assert_allclose(fb["transmission_angle_range"], np.degrees(mu), atol=1e-9)
-            assert fb["input_range"] == [[-180.0, 180.0]]
+        dist = {k: float(np.linalg.norm(J[k[0]] - J[k[1]])) for k in
+                (("O2", "O4"), ("O2", "A"), ("A", "B"), ("B", "O4"), ("O4", "O6"), ("O4", "C"), ("C", "D"),
+                 ("D", "O6"))}
+        assert fb1["links"] == {"ground": "ground", "input": "crank", "coupler": "coupler", "output": "rocker"}
+        assert fb2["links"] == {"ground": "ground", "input": "rocker", "coupler": "coupler2", "output": "output"}
+        np.testing.assert_allclose([fb1["lengths"][k] for k in ("ground", "input", "coupler", "output")],
+                                   [dist["O2", "O4"], dist["O2", "A"], dist["A", "B"], dist["B", "O4"]], rtol=1e-9)
+        np.testing.assert_allclose([fb2["lengths"][k] for k in ("ground", "input", "coupler", "output")],
+                                   [dist["O4", "O6"], dist["O4", "C"], dist["C", "D"], dist["D", "O6"]], rtol=1e-9)
+        # loop 1: 25 + 70 < 60 + 45 with the crank shortest: a crank-rocker whose crank turns fully
+        assert (fb1["grashof"], fb1["input_motion"], fb1["input_range"]) == ("crank-rocker", "turns fully",
+                                                                            [[-180.0, 180.0]])
+        # loop 2 as a four-bar is a crank-rocker too (O4C = 25 shortest, 25 + 74.3 < 65 + 55), but its
+        # input is the rocker of loop 1: it only swings between the rocker's limits, where crank and
+        # coupler of loop 1 are collinear (O2B = 70 +- 25); theta_rocker is the direction O4 -> B
+        assert (fb2["grashof"], fb2["input"], fb2["input_motion"], fb2["driven_by"]) == \
+            ("crank-rocker", "theta_rocker", "rocks", "loop1")
+        psi = [math.degrees(math.acos((60 ** 2 + 45 ** 2 - diag ** 2) / (2 * 60 * 45))) for diag in (95, 45)]
+        np.testing.assert_allclose(fb2["input_range"], [[180 - psi[0], 180 - psi[1]]], atol=1e-6)
+        # its transmission angle (between coupler2 and output) over a crank turn, from the solver
+        sw = ls.load(MODELS / "watt2_sixbar.toml").sweep(0, 360, 0.5)
+        mu = np.abs((sw["theta_output"] - sw["theta_coupler2"] + 180) % 360 - 180)
+        np.testing.assert_allclose(fb2["transmission_angle_range"], [mu.min(), mu.max()], atol=0.01)
+
+    # Four-bars written as vector loops, driven by either side: the link roles, Grashof class
+    # (S + L against P + Q, and which link is the shortest) written by hand; the input ranges from
+    # the law of cosines on the diagonal from the input's pin to the other pivot, which is the sum
+    # or the difference of the two far links where they are collinear (the limits).
+    # (lengths r1..r4, input, equation, roles input/coupler/output, class, rocks?, frame direction
+    # at the input's pivot: 0 at O2 (towards O4), 180 at O4 (towards O2))
+    TABLE = [
+        # thesis: S = r2 = 25, 25 + 70 = 95 < 60 + 45: crank-rocker from r2, rocker-crank from r4
+        ((60, 25, 70, 45), "theta2", "r2 + r3 = r1 + r4", ("r2", "r3", "r4"), "crank-rocker", None, 0),
+        ((60, 25, 70, 45), "theta4", "r2 + r3 = r1 + r4", ("r4", "r3", "r2"), "rocker-crank", "rocks", 180),
+        ((60, 25, 70, 45), "theta4", "r1 + r4 = r2 + r3", ("r4", "r3", "r2"), "rocker-crank", "rocks", 180),
+        ((60, 25, 70, 45), "theta4", "r2 + r3 - r4 - r1 = 0", ("r4", "r3", "r2"), "rocker-crank", "rocks", 180),
+        # S = r3 = 20 (the coupler), 20 + 60 = 80 < 50 + 45: Grashof double rocker either way round
+        ((60, 50, 20, 45), "theta2", "r2 + r3 = r1 + r4", ("r2", "r3", "r4"), "double rocker", "rocks", 0),
+        ((60, 50, 20, 45), "theta4", "r2 + r3 = r1 + r4", ("r4", "r3", "r2"), "double rocker", "rocks", 180),
+        # 3 + 5 = 8 > 4 + 3.5: triple rocker (non-Grashof)
+        ((4, 3, 3.5, 5), "theta2", "r2 + r3 = r1 + r4", ("r2", "r3", "r4"), "triple rocker", "rocks", 0),
+        # S = r1 = 20 (the frame), 20 + 60 = 80 < 50 + 60: double crank
+        ((20, 60, 50, 60), "theta2", "r2 + r3 = r1 + r4", ("r2", "r3", "r4"), "double crank", None, 0),
+        # S = r4 = 2 (the output), 2 + 5 = 7 < 4 + 4.5: rocker-crank driven by r2, crank-rocker by r4
+        ((4, 5, 4.5, 2), "theta2", "r2 + r3 = r1 + r4", ("r2", "r3", "r4"), "rocker-crank", "rocks", 0),
+        ((4, 5, 4.5, 2), "theta4", "r2 + r3 = r1 + r4", ("r4", "r3", "r2"), "crank-rocker", None, 180),
+    ]
+
+    @pytest.mark.parametrize("lengths, inp, equation, roles, grashof, rocks, frame_dir", TABLE)
+    def test_info_fourbar_table(self, lengths, inp, equation, roles, grashof, rocks, frame_dir):
+        r = dict(zip(("r1", "r2", "r3", "r4"), lengths))
+        # guesses: a pose of the open circuit, from the drawn crank angle (any assembled pose will do)
+        t2 = {(60, 50, 20, 45): 50.0, (4, 3, 3.5, 5): 90.0, (4, 5, 4.5, 2): 60.0}.get(lengths, 60.0)
+        t3, t4 = classic.fourbar_position(*lengths, math.radians(t2), mode=+1)
+        mech = ls.build_mechanism({
+            "name": "table", "units": {"length": "mm", "angle": "deg"}, "parameters": r,
+            "variables": {"theta2": {"input": True, "guess": t2}, "theta3": {"guess": math.degrees(t3)},
+                          "theta4": {"guess": math.degrees(t4)}},
+            "vectors": {"r1": {"length": "r1", "angle": 0}, "r2": {"length": "r2", "angle": "theta2"},
+                        "r3": {"length": "r3", "angle": "theta3"}, "r4": {"length": "r4", "angle": "theta4"}},
+            "loops": [{"equation": equation}]})
+        fb, = mech.info(input=inp)["fourbars"]
+        assert fb["links"] == {"ground": "r1", "input": roles[0], "coupler": roles[1], "output": roles[2]}
+        assert fb["lengths"] == {"ground": r["r1"], "input": r[roles[0]], "coupler": r[roles[1]],
+                                 "output": r[roles[2]]}
+        assert fb["grashof"] == grashof and fb["input"] == inp
+        assert fb["input_motion"] == (rocks or "turns fully")
+        g, a, b, c = r["r1"], r[roles[0]], r[roles[1]], r[roles[2]]
+
+        def limit(diag):  # input angle at its pivot, from the frame, where the diagonal is `diag`
+            cos = (g * g + a * a - diag * diag) / (2 * g * a)
+            return math.degrees(math.acos(cos)) if -1 <= cos <= 1 else None
+
+        outer, inner = limit(b + c), limit(abs(b - c))
+        if rocks is None:
+            expected = [[-180.0, 180.0]]
+        elif outer is None:  # never stretched: |phi| from the inner limit round through 180
+            expected = [[inner, 360 - inner]]
+        elif inner is None:
+            expected = [[-outer, outer]]
+        else:
+            expected = [[-outer, -inner], [inner, outer]]
+        if rocks is not None and frame_dir == 180:  # measured from O4 -> O2: theta4 = 180 - phi
+            moved = []
+            for lo, hi in expected:
+                lo, hi = 180 - hi, 180 - lo
+                shift = 360 * math.floor((lo + 180) / 360)  # shown starting in [-180, 180)
+                moved.append([lo - shift, hi - shift])
+            expected = sorted(moved)
+        np.testing.assert_allclose(fb["input_range"], expected, atol=1e-7)
+        if rocks is not None:  # inside a range the linkage assembles, just outside it does not
+            for lo, hi in fb["input_range"]:
+                mech.solve((lo + hi) / 2, input=inp)
+                with pytest.raises(ls.SolveError):
+                    mech.solve(lo - 0.01, input=inp)
 
     def test_info_input_range_in_the_crank_variable(self, capsys):
-        """A double rocker drawn with a tilted frame: its input range is in theta_crank itself."""
+        """A triple rocker drawn with a tilted frame: its input range is in theta_crank itself."""
         tilt = math.radians(30)
         rot = np.array([[math.cos(tilt), -math.sin(tilt)], [math.sin(tilt), math.cos(tilt)]])
-        r1, r2, r3, r4 = 4.0, 3.0, 3.5, 5.0  # non-Grashof: the crank rocks
+        r1, r2, r3, r4 = 4.0, 3.0, 3.5, 5.0  # 3 + 5 > 4 + 3.5: non-Grashof, the crank rocks
         t2 = math.radians(90)
         t3, t4 = classic.fourbar_position(r1, r2, r3, r4, t2, mode=+1)
         pts = {"O2": (0, 0), "B": (r2 * math.cos(t2), r2 * math.sin(t2)),
@@ -302,9 +392,9 @@ class TestInfo:
         mech = ls.build_mechanism(diagram.diagram_to_spec(data))
         fb = mech.info()["fourbars"][0]
         assert fb["grashof"] == "triple rocker"
-        (lo, hi), = classic.fourbar_input_range(r1, r2, r3, r4)
-        np.testing.assert_allclose(fb["input_range"], [[math.degrees(lo + tilt), math.degrees(hi + tilt)]],
-                                   atol=1e-6)
+        # never stretched (3 + 4 < 3.5 + 5); folds where the diagonal B-O4 is r4 - r3 = 1.5
+        lo = math.degrees(math.acos((r1 ** 2 + r2 ** 2 - (r4 - r3) ** 2) / (2 * r1 * r2)))
+        np.testing.assert_allclose(fb["input_range"], [[lo + 30, 360 - lo + 30]], atol=1e-6)
         for x in (fb["input_range"][0][0] + 0.5, fb["input_range"][0][1] - 0.5):
             mech.solve(x)  # inside: assembles
         with pytest.raises(ls.AssemblyError):
@@ -347,3 +437,115 @@ def test_cli_vectors_round_trip(tmp_path, name):
     assert a.row().keys() == b.row().keys()
     for k, v in a.row().items():
         assert b.row()[k] == pytest.approx(v, abs=1e-9), k
+
+
+class TestTracerPoints:
+    """A joint named by one link only is a point of that link (issue 9): the coupler curve."""
+
+    def test_coupler_point_against_the_closed_form(self):
+        mech = ls.load(MODELS / "fourbar_coupler_curve.toml")
+        assert mech.spec["points"]["P"] == "r_crank + r_coupler_P"
+        assert "P" not in "".join(lp.text for lp in mech.loops)  # a point, not in any loop
+        J = drawn(MODELS / "fourbar_coupler_curve.toml")
+        ab, ap = J["B"] - J["A"], J["P"] - J["A"]
+        gamma = angle(ap) - angle(ab)  # P's angle on the coupler, from the line A-B
+        r2, r3, r4, r1, rp = (np.linalg.norm(v) for v in (J["A"] - J["O2"], ab, J["B"] - J["O4"],
+                                                         J["O4"] - J["O2"], ap))
+        sw = mech.sweep(0, 360, 30)
+        for st in sw.states:
+            t2 = math.radians(st.input_value)
+            a = np.array([r2 * math.cos(t2), r2 * math.sin(t2)])
+            # B where the circles about A (r3) and O4 (r4) meet, on the drawn side of A -> O4
+            o4 = np.array([r1, 0.0])
+            d = np.linalg.norm(o4 - a)
+            along = (r3 ** 2 - r4 ** 2 + d ** 2) / (2 * d)
+            u = (o4 - a) / d
+            n = np.array([-u[1], u[0]])
+            b = a + along * u + math.sqrt(r3 ** 2 - along ** 2) * n  # the drawing has B left of A -> O4
+            t3 = angle(b - a)
+            p = a + rp * np.array([math.cos(t3 + gamma), math.sin(t3 + gamma)])
+            np.testing.assert_allclose([st["B_x"], st["B_y"]], b, atol=1e-8)
+            np.testing.assert_allclose([st["P_x"], st["P_y"]], p, atol=1e-8)
+
+    def test_point_listed_first_and_on_the_ground(self):
+        data = tomllib.loads((MODELS / "fourbar_coupler_curve.toml").read_text())
+        data["links"]["coupler"] = ["P", "A", "B"]  # the point first: theta_coupler is still A -> B
+        data["joints"]["Q"] = {"at": [30, -10]}
+        data["links"]["ground"] = ["O2", "O4", "Q"]  # a fixed point of the frame
+        mech = ls.build_mechanism(diagram.diagram_to_spec(data))
+        ref = ls.load(MODELS / "fourbar_coupler_curve.toml")
+        a, b = mech.solve(100), ref.solve(100)
+        for col in ("theta_coupler", "theta_rocker", "P_x", "P_y"):
+            assert a[col] == pytest.approx(b[col], abs=1e-9)
+        assert (a["Q_x"], a["Q_y"], a["Q_x_vel"]) == (pytest.approx(30), pytest.approx(-10), 0)
+
+    def test_a_forgotten_joint_still_says_so(self):
+        data = tomllib.loads(THESIS_DIAGRAM.read_text())
+        data["links"]["rocker"] = ["O4"]  # C now on the coupler only, and the rocker has one joint
+        with pytest.raises(TopologyError, match="joint 'C' is only on link 'coupler'"):
+            diagram.diagram_to_spec(data)
+        # a Watt I whose ternary crank and coupler name their shared pin differently: two points,
+        # and the mobility check says why it came out as 3
+        data = tomllib.loads((MODELS / "watt1_sixbar.toml").read_text())
+        data["joints"]["A2"] = {"at": data["joints"]["A"]["at"]}
+        data["links"]["coupler"] = ["A2", "B", "F"]
+        with pytest.raises(TopologyError, match=r"mobility is 3 .*A, A2 named by one link only are points"):
+            diagram.diagram_to_spec(data)
+
+
+def test_loop_equations_follow_the_walk():
+    """The generated loop is written in walking order (left side forward, right side backward)."""
+    mech = ls.load(MODELS / "watt1_sixbar.toml")
+    vals = mech.solve(60)
+    J = {n: np.array([vals[n + "_x"], vals[n + "_y"]]) for n in ("O2", "A", "E", "F", "G")}
+    # loop 2 walks O2 -> A -> F (left) and O2 -> E -> G -> F (right): each partial sum is a joint
+    left, right = mech.loops[1].text.split(" = ")
+    for side, stops in ((left, ("A", "F")), (right, ("E", "G", "F"))):
+        pos = np.zeros(2)
+        for name, stop in zip(side.split(" + "), stops):
+            pos = pos + _vector_xy(mech, vals, name)
+            np.testing.assert_allclose(pos, J[stop], atol=1e-9, err_msg=name)
+
+
+def _vector_xy(mech, state, name):
+    ck = state.compiled
+    length, ang = ck.vector_values(0, state.z)[ck.vectors.index(name)]
+    return np.array([length * math.cos(ang), length * math.sin(ang)])
+
+
+class TestInfoSpeed:
+    """Large models stay polynomial: a chain of many four-bars (generated here)."""
+
+    @staticmethod
+    def chain(n):
+        """n four-bars in series: the rocker of loop k carries the crank pin of loop k + 1."""
+        joints, links = {"O0": [0.0, 0.0]}, {"ground": ["O0"]}
+        t = math.radians(60)
+        joints["A0"] = [25 * math.cos(t), 25 * math.sin(t)]
+        links["crank"] = ["O0", "A0"]
+        pin = "A0"
+        for k in range(n):
+            ox = 60.0 * (k + 1)
+            joints[f"O{k + 1}"] = [ox, 0.0]
+            links["ground"].append(f"O{k + 1}")
+            px, py = joints[pin]
+            t2 = math.atan2(py, px - 60.0 * k)
+            t3, t4 = classic.fourbar_position(60, 25, 70, 45, t2, mode=+1)
+            joints[f"B{k}"] = [ox + 45 * math.cos(t4), 45 * math.sin(t4)]
+            links[f"coupler{k}"] = [pin, f"B{k}"]
+            links[f"rocker{k}"] = [f"O{k + 1}", f"B{k}"]
+            if k < n - 1:
+                joints[f"A{k + 1}"] = [ox + 25 * math.cos(t4), 25 * math.sin(t4)]
+                links[f"rocker{k}"].append(f"A{k + 1}")
+                pin = f"A{k + 1}"
+        return {"name": f"chain {n}", "units": {"length": "mm", "angle": "deg"},
+                "joints": {j: {"at": xy} for j, xy in joints.items()}, "links": links, "input": {"joint": "O0"}}
+
+    def test_chain_of_300_four_bars_has_300_short_loops(self):
+        spec = diagram.diagram_to_spec(self.chain(300))  # was: "more than 20000 cycles" after 26 s
+        assert len(spec["loops"]) == 300
+        # each loop is one four-bar: frame, crank (or the previous rocker's arm), coupler, rocker
+        assert spec["loops"][0]["equation"] == "r_crank + r_coupler0 = r_ground_O1 + r_rocker0"
+        for k, lp in enumerate(spec["loops"][1:], start=1):  # ground vectors start at the origin O0
+            assert lp["equation"] == (f"r_ground_O{k} + r_rocker{k - 1}_A{k} + r_coupler{k} = "
+                                      f"r_ground_O{k + 1} + r_rocker{k}")
