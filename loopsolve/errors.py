@@ -130,3 +130,16 @@ class MissingDependencyError(LoopsolveError, ImportError):
 
 class LoopsolveWarning(UserWarning):
     """Warnings issued by loopsolve."""
+
+
+def warn(message: str) -> None:
+    """Issue a :class:`LoopsolveWarning` attributed to the caller's code, not to loopsolve's internals."""
+    import os
+    import sys
+    import warnings
+
+    here = os.path.dirname(os.path.abspath(__file__)) + os.sep
+    level, frame = 2, sys._getframe(1)  # stacklevel 2 is the frame that called warn()
+    while frame is not None and os.path.abspath(frame.f_code.co_filename).startswith(here):
+        frame, level = frame.f_back, level + 1
+    warnings.warn(message, LoopsolveWarning, stacklevel=level)

@@ -12,15 +12,13 @@ from __future__ import annotations
 
 import math
 import sys
-import warnings
 
 import numpy as np
 
 from . import batch
 from .continuation import (Kernel, Path, RowSolution, StepControl, Tracer, fill_node_rows, first_node,
                            solve_rows_scalar)
-from .errors import (AssemblyError, ConvergenceError, LoopsolveWarning, ModelError, SingularPositionError,
-                     SolveError)
+from .errors import AssemblyError, ConvergenceError, ModelError, SingularPositionError, SolveError, warn
 from .newton import Newton
 from .results import Event, EventKind, Sweep
 from .solve import display_value, initial_z, input_rates, input_value, start_position
@@ -514,8 +512,8 @@ def _announce_stop(ck, events, through_limits: bool) -> None:
         if stop:
             what = "a limit position (toggle)" if e.kind is EventKind.LIMIT else "a singular position"
             hint = "; --through-limits (through_limits=True) goes around it" if e.kind is EventKind.LIMIT else ""
-            warnings.warn(f"{ck.mechanism.source or ck.mechanism.name}: the sweep stops at {what} at "
-                          f"{ck.inputs[0]} = {e.input:.10g}{_input_unit(ck)}{hint}", LoopsolveWarning, stacklevel=3)
+            warn(f"{ck.mechanism.source or ck.mechanism.name}: the sweep stops at {what} at "
+                 f"{ck.inputs[0]} = {e.input:.10g}{_input_unit(ck)}{hint}")
             return
 
 
