@@ -782,7 +782,7 @@ class _Builder:
         lines: list[str] = []
         for pt in mech.points:
             ptex = symbol_latex(pt.name)
-            vec = _join_terms([(s < 0, vector_latex(n)) for s, n in pt.terms]) if pt.terms else r"\vec{0}"
+            vec = _join_terms(self.point_terms(pt)) if pt.terms else r"\vec{0}"
             if lines:
                 lines.append(_GAP)
             lines.append(r"\vec{r}_{%s} &= %s" % (ptex, vec))
@@ -792,6 +792,27 @@ class _Builder:
                     sym = "%s_{%s}" % (_ACCENT[order] + "{%s}" % axis if order else axis, ptex)
                     lines += _eq_lines(sym, self.terms(m[c]))
         self.items.append(_Eqs(tuple(lines)))
+
+    def point_terms(self, pt) -> list[tuple[bool, str]]:
+        """Signed LaTeX terms of a point expression, scalar factors in front of their vectors."""
+        from .symbolic import to_sympy
+
+        symbols = dict(zip(self.kin.param_names, self.kin.params))
+        k = sp.pi / 180 if self.deg else sp.Integer(1)
+        out = []
+        for i, (sign, n) in enumerate(pt.terms):
+            f = pt.factor(i)
+            if f is None:
+                out.append((sign < 0, vector_latex(n)))
+                continue
+            fs = sp.nsimplify(to_sympy(f, symbols, k=k, angle_names=frozenset(),
+                                       length_unit=self.mech.units.length), rational=True) * sign
+            neg = fs.could_extract_minus_sign()
+            ftex = self.tex(-fs if neg else fs)
+            if isinstance(-fs if neg else fs, sp.Add):
+                ftex = r"\left(%s\right)" % ftex
+            out.append((neg, ftex + r"\," + vector_latex(n)))
+        return out
 
     def numeric(self):
         if self.at is None:

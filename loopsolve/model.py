@@ -118,11 +118,27 @@ class Loop:
 
 @dataclass(frozen=True, slots=True)
 class Point:
-    """A point of interest: a signed sum of vectors from the origin."""
+    """A point of interest: a sum of vectors with optional scalar factors, from the origin.
+
+    ``terms`` are the signed vector names; ``factors`` (same length, or empty when every factor
+    is 1) holds for each term its scalar factor as a parsed expression of numbers and parameters,
+    or ``None`` for a factor of 1 (``G3 = "r2 + 0.5*r3"`` has terms ``((1, 'r2'), (1, 'r3'))``
+    and factors ``(None, Num(0.5))``). ``"0"`` is the origin (no terms).
+    """
 
     name: str
     terms: tuple[tuple[int, str], ...]
     text: str
+    factors: tuple = ()
+
+    def factor(self, i: int):
+        """The factor of term ``i`` (``None`` for 1)."""
+        return self.factors[i] if self.factors else None
+
+    @property
+    def plain(self) -> bool:
+        """True when every factor is 1 (the point is a walk along whole vectors)."""
+        return not any(f is not None for f in self.factors)
 
 
 @dataclass(frozen=True)
@@ -352,6 +368,128 @@ def _parse_terms(text: Any, key: str, problems: _Problems) -> tuple[tuple[int, s
         problems.add(key, f"empty vector sum in {text!r}")
         return None
     return tuple(terms)
+
+
+def parse_point(pname: str, text: Any, key: str, problems: _Problems, *, vec_names, param_names,
+                var_names=()) -> Point | None:
+    """Parse a point expression: a sum of vectors with optional scalar factors (``r2 + 0.5*r3``).
+
+    A name that is a declared vector is a vector (even when a parameter has the same name); the
+    factors are numbers, parameters and expressions of them (``k*r3``, ``(a/b)*r3``, ``r3/2``,
+    ``0.5*(r2 + r3)``). ``"0"`` is the origin. Problems go to ``problems`` (``None`` returned).
+    """
+    if isinstance(text, str) and text.strip() == "0":
+        return Point(pname, (), text)
+    if isinstance(text, str) and _TERM_SUM_RE.match(text):
+        terms = _parse_terms(text, key, problems)  # plain walk: the fast path, old messages
+        if terms is None:
+            return None
+        bad = [n for _, n in terms if n not in vec_names]
+        for n in bad:
+            problems.add(key, f"{text!r} names the undeclared vector {n!r}; declared vectors: "
+                         + ", ".join(sorted(vec_names)))
+        return None if bad else Point(pname, terms, text)
+    if not isinstance(text, str):
+        problems.add(key, f"expected a string such as \"r2 + 0.5*r3\", got {text!r}")
+        return None
+    node = _parse_expr(text, key, problems)
+    if node is None:
+        return None
+    try:
+        lin = _linear_in_vectors(node, frozenset(vec_names))
+    except _NotLinear as exc:
+        problems.add(key, f"cannot read {text!r} as a point: {exc}; write a sum of vectors with "
+                     "scalar factors such as \"r2 + 0.5*r3\" or \"r2 + k*r3 - r7\"")
+        return None
+    if not lin:
+        problems.add(key, f"{text!r} names no vector (write \"0\" for the origin)")
+        return None
+    ok = True
+    for _, factor in lin:
+        if factor is None:
+            continue
+        for nm in sorted(_expr.names(factor)):
+            if nm in var_names:
+                problems.add(key, f"{text!r}: the factor {_expr.to_text(factor)!r} uses the variable {nm!r}; "
+                             "factors are numbers and parameters")
+                ok = False
+            elif nm not in param_names:
+                problems.add(key, f"{text!r} names {nm!r}, which is neither a declared vector nor a "
+                             "parameter; declared vectors: " + ", ".join(sorted(vec_names)))
+                ok = False
+        for n in _expr.walk(factor):
+            if isinstance(n, _expr.Num) and n.unit is not None:
+                problems.add(key, f"{text!r}: a factor is a plain number, not {n.value:g}{n.unit}")
+                ok = False
+    if not ok:
+        return None
+    terms, factors = [], []
+    for name, factor in lin:
+        sign = 1
+        if isinstance(factor, _expr.Num) and factor.unit is None and abs(factor.value) == 1.0:
+            sign, factor = (1 if factor.value > 0 else -1), None
+        elif isinstance(factor, _expr.Unary) and factor.op == "-":
+            sign, factor = -1, factor.operand
+            if isinstance(factor, _expr.Num) and factor.unit is None and factor.value == 1.0:
+                factor = None
+        terms.append((sign, name))
+        factors.append(factor)
+    return Point(pname, tuple(terms), text, tuple(factors) if any(f is not None for f in factors) else ())
+
+
+_TERM_SUM_RE = re.compile(r"^\s*[+-]?\s*[A-Za-z][A-Za-z0-9_]*(\s*[+-]\s*[A-Za-z][A-Za-z0-9_]*)*\s*$")
+
+
+class _NotLinear(Exception):
+    pass
+
+
+def _mul(a, b):
+    if a is None:
+        return b
+    if b is None:
+        return a
+    return _expr.Binary("*", a, b)
+
+
+def _neg(a):
+    return _expr.Unary("-", _expr.Num(1.0) if a is None else a)
+
+
+def _linear_in_vectors(node, vecs: frozenset) -> list:
+    """``[(vector, factor node or None), ...]`` for an expression linear in the vector names."""
+
+    def has_vec(n) -> bool:
+        return bool(_expr.names(n) & vecs)
+
+    def go(n) -> list:
+        if isinstance(n, _expr.Name) and n.id in vecs:
+            return [(n.id, None)]
+        if not has_vec(n):
+            raise _NotLinear(f"the term {_expr.to_text(n)!r} has no vector")
+        if isinstance(n, _expr.Unary):
+            inner = go(n.operand)
+            return inner if n.op == "+" else [(v, _neg(f)) for v, f in inner]
+        if isinstance(n, _expr.Binary):
+            if n.op in ("+", "-"):
+                right = go(n.right)
+                if n.op == "-":
+                    right = [(v, _neg(f)) for v, f in right]
+                return go(n.left) + right
+            if n.op == "*":
+                lv, rv = has_vec(n.left), has_vec(n.right)
+                if lv and rv:
+                    raise _NotLinear(f"{_expr.to_text(n)!r} multiplies two vectors")
+                vec_side, scalar = (n.left, n.right) if lv else (n.right, n.left)
+                return [(v, _mul(scalar, f) if f is not None else scalar) for v, f in go(vec_side)]
+            if n.op == "/":
+                if has_vec(n.right):
+                    raise _NotLinear(f"{_expr.to_text(n)!r} divides by a vector")
+                inv = _expr.Binary("/", _expr.Num(1.0), n.right)
+                return [(v, _mul(f, inv) if f is not None else inv) for v, f in go(n.left)]
+        raise _NotLinear(f"{_expr.to_text(n)!r} is not a sum of vectors with scalar factors")
+
+    return go(node)
 
 
 def _parse_expr(value: Any, key: str, problems: _Problems) -> _expr.Node | None:
@@ -727,14 +865,10 @@ def build_mechanism(spec: Mapping[str, Any], *, source: str | None = None) -> Me
     for pname, pdef in point_spec.items():
         key = f"points.{pname}"
         _check_name(pname, key, problems)
-        terms = _parse_terms(pdef, key, problems)
-        if terms is None:
-            continue
-        bad = [n for _, n in terms if n not in vec_names]
-        for n in bad:
-            problems.add(key, f"{pdef!r} names the undeclared vector {n!r}")
-        if not bad:
-            points.append(Point(pname, terms, pdef))
+        pt = parse_point(pname, pdef, key, problems, vec_names=vec_names, param_names=set(param_spec),
+                         var_names=set(var_spec))
+        if pt is not None:
+            points.append(pt)
 
     # ---- counts: from the declared names, so they are reported with every other problem
     declared_inputs = [n for n, d in var_spec.items() if isinstance(d, Mapping) and d.get("input") is True]
