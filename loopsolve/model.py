@@ -27,6 +27,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from . import expr as _expr
+from .bodies import Dynamics, parse_dynamics
 from .errors import ModelError, ModelFileError
 from .units import Kind, UnitError, parse_quantity, validate_units
 
@@ -167,6 +168,7 @@ class Mechanism:
     source: str | None = None
     spec: Mapping[str, Any] = field(default_factory=dict, compare=False, repr=False)
     mode_aliases: Mapping[str, str] = field(default_factory=dict, compare=False)
+    dynamics: Dynamics | None = field(default=None, compare=False, repr=False)
 
     # ----------------------------------------------------------------- lookups
     @property
@@ -255,6 +257,18 @@ class Mechanism:
         from .tracking import sweep
 
         return sweep(self, start, stop, step, **kwargs)
+
+    def forces(self, at=None, stop=None, step=None, **kwargs):
+        """Driving torque, joint forces, shaking force, energies: see :func:`loopsolve.kinetostatics.forces`."""
+        from .kinetostatics import forces
+
+        return forces(self, at, stop, step, **kwargs)
+
+    def simulate(self, duration, **kwargs):
+        """Integrate the equation of motion: see :func:`loopsolve.simulate.simulate`."""
+        from .simulate import simulate
+
+        return simulate(self, duration, **kwargs)
 
     def modes(self, at=None, **kwargs):
         """Every real assembly mode at one input: see :func:`loopsolve.modes.assembly_modes`."""
@@ -617,7 +631,8 @@ def build_mechanism(spec: Mapping[str, Any], *, source: str | None = None) -> Me
         problems.raise_if_any()
 
     known_top = {"name", "units", "parameters", "variables", "vectors", "loops", "points",
-                 "description", "schema", "links", "joints", "input", "version", "modes"}
+                 "description", "schema", "links", "joints", "input", "version", "modes",
+                 "gravity", "bodies", "loads"}
     for k in spec:
         if k not in known_top:
             problems.add(str(k), f"unknown key {k!r} (expected one of: {', '.join(sorted(known_top))})")
@@ -896,6 +911,7 @@ def build_mechanism(spec: Mapping[str, Any], *, source: str | None = None) -> Me
                 problems.add(f"modes.{alias}", f"a mode signature is a string of + and - signs, got {sig!r}")
             else:
                 mode_aliases[str(alias)] = sig
+    dynamics = _dynamics(spec, problems, vectors, points, vec_names, param_spec, var_spec, units)
     problems.raise_if_any()
     return Mechanism(
         name=name.strip(),
@@ -908,7 +924,36 @@ def build_mechanism(spec: Mapping[str, Any], *, source: str | None = None) -> Me
         source=source,
         spec=_deep_copy(spec),
         mode_aliases=mode_aliases,
+        dynamics=dynamics,
     )
+
+
+def _dynamics(spec, problems: _Problems, vectors, points, vec_names, param_spec, var_spec, units):
+    """``gravity``, ``[bodies]`` and ``[[loads]]`` (see :mod:`loopsolve.bodies`), problems collected."""
+    if not any(k in spec for k in ("gravity", "bodies", "loads")):
+        return None
+    variables = set(var_spec)
+    moving = {v.name for v in vectors
+              if any(_expr.names(n) & variables for n in (v.length, v.angle, v.offset, v.x, v.y) if n is not None)}
+    fixed = {p.name for p in points if not any(n in moving for _, n in p.terms)}
+    by_vec = {v.name: v for v in vectors}
+
+    def angle_text(vname):
+        v = by_vec.get(vname)
+        if v is None:
+            return None
+        if v.cartesian:
+            return None if vname not in moving else f"<direction of {vname}>"
+        return _expr.to_text(v.angle) if _expr.names(v.angle) & variables else None
+
+    return parse_dynamics(
+        spec, problems=problems,
+        parse_point=lambda n, t, k: parse_point(n, t, k, problems, vec_names=vec_names,
+                                                param_names=set(param_spec), var_names=variables),
+        parse_expr=lambda v, k: _parse_expr(v, k, problems),
+        vec_names=vec_names, point_names={p.name: p for p in points}, param_names=list(param_spec),
+        var_names=list(var_spec), fixed_points=fixed, vector_angle_text=angle_text,
+        length_unit=units.length, angle_unit=units.angle)
 
 
 def _unit_kind_of_text(text: str) -> Kind | None:
@@ -996,8 +1041,35 @@ class MechanismBuilder:
         return self
 
     def point(self, name: str, terms: str) -> "MechanismBuilder":
-        """Add a point of interest: a sum/difference of vectors from the origin."""
+        """Add a point of interest: a sum of vectors with optional factors (``"r2 + 0.5*r3"``), or ``"0"``."""
         return self._put("points", name, terms)
+
+    def body(self, name: str, *, com, mass=None, inertia=None, angle=None, joints=(), guide=None,
+             guide_body=None, bar=None) -> "MechanismBuilder":
+        """Add a moving rigid body (see :mod:`loopsolve.bodies`; SI numbers or quantity strings)."""
+        d: dict[str, Any] = {"com": com}
+        for k, v in (("mass", mass), ("inertia", inertia), ("angle", angle), ("guide", guide),
+                     ("guide_body", guide_body), ("bar", bar)):
+            if v is not None:
+                d[k] = dict(v) if isinstance(v, Mapping) else v
+        if joints:
+            d["joints"] = list(joints)
+        table = self._spec.setdefault("bodies", {})
+        if name in table:
+            raise ModelError(f"bodies.{name}: {name!r} is declared twice")
+        table[name] = d
+        return self
+
+    def load(self, **entry) -> "MechanismBuilder":
+        """Add a ``[[loads]]`` entry: ``load(at="C", body="rocker", force=["-50N", 0])``, ``load(body=..., torque=...)``,
+        ``load(spring=["A", "B"], stiffness=..., free_length=...)``, ``load(damper=[...], damping=...)``."""
+        self._spec.setdefault("loads", []).append({k: list(v) if isinstance(v, tuple) else v for k, v in entry.items()})
+        return self
+
+    def gravity(self, gx=0.0, gy="-9.81m/s^2") -> "MechanismBuilder":
+        """Set the gravity vector (components in m/s² or with a unit)."""
+        self._spec["gravity"] = [gx, gy]
+        return self
 
     # ------------------------------------------------------- kinematic diagram
     def revolute(self, name: str, at) -> "MechanismBuilder":
