@@ -110,7 +110,7 @@ def uniform_bar(length: float, width: float, thickness: float, density: float = 
     --------
     >>> m, i = ls.bodies.uniform_bar(0.1, 0.01, 0.005, 7850)
     >>> round(m, 5), round(i * 1e6, 4)
-    (0.03925, 0.0330)
+    (0.03925, 33.0354)
     """
     m = density * length * width * thickness
     return m, m * (length**2 + width**2) / 12.0

@@ -155,7 +155,8 @@ def compile_dynamics(mech: Mechanism, input=None, *, compiled: CompiledKinematic
     Examples
     --------
     >>> mech = ls.load(ls.models_dir() / "thesis_crank_rocker_dynamics.toml")
-    >>> dm = ls.dynamics.compile_dynamics(mech)
+    >>> from loopsolve.dynamics import compile_dynamics
+    >>> dm = compile_dynamics(mech)
     >>> dm.input_body, [b.name for b in dm.bodies]
     ('crank', ['crank', 'coupler', 'rocker'])
     """
@@ -250,9 +251,10 @@ def kinematic_coefficients(ck: CompiledKinematics, z) -> tuple[np.ndarray, np.nd
     >>> mech = ls.load(ls.models_dir() / "thesis_crank_rocker.toml")
     >>> ck = mech.compile()
     >>> s = mech.solve(90)
-    >>> d1, d2 = ls.dynamics.kinematic_coefficients(ck, s.z[None, :])
+    >>> from loopsolve.dynamics import kinematic_coefficients
+    >>> d1, d2 = kinematic_coefficients(ck, s.z[None, :])
     >>> round(float(d1[0, ck.index("theta4")]), 4)
-    0.6185
+    0.5908
     """
     z = np.atleast_2d(np.asarray(z, dtype=float))
     n, nv = z.shape

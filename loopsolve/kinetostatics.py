@@ -376,7 +376,7 @@ def forces(mech, at=None, stop=None, step=None, *, speed=None, accel=None, input
     >>> mech = ls.load(ls.models_dir() / "thesis_crank_rocker_dynamics.toml")
     >>> f = ls.forces(mech, 90, speed="60rpm")
     >>> round(float(f["input_torque"][0]), 5)
-    0.01336
+    0.03015
     """
     from .dynamics import compile_dynamics
 
