@@ -68,8 +68,8 @@ def forces(mech, at=None, stop=None, step=None, **kwargs):
 
 
 def simulate(mech, duration, **kwargs):
-    """Forward dynamics: see :func:`loopsolve.simulate.simulate`."""
-    from .simulate import simulate as _simulate
+    """Forward dynamics: see :func:`loopsolve.simulation.simulate`."""
+    from .simulation import simulate as _simulate
 
     return _simulate(mech, duration, **kwargs)
 

@@ -243,7 +243,7 @@ def cmd_forces(args) -> int:
 
 
 def cmd_simulate(args) -> int:
-    from .simulate import simulate
+    from .simulation import simulate
 
     mech = _load(args.model)
     sim = simulate(mech, args.duration, step=args.step, torque=args.torque, speed0=args.speed0, at=args.at,

@@ -64,7 +64,9 @@ class DynamicsModel:
     input_guide: str | None
     length_factor: float
     gravity: np.ndarray
+    loads_use_rates: bool
     _fn: object = field(repr=False)
+    _fn_scalar: object = field(repr=False)
 
     @property
     def coord_factor(self) -> float:
@@ -72,12 +74,21 @@ class DynamicsModel:
         return 1.0 if self.input_kind is Kind.ANGLE else self.length_factor
 
     def evaluate(self, z, z1, z2) -> dict:
-        z, z1, z2 = (np.atleast_2d(np.asarray(a, dtype=float)) for a in (z, z1, z2))
+        z, z1, z2 = (np.asarray(a, dtype=float) for a in (z, z1, z2))
+        if z.ndim == 1:  # one pose: the scalar (math) code, no array overhead
+            try:
+                flat = np.array(self._fn_scalar(z, z1, z2, self.ck.p), dtype=float)[:, None]
+            except (ArithmeticError, ValueError):
+                flat = np.array(self._fn(z[:, None], z1[:, None], z2[:, None], self.ck.p), dtype=float)
+            return self._split(flat, 1)
         n = z.shape[1]
         raw = self._fn(z, z1, z2, self.ck.p)
         flat = np.empty((len(raw), n))
         for i, r in enumerate(raw):
             flat[i] = r
+        return self._split(flat, n)
+
+    def _split(self, flat, n) -> dict:
         nb, nk, ng, nl = len(self.bodies), len(self.point_names), len(self.guide_vectors), len(self.load_slots)
         out, pos = {}, 0
         for name, size, shape in (("G", nb * 2, (nb, 2)), ("vG", nb * 2, (nb, 2)), ("aG", nb * 2, (nb, 2)),
@@ -184,17 +195,17 @@ def compile_dynamics(mech: Mechanism, input=None, *, compiled: CompiledKinematic
             slots.append((i, c))
     key = (structure_key(mech, inputs), repr((dyn.bodies, dyn.loads)), tuple(points), tuple(guides))
     with _LOCK:
-        fn = _MEMO.get(key)
-    if fn is None:
-        fn = _derive_function(mech, inputs, dyn, points, guides, slots)
+        fns = _MEMO.get(key)
+    if fns is None:
+        fns = _derive_function(mech, inputs, dyn, points, guides, slots)
         with _LOCK:
-            _MEMO[key] = fn
+            _MEMO[key] = fns
     u = mech.units
     return DynamicsModel(ck=ck, dynamics=dyn, bodies=dyn.bodies, point_names=tuple(points),
                          guide_vectors=tuple(guides), load_slots=tuple(slots), input_body=input_body,
                          input_kind=input_kind, input_guide=input_guide,
                          length_factor=_metres(mech), gravity=np.array(dyn.gravity, dtype=float),
-                         _fn=fn)
+                         loads_use_rates=fns[2], _fn=fns[0], _fn_scalar=fns[1])
 
 
 def _derive_function(mech, inputs, dyn, points, guides, slots):
@@ -236,7 +247,11 @@ def _derive_function(mech, inputs, dyn, points, guides, slots):
     loads = [_sym_value(dyn.loads[i].values[c], conv) for i, c in slots]
     exprs = G + vG + aG + th + om + al + P + vP + phi + loads
     args = [sp.Matrix(kin.z), sp.Matrix(kin.z1), sp.Matrix(kin.z2), sp.Matrix(kin.params) if kin.params else []]
-    return sp.lambdify(args, exprs, modules="numpy", cse=True)
+    vector = sp.lambdify(args, exprs, modules="numpy", cse=True)
+    scalar = sp.lambdify(args, exprs, modules="math", cse=True)
+    rates = set(kin.z1)
+    uses_rates = any(sp.sympify(e).free_symbols & rates for e in loads)
+    return vector, scalar, uses_rates
 
 
 def kinematic_coefficients(ck: CompiledKinematics, z) -> tuple[np.ndarray, np.ndarray]:
@@ -281,7 +296,11 @@ def mass_matrix_terms(dm: DynamicsModel, z, d1, d2) -> tuple[np.ndarray, np.ndar
 
     ``z``, ``d1``, ``d2`` are ``(N, nvar)``: positions and kinematic coefficients.
     """
-    e = dm.evaluate(z.T, d1.T, d2.T)
+    return mass_terms_from(dm, dm.evaluate(z.T, d1.T, d2.T))
+
+
+def mass_terms_from(dm: DynamicsModel, e: dict) -> tuple[np.ndarray, np.ndarray]:
+    """M and M′ from an evaluation ``e`` at the kinematic coefficients (see :func:`mass_matrix_terms`)."""
     lf, s = dm.length_factor, dm.coord_factor
     m = np.array([b.mass for b in dm.bodies])[:, None]
     inertia = np.array([b.inertia for b in dm.bodies])[:, None]
@@ -323,3 +342,38 @@ def equation_of_motion(mech: Mechanism, input=None):
         Q += m * (sp.Float(g[0]) * v[0] + sp.Float(g[1]) * v[1])
     dM = D(M).xreplace(unit)
     return M, dM, Q, x
+
+
+def compile_drive(mech: Mechanism, text, inputs) -> object:
+    """A driving torque (force) given as a number or an expression of the input (model units),
+    ``<input>_vel`` and ``t``, parameters allowed, compiled to ``f(x, xd, t) -> float`` (SI result).
+
+    ``x`` and ``xd`` are internal (radians, rad/s). Raises :class:`ModelError` naming the text.
+    """
+    from . import expr as _expr
+
+    (name,) = inputs
+    node = _expr.parse(text) if not isinstance(text, _expr.Name) else text
+    allowed = {name, name + "_vel", "t"} | {p.name for p in mech.parameters}
+    bad = sorted(_expr.names(node) - allowed)
+    if bad:
+        raise ModelError(f"--torque {text!r}: unknown name(s) {', '.join(map(repr, bad))}; an expression may use "
+                         f"{name!r} (model units), {name + '_vel'!r}, 't' and the parameters")
+    kin_like = sp.Symbol(name, real=True), sp.Symbol(name + "__d1", real=True), sp.Symbol("t", real=True)
+    params = [sp.Symbol(p.name, real=True) for p in mech.parameters]
+    symbols = {name: kin_like[0], name + "_vel": kin_like[1], "t": kin_like[2], **dict(zip((p.name for p in mech.parameters), params))}
+    k = sp.pi / 180 if mech.units.angle == "deg" else sp.Integer(1)
+    var = mech.variable(name)
+    angle_names = frozenset(([name] if var.kind is Kind.ANGLE else [])
+                            + [p.name for p in mech.parameters if p.kind is Kind.ANGLE])
+    e = to_sympy(node, symbols, k=k, angle_names=angle_names, length_unit=mech.units.length)
+    fn = sp.lambdify([kin_like[0], kin_like[1], kin_like[2], params], e, modules="math")
+    pvals = [p.value for p in mech.parameters]
+
+    def drive(x, xd, t):
+        try:
+            return float(fn(x, xd, t, pvals))
+        except (ArithmeticError, ValueError) as exc:
+            raise ModelError(f"--torque {text!r} cannot be evaluated at {name} = {x:g}, t = {t:g}: {exc}") from None
+
+    return drive

@@ -283,27 +283,33 @@ def generalized_force(dm: DynamicsModel, z, xd, d1) -> np.ndarray:
     z = np.atleast_2d(z)
     n = z.shape[0]
     xd = np.broadcast_to(np.asarray(xd, dtype=float), (n,))
-    s = dm.coord_factor
     e1 = dm.evaluate(z.T, d1.T, np.zeros_like(z.T))  # geometric coefficients dr/dx
-    ev = dm.evaluate(z.T, (d1 * xd[:, None]).T, np.zeros_like(z.T))  # actual velocities for the loads
+    ev = dm.evaluate(z.T, (d1 * xd[:, None]).T, np.zeros_like(z.T)) if dm.loads_use_rates else e1
+    return generalized_from(dm, e1, ev["load"], xd)
+
+
+def generalized_from(dm: DynamicsModel, e1: dict, load_values, xd) -> np.ndarray:
+    """Q from an evaluation ``e1`` at the kinematic coefficients and the loads' values (see above)."""
+    s = dm.coord_factor
     lf = dm.length_factor
     m = np.array([b.mass for b in dm.bodies])
     names = [b.name for b in dm.bodies]
     pidx = {p: i for i, p in enumerate(dm.point_names)}
     vg = e1["vG"] * lf / s
     Q = np.sum(m[:, None] * np.einsum("k,bkn->bn", dm.gravity, vg), axis=0)
-    P, vP = ev["P"] * lf, ev["vP"] * lf
+    P = e1["P"] * lf
     dP = e1["vP"] * lf / s
+    xs = np.asarray(xd) * s  # generalized speed (SI)
     slot = 0
     for ld in dm.dynamics.loads:
-        vals = ev["load"][slot:slot + len(ld.values)]
+        vals = load_values[slot:slot + len(ld.values)]
         slot += len(ld.values)
         if ld.kind is LoadKind.FORCE:
             if ld.body != FRAME:
-                Q += np.sum(np.asarray(vals) * dP[pidx[ld.at]], axis=0)
+                Q = Q + np.sum(np.asarray(vals) * dP[pidx[ld.at]], axis=0)
         elif ld.kind is LoadKind.TORQUE:
             if ld.body != FRAME:
-                Q += vals[0] * e1["om"][names.index(ld.body)] / s
+                Q = Q + vals[0] * e1["om"][names.index(ld.body)] / s
         elif ld.kind in (LoadKind.SPRING, LoadKind.DAMPER):
             a, c = pidx[ld.ends[0]], pidx[ld.ends[1]]
             d = P[a] - P[c]
@@ -311,15 +317,16 @@ def generalized_force(dm: DynamicsModel, z, xd, d1) -> np.ndarray:
             u = d / np.where(L > 0, L, 1.0)
             dL = np.sum(u * (dP[a] - dP[c]), axis=0)
             if ld.kind is LoadKind.SPRING:
-                Q -= ld.stiffness * (L - ld.free * lf) * dL
+                Q = Q - ld.stiffness * (L - ld.free * lf) * dL
             else:
-                Q -= ld.damping * np.sum(u * (vP[a] - vP[c]), axis=0) * dL
+                Q = Q - ld.damping * dL * xs * dL
         elif ld.kind is LoadKind.TORSION_SPRING:
             b = names.index(ld.body)
-            Q -= ld.stiffness * (ev["th"][b] - ld.free) * e1["om"][b] / s
+            Q = Q - ld.stiffness * (e1["th"][b] - ld.free) * e1["om"][b] / s
         elif ld.kind is LoadKind.TORSION_DAMPER:
             b = names.index(ld.body)
-            Q -= ld.damping * ev["om"][b] * e1["om"][b] / s
+            w = e1["om"][b] / s
+            Q = Q - ld.damping * w * xs * w
     return Q
 
 

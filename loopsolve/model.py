@@ -265,8 +265,8 @@ class Mechanism:
         return forces(self, at, stop, step, **kwargs)
 
     def simulate(self, duration, **kwargs):
-        """Integrate the equation of motion: see :func:`loopsolve.simulate.simulate`."""
-        from .simulate import simulate
+        """Integrate the equation of motion: see :func:`loopsolve.simulation.simulate`."""
+        from .simulation import simulate
 
         return simulate(self, duration, **kwargs)
 

@@ -1,0 +1,293 @@
+"""Forward dynamics: integrate the one-degree-of-freedom equation of motion with scipy's ``solve_ivp``.
+
+    M(x) ẍ + ½ M′(x) ẋ² = Q(x, ẋ, t) + T(x, ẋ, t)
+
+(see :mod:`loopsolve.dynamics`). At every evaluation the pose is solved by Newton from the last
+one, so the assembly mode is tracked; a limit position (the Jacobian of the loops turning singular)
+is a terminal event, reported, not a crash. Energy is conserved to the integration accuracy when
+no power enters or leaves.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import json
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .dynamics import DynamicsModel, compile_drive, compile_dynamics, mass_terms_from
+from .errors import ModelError, SolveError
+from .kinetostatics import generalized_from, inverse_dynamics
+from .results import Event, EventKind, _clean
+from .units import Kind, unit_label
+
+__all__ = ["Simulation", "simulate", "equation_of_motion_rhs"]
+
+
+@dataclass(frozen=True, eq=False)
+class Simulation:
+    """Rows of a simulation at ``t`` = 0, step, 2·step, … (internal units in the arrays).
+
+    ``x``, ``xd``, ``xdd``: the input (continuous, not wrapped), its speed and acceleration;
+    ``z`` ``(N, nvar)`` the poses; ``kinetic_energy``, ``potential_energy`` (J); ``modes``;
+    ``events`` (a limit reached stops the integration); ``message`` from the integrator.
+    """
+
+    compiled: object = field(repr=False)
+    t: np.ndarray
+    x: np.ndarray
+    xd: np.ndarray
+    xdd: np.ndarray
+    z: np.ndarray = field(repr=False)
+    kinetic_energy: np.ndarray
+    potential_energy: np.ndarray
+    modes: tuple = ()
+    events: tuple = ()
+    message: str = ""
+
+    @property
+    def input(self) -> str:
+        return self.compiled.inputs[0]
+
+    @property
+    def total_energy(self) -> np.ndarray:
+        return self.kinetic_energy + self.potential_energy
+
+    @property
+    def columns(self) -> dict:
+        ck = self.compiled
+        name = self.input
+        kind = ck.kinds[ck.index(name)]
+        deg = kind is Kind.ANGLE and ck.mechanism.units.angle == "deg"
+        return {"t": self.t, name: np.degrees(self.x) if deg else self.x, name + "_vel": self.xd,
+                name + "_acc": self.xdd, "kinetic_energy": self.kinetic_energy,
+                "potential_energy": self.potential_energy}
+
+    def units(self) -> dict:
+        ck = self.compiled
+        name = self.input
+        u = ck.mechanism.units
+        kind = ck.kinds[ck.index(name)]
+        kinds = ((Kind.ANGLE, Kind.ANGULAR_RATE, Kind.ANGULAR_ACCEL) if kind is Kind.ANGLE
+                 else (Kind.LENGTH, Kind.LENGTH_RATE, Kind.LENGTH_ACCEL))
+        out = {"t": "s"}
+        for suffix, k in zip(("", "_vel", "_acc"), kinds):
+            out[name + suffix] = unit_label(k, u.angle, u.length)
+        out.update(kinetic_energy="J", potential_energy="J")
+        return out
+
+    @property
+    def rows(self) -> list[dict]:
+        cols = self.columns
+        keys = list(cols)
+        out = []
+        for i in range(len(self.t)):
+            r = {k: _clean(cols[k][i]) for k in keys}
+            r["mode"] = self.modes[i] if i < len(self.modes) else ""
+            out.append(r)
+        return out
+
+    def to_json(self, *, indent: int | None = 1) -> str:
+        ck = self.compiled
+        u = ck.mechanism.units
+        return json.dumps({"mechanism": ck.mechanism.name, "input": self.input,
+                           "units": {"length": u.length, "angle": u.angle, **self.units()},
+                           "rows": self.rows, "events": [e.to_dict() for e in self.events]},
+                          indent=indent, allow_nan=False)
+
+    def to_csv(self) -> str:
+        units = self.units()
+        buf = io.StringIO()
+        w = csv.writer(buf, lineterminator="\n")
+        keys = list(self.columns)
+        w.writerow([f"{k} [{units[k]}]" for k in keys] + ["mode"])
+        for r in self.rows:
+            w.writerow(["" if r[k] is None else repr(float(r[k])) for k in keys] + [r["mode"]])
+        return buf.getvalue()
+
+    def table(self) -> str:
+        units = self.units()
+        keys = list(self.columns)
+        headers = [f"{k} [{units[k]}]" for k in keys] + ["mode"]
+        widths = [max(len(h), 12) for h in headers]
+        out = [f"{self.compiled.mechanism.name}: simulation of {self.input} ({len(self.t)} rows)",
+               "  ".join(h.rjust(w) for h, w in zip(headers, widths))]
+        cols = self.columns
+        for i in range(len(self.t)):
+            cells = [f"{float(cols[k][i]):.6g}" for k in keys] + [self.modes[i] if i < len(self.modes) else ""]
+            out.append("  ".join(c.rjust(w) for c, w in zip(cells, widths)))
+        for e in self.events:
+            out.append(f"{e.kind.value} at t = {e.input:.10g} s: {e.message}")
+        return "\n".join(out) + "\n"
+
+
+class _Pose:
+    """The pose at an input value, solved by Newton from the last pose (the mode is tracked).
+
+    Scalar compiled code only (one pose per call): a predictor along the kinematic coefficients,
+    then Newton on Φ(q; x) = 0; the kinematic coefficients at the solution are kept.
+    """
+
+    def __init__(self, ck, z0):
+        self.ck = ck
+        self.ix = int(ck.input_idx[0])
+        self.iq = ck.unknown_idx
+        self.nv = len(ck.variables)
+        self.z = np.array(z0, dtype=float)
+        self.d1, self.d2 = self.coefficients(self.z)
+
+    def coefficients(self, z):
+        ck = self.ck
+        J = ck.jac(z)
+        d1 = np.zeros(self.nv)
+        d1[self.ix] = 1.0
+        d1[self.iq] = np.linalg.solve(J, ck.rhs(1, z, d1))
+        d2 = np.zeros(self.nv)
+        d2[self.iq] = np.linalg.solve(J, ck.rhs(2, z, d1, d2))
+        return d1, d2
+
+    def at(self, x: float) -> np.ndarray:
+        if self.z[self.ix] == x:
+            return self.z
+        ck = self.ck
+        h = x - self.z[self.ix]
+        z = self.z + self.d1 * h + 0.5 * self.d2 * h * h
+        z[self.ix] = x
+        tol = 1e-13 * ck.scale
+        for _ in range(30):
+            f = ck.phi(z)
+            if not np.all(np.isfinite(f)):
+                break
+            dq = np.linalg.solve(ck.jac(z), -f)
+            z[self.iq] += dq
+            if np.max(np.abs(dq)) <= 1e-15 * (1 + np.max(np.abs(z))) or np.max(np.abs(f)) <= tol:
+                f = ck.phi(z)
+                if np.max(np.abs(f)) <= 1e-9 * ck.scale:
+                    self.z = z
+                    self.d1, self.d2 = self.coefficients(z)
+                    return z
+        from .solve import solve_position
+
+        z, _, _ = solve_position(ck, z)  # the robust solver, which raises a named error on failure
+        self.z = z
+        self.d1, self.d2 = self.coefficients(z)
+        return z
+
+
+def equation_of_motion_rhs(dm: DynamicsModel, pose: _Pose, x, xd, t, drive) -> float:
+    """ẍ (internal units) at the input ``x`` with speed ``xd``: (Q + T − ½ M′ Ẋ²) / (M s)."""
+    z = pose.at(x)
+    d1, d2 = pose.d1, pose.d2
+    e1 = dm.evaluate(z, d1, d2)
+    loads = dm.evaluate(z, d1 * xd, np.zeros_like(z))["load"] if dm.loads_use_rates else e1["load"]
+    M, dM = mass_terms_from(dm, e1)
+    Q = generalized_from(dm, e1, loads, xd)
+    s = dm.coord_factor
+    T = drive(x, xd, t)
+    return float((Q[0] + T - 0.5 * dM[0] * (s * xd) ** 2) / (M[0] * s))
+
+
+def simulate(mech, duration: float, *, step: float = 0.01, torque=0.0, speed0=None, at=None, input=None,
+             mode=None, rtol: float = 1e-11, atol: float = 1e-12, method: str = "DOP853") -> Simulation:
+    """Integrate the equation of motion from rest (or ``speed0``) at ``at`` for ``duration`` seconds.
+
+    Parameters
+    ----------
+    torque : float, str or callable
+        Driving torque (N·m) or force (N, length input): a number, an expression of the input
+        (model units), ``<input>_vel`` and ``t`` (``"2 - 0.1*theta2_vel"``, a motor curve), or a
+        Python callable ``f(t, x, xd)`` of time and the input in internal units (rad, rad/s).
+    speed0 : float or str, optional
+        Initial input speed (``"60rpm"``); default the model's, else 0.
+
+    Returns
+    -------
+    Simulation
+
+    Examples
+    --------
+    >>> mech = ls.load(ls.models_dir() / "thesis_crank_rocker_dynamics.toml")
+    >>> sim = ls.simulate(mech, 0.1, step=0.05, speed0="60rpm")
+    >>> len(sim.t), bool(abs(sim.total_energy[-1] - sim.total_energy[0]) < 1e-3)
+    (3, True)
+    """
+    from scipy.integrate import solve_ivp
+
+    from .solve import input_rates
+
+    if not duration > 0 or not step > 0:
+        raise ModelError(f"--duration and --step must be positive (got {duration!r}, {step!r})")
+    state0 = mech.solve(at, input=input, mode=mode)
+    ck = state0.compiled
+    dm = compile_dynamics(mech, compiled=ck)
+    ix = ck.input_idx[0]
+    if callable(torque):
+        user = torque
+
+        def drive(x, xd, t):
+            return float(user(t, x, xd))
+    else:
+        drive = compile_drive(mech, str(torque), ck.inputs)
+    if speed0 is None:
+        declared = mech.variable(ck.inputs[0]).speed
+        w0 = declared if declared is not None else 0.0
+    else:
+        w0 = input_rates(ck, speed0)[0]
+    pose = _Pose(ck, state0.z)
+    sig0 = ck.signature(state0.z)
+    failure: list = []
+
+    def rhs(t, y):
+        try:
+            return [y[1], equation_of_motion_rhs(dm, pose, y[0], y[1], t, drive)]
+        except SolveError as exc:
+            failure.append((t, exc))
+            return [np.nan, np.nan]
+
+    blocks = ck.blocks
+
+    def limit(t, y):
+        try:
+            z = pose.at(y[0])
+        except SolveError:
+            return 0.0
+        j = ck.jac(z)
+        d = 1.0
+        for b in blocks:
+            d *= np.linalg.det(j[np.ix_(b.eqs, b.unknowns)])
+        sign = 1.0 if sig0.count("-") % 2 == 0 else -1.0
+        return sign * d
+
+    limit.terminal = True
+    limit.direction = -1
+    n = int(math.floor(duration / step + 1e-9))
+    t_eval = np.linspace(0.0, n * step, n + 1)
+    sol = solve_ivp(rhs, (0.0, n * step), [state0.z[ix], w0], method=method, t_eval=t_eval, rtol=rtol, atol=atol,
+                    events=limit, dense_output=False)
+    events = []
+    if failure:
+        t_f, exc = failure[0]
+        events.append(Event(EventKind.NOT_ASSEMBLABLE, float(t_f), f"the pose could not be solved: {exc}"))
+    if sol.t_events is not None and len(sol.t_events[0]):
+        te = float(sol.t_events[0][0])
+        events.append(Event(EventKind.LIMIT, te, f"a limit position of {ck.inputs[0]} is reached at t = {te:.6g} s "
+                            "(the loops' Jacobian is singular): the integration stops here"))
+    ts, xs, ws = sol.t, sol.y[0], sol.y[1]
+    keep = np.isfinite(xs) & np.isfinite(ws)
+    ts, xs, ws = ts[keep], xs[keep], ws[keep]
+    # poses at the output times, tracked in order from the start
+    out_pose = _Pose(ck, state0.z)
+    zs = np.array([out_pose.at(x).copy() for x in xs]) if len(xs) else np.zeros((0, len(ck.variables)))
+    acc_pose = _Pose(ck, state0.z)
+    acc = np.array([equation_of_motion_rhs(dm, acc_pose, x, w, t, drive) for x, w, t in zip(xs, ws, ts)])
+    if len(xs):
+        data = inverse_dynamics(dm, zs, ws, acc)
+        ke, pe = data["kinetic_energy"], data["potential_energy"]
+        modes = tuple(ck.signature(z) for z in zs)
+    else:
+        ke = pe = np.zeros(0)
+        modes = ()
+    return Simulation(ck, ts, xs, ws, acc, zs, ke, pe, modes, tuple(events), str(sol.message))
