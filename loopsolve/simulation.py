@@ -138,6 +138,8 @@ class _Pose:
         self.nv = len(ck.variables)
         self.z = np.array(z0, dtype=float)
         self.d1, self.d2 = self.coefficients(self.z)
+        #: longest input step taken at once (0.05 rad, or 1 % of the model's length scale)
+        self.max_step = 0.05 if ck.kinds[self.ix] is Kind.ANGLE else 0.01 * ck.scale
 
     def coefficients(self, z):
         ck = self.ck
@@ -152,6 +154,13 @@ class _Pose:
     def at(self, x: float) -> np.ndarray:
         if self.z[self.ix] == x:
             return self.z
+        x0 = self.z[self.ix]
+        n = int(min(10000, np.ceil(abs(x - x0) / self.max_step)))
+        for k in range(1, n):  # continuation in short steps: Newton never jumps to another mode
+            self._step(x0 + (x - x0) * k / n)
+        return self._step(x)
+
+    def _step(self, x: float) -> np.ndarray:
         ck = self.ck
         h = x - self.z[self.ix]
         z = self.z + self.d1 * h + 0.5 * self.d2 * h * h
