@@ -262,7 +262,7 @@ def _ro(a):
 
 
 def _f(v: float) -> str:
-    return "nan" if not math.isfinite(v) else f"{v:.6g}"
+    return "nan" if not math.isfinite(v) else f"{v + 0.0:.6g}"
 
 
 def flywheel(fs: ForceSweep, cs: float) -> Flywheel:
