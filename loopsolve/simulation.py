@@ -229,10 +229,7 @@ def simulate(mech, duration: float, *, step: float = 0.01, torque=0.0, speed0=No
 
     if not duration > 0 or not step > 0:
         raise ModelError(f"--duration and --step must be positive (got {duration!r}, {step!r})")
-    state0 = mech.solve(at, input=input, mode=mode)
-    ck = state0.compiled
-    dm = compile_dynamics(mech, compiled=ck)
-    ix = ck.input_idx[0]
+    ck = mech.compile(input)
     if callable(torque):
         user = torque
 
@@ -240,6 +237,9 @@ def simulate(mech, duration: float, *, step: float = 0.01, torque=0.0, speed0=No
             return float(user(t, x, xd))
     else:
         drive = compile_drive(mech, str(torque), ck.inputs)
+    state0 = mech.solve(at, input=input, mode=mode, compiled=ck)
+    dm = compile_dynamics(mech, compiled=ck)
+    ix = ck.input_idx[0]
     if speed0 is None:
         declared = mech.variable(ck.inputs[0]).speed
         w0 = declared if declared is not None else 0.0

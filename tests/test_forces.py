@@ -469,10 +469,24 @@ class TestBadDeclarations:
             q("3 furlong", "mass")
 
 
+class _Run:
+    def __init__(self, returncode, stdout, stderr):
+        self.returncode, self.stdout, self.stderr = returncode, stdout, stderr
+
+
 class TestCommandLine:
+    @pytest.fixture(autouse=True)
+    def _capsys(self, capsys):
+        self.capsys = capsys
+
     def run(self, *args):
-        return subprocess.run([sys.executable, "-m", "loopsolve.cli", *map(str, args)], capture_output=True,
-                              text=True)
+        """The CLI in this process (the derivation memo is shared; one subprocess test is in TestBadDeclarations)."""
+        from loopsolve.cli import main
+
+        self.capsys.readouterr()
+        code = main([str(a) for a in args])
+        out = self.capsys.readouterr()
+        return _Run(code, out.out, out.err)
 
     def test_forces_json_sweep(self):
         model = ls.models_dir() / "engine_slider_crank.toml"
