@@ -95,8 +95,8 @@ class ForceSweep:
         put(self, "joint_forces", {k: _ro(v) for k, v in data["pins"].items()})
         put(self, "guide_reactions", {k: _ro(v) for k, v in data["guides"].items()})
         events = list(sweep.events)
-        xs = sweep[ck.inputs[0]]
         sing = np.flatnonzero(self.singular)
+        xs = sweep[ck.inputs[0]] if sing.size else None
         for i in sing[:20]:
             events.append(Event(EventKind.SINGULAR, float(xs[i]), "the Newton–Euler system is singular here "
                                 "(a dead centre for the forces): the joint forces and the driving torque are "

@@ -26,10 +26,12 @@ from .dynamics import DynamicsModel, kinematic_coefficients, mass_matrix_terms
 from .units import Kind
 
 __all__ = ["Layout", "layout", "inverse_dynamics", "generalized_force", "virtual_work_drive",
-           "SINGULAR_COND"]
+           "SINGULAR_RATIO"]
 
-#: condition number of the Newton–Euler matrix above which a pose is reported as singular
-SINGULAR_COND = 1e12
+#: Hadamard ratio |det A| / Π‖row‖ of the Newton–Euler matrix below which a pose is reported as
+#: singular (a dead centre for the forces: the joint forces are undetermined)
+SINGULAR_RATIO = 1e-12
+_CHUNK = 4096
 
 
 def _cross(dx, dy, fx, fy):
@@ -157,23 +159,88 @@ def _external(dm: DynamicsModel, e: dict, n: int):
     return F, Mo, power, potential, dpot, frame_force, frame_moment
 
 
-def inverse_dynamics(dm: DynamicsModel, z, xd, xdd) -> dict:
+def solve_batched(A: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Solve ``A[i] x[i] = b[i]`` for a stack of small square systems; also their Hadamard ratios.
+
+    Gaussian elimination with partial pivoting written across the stack (each step one numpy
+    operation on all systems: much faster than a LAPACK call per small matrix). The Hadamard ratio
+    ``|det A| / Π‖row‖`` is 1 for orthogonal rows and 0 for a singular matrix, whatever the scale
+    of each row; where it is 0 the solution is garbage (the caller masks it).
+
+    Examples
+    --------
+    >>> from loopsolve.kinetostatics import solve_batched
+    >>> x, r = solve_batched(np.array([[[0.0, 2.0], [1.0, 1.0]]]), np.array([[4.0, 3.0]]))
+    >>> x.round(12).tolist(), float(r[0].round(6))
+    ([[1.0, 2.0]], 0.707107)
+    """
+    M = np.ascontiguousarray(np.moveaxis(np.asarray(A, dtype=float), 0, -1))  # (n, n, N)
+    y = np.ascontiguousarray(np.asarray(b, dtype=float).T)  # (n, N)
+    x, ratio = _solve_stacked(M, y)
+    return x.T, ratio
+
+
+def _solve_stacked(M: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`solve_batched` on ``(n, n, N)`` / ``(n, N)`` arrays (overwritten); returns ``(n, N)``."""
+    n, N = y.shape
+    norms = np.prod(np.sqrt(np.einsum("ijk,ijk->ik", M, M)), axis=0)
+    absdet = np.ones(N)
+    for k in range(n):
+        col = M[k:, k, :]
+        rows = np.flatnonzero(np.any(col != 0, axis=1))  # rows that can hold the pivot
+        if rows.size:
+            piv = k + rows[np.argmax(np.abs(col[rows]), axis=0)]
+            moved = np.flatnonzero(piv != k)
+            if moved.size:
+                pk = piv[moved]
+                row = M[k, :, moved].copy()
+                M[k, :, moved] = M[pk, :, moved]
+                M[pk, :, moved] = row
+                yk = y[k, moved].copy()
+                y[k, moved] = y[pk, moved]
+                y[pk, moved] = yk
+        p = M[k, k, :]
+        absdet *= np.abs(p)
+        below = k + 1 + np.flatnonzero(np.any(M[k + 1:, k, :] != 0, axis=1))  # rows to eliminate
+        if below.size:
+            f = M[below, k, :] / np.where(p == 0, 1.0, p)
+            nzc = k + np.flatnonzero(np.any(M[k, k:, :] != 0, axis=1))  # nonzero columns of the pivot row
+            M[np.ix_(below, nzc)] -= f[:, None, :] * M[k, nzc, :][None]
+            y[below] -= f * y[k]
+    x = np.empty((n, N))
+    for k in range(n - 1, -1, -1):
+        acc = y[k] - np.einsum("jn,jn->n", M[k, k + 1:, :], x[k + 1:]) if k + 1 < n else y[k]
+        p = M[k, k, :]
+        x[k] = acc / np.where(p == 0, 1.0, p)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        ratio = np.where(norms > 0, absdet / np.where(norms > 0, norms, 1.0), 0.0)
+    return x, ratio
+
+
+def inverse_dynamics(dm: DynamicsModel, z, xd, xdd, *, rates=None) -> dict:
     """Newton–Euler at every point: ``z`` ``(N, nvar)`` positions, ``xd``/``xdd`` input speed and acceleration.
 
     ``xd``, ``xdd`` are in internal units (rad/s, rad/s² or length unit/s, /s²). Returns SI arrays:
     ``drive`` (N·m or N), ``pins`` {name: (N, 2)}, ``guides`` {name: (N, 3)} (force x, y and couple),
     ``shaking_force`` (N, 2), ``shaking_moment``, ``kinetic_energy``, ``potential_energy``,
-    ``power_residual`` (W) and ``power_scale`` (W), ``singular`` (bool), ``cond``, ``z1``, ``z2``,
+    ``power_residual`` (W) and ``power_scale`` (W), ``singular`` (bool), ``cond`` (the Hadamard ratio
+    of the matrix, 1 = well conditioned, 0 = singular), ``z1``, ``z2``,
     ``residual`` (N, bodies, 3) the Newton–Euler residuals of the solution, ``force_scale``.
+    ``rates`` = ``(z1, z2)``, the ``(N, nvar)`` velocities and accelerations of this motion when
+    already known (a sweep's), skips solving for them.
     """
     z = np.atleast_2d(np.asarray(z, dtype=float))
     n = z.shape[0]
     xd = np.broadcast_to(np.asarray(xd, dtype=float), (n,))
     xdd = np.broadcast_to(np.asarray(xdd, dtype=float), (n,))
     lay = layout(dm)
-    d1, d2 = kinematic_coefficients(dm.ck, z)
-    z1 = d1 * xd[:, None]
-    z2 = d1 * xdd[:, None] + d2 * (xd**2)[:, None]
+    if rates is None:
+        d1, d2 = kinematic_coefficients(dm.ck, z)
+        z1 = d1 * xd[:, None]
+        z2 = d1 * xdd[:, None] + d2 * (xd**2)[:, None]
+    else:  # the rates of a sweep at this input motion (consistent with xd, xdd)
+        z1, z2 = (np.asarray(r, dtype=float) for r in rates)
+        d1 = d2 = None
     e = dm.evaluate(z.T, z1.T, z2.T)
     lf = dm.length_factor
     G, aG, vG = e["G"] * lf, e["aG"] * lf, e["vG"] * lf
@@ -183,55 +250,67 @@ def inverse_dynamics(dm: DynamicsModel, z, xd, xdd) -> dict:
     inertia = np.array([b.inertia for b in dm.bodies])
     Fext, Mext, p_loads, pot, dpot, ff, fm = _external(dm, e, n)
 
-    A = np.zeros((n, lay.n_equations, lay.n_unknowns))
+    # the matrix as (row, column, values) entries; filled and solved in chunks that stay in cache
+    entries: list = []
     col = 0
     for _, j, a, o in lay.pins:
         for body, sgn in ((a, 1.0), (o, -1.0)):
             if body < 0:
                 continue
             dx, dy = P[j, 0] - G[body, 0], P[j, 1] - G[body, 1]
-            A[:, 3 * body, col] += sgn
-            A[:, 3 * body + 1, col + 1] += sgn
-            A[:, 3 * body + 2, col] += -sgn * dy
-            A[:, 3 * body + 2, col + 1] += sgn * dx
+            entries += [(3 * body, col, sgn), (3 * body + 1, col + 1, sgn),
+                        (3 * body + 2, col, -sgn * dy), (3 * body + 2, col + 1, sgn * dx)]
         col += 2
     for _, b, o, g in lay.guides:
         phi = e["phi"][g]
         nx, ny = -np.sin(phi), np.cos(phi)
-        A[:, 3 * b, col] += nx
-        A[:, 3 * b + 1, col] += ny
-        A[:, 3 * b + 2, col + 1] += 1.0
+        entries += [(3 * b, col, nx), (3 * b + 1, col, ny), (3 * b + 2, col + 1, 1.0)]
         if o >= 0:
             dx, dy = G[b, 0] - G[o, 0], G[b, 1] - G[o, 1]
-            A[:, 3 * o, col] -= nx
-            A[:, 3 * o + 1, col] -= ny
-            A[:, 3 * o + 2, col] -= _cross(dx, dy, nx, ny)
-            A[:, 3 * o + 2, col + 1] -= 1.0
+            entries += [(3 * o, col, -nx), (3 * o + 1, col, -ny), (3 * o + 2, col, -_cross(dx, dy, nx, ny)),
+                        (3 * o + 2, col + 1, -1.0)]
         col += 2
     drv = lay.driver
     if dm.input_kind is Kind.ANGLE:
-        A[:, 3 * drv + 2, col] = 1.0
+        entries.append((3 * drv + 2, col, 1.0))
         ex = ey = None
     else:
         phi = e["phi"][dm.guide_vectors.index(dm.input_guide)]
         ex, ey = np.cos(phi), np.sin(phi)
-        A[:, 3 * drv, col] = ex
-        A[:, 3 * drv + 1, col] = ey
+        entries += [(3 * drv, col, ex), (3 * drv + 1, col, ey)]
     rhs = np.zeros((n, lay.n_equations))
     for b in range(nb):
         rhs[:, 3 * b] = m[b] * aG[b, 0] - Fext[b, 0]
         rhs[:, 3 * b + 1] = m[b] * aG[b, 1] - Fext[b, 1]
         rhs[:, 3 * b + 2] = inertia[b] * e["al"][b] - Mext[b]
 
-    finite = np.all(np.isfinite(A), axis=(1, 2)) & np.all(np.isfinite(rhs), axis=1)
-    A_safe = np.where(finite[:, None, None], A, np.eye(lay.n_equations))
-    cond = np.full(n, np.inf)
-    cond[finite] = np.linalg.cond(A_safe[finite]) if finite.any() else cond[finite]
-    singular = ~(cond < SINGULAR_COND)
-    A_ok = np.where(singular[:, None, None], np.eye(lay.n_equations), A_safe)
-    u = np.linalg.solve(A_ok, np.where(singular[:, None], 0.0, rhs)[..., None])[..., 0]
-    u[singular] = np.nan
-    residual = (np.einsum("nij,nj->ni", A, u) - rhs).reshape(n, nb, 3)
+    ne = lay.n_equations
+    u = np.empty((n, lay.n_unknowns))
+    residual = np.empty((n, ne))
+    ratio = np.empty(n)
+    eye = np.eye(ne)
+    for lo in range(0, n, _CHUNK):  # chunks that stay in cache
+        hi = min(n, lo + _CHUNK)
+        Mt = np.zeros((ne, lay.n_unknowns, hi - lo))  # (rows, columns, points)
+        for r, c, v in entries:
+            Mt[r, c] += v[lo:hi] if isinstance(v, np.ndarray) else v
+        b_ = rhs[lo:hi]
+        finite = np.all(np.isfinite(Mt), axis=(0, 1)) & np.all(np.isfinite(b_), axis=1)
+        if not finite.all():
+            Mt[:, :, ~finite] = eye[:, :, None]
+        uc, had = _solve_stacked(Mt, np.ascontiguousarray(np.where(finite[:, None], b_, 0.0).T))
+        had[~finite] = 0.0
+        bad = ~(had > SINGULAR_RATIO)
+        uc[:, bad] = np.nan
+        u[lo:hi] = uc.T
+        res = -b_.copy()
+        for r, c, v in entries:  # A u − b from the sparse entries
+            res[:, r] += (v[lo:hi] if isinstance(v, np.ndarray) else v) * uc[c]
+        residual[lo:hi] = res
+        ratio[lo:hi] = had
+    singular = ~(ratio > SINGULAR_RATIO)
+    residual = residual.reshape(n, nb, 3)
+    cond = ratio
 
     out: dict = {"singular": singular, "cond": cond, "z1": z1, "z2": z2, "layout": lay}
     pins, guides = {}, {}
@@ -357,7 +436,7 @@ def force_analysis(sweep, *, dynamics: DynamicsModel | None = None):
     if len(sweep) == 0:
         data = inverse_dynamics(dm, np.zeros((0, len(ck.variables))), np.zeros(0), np.zeros(0))
     else:
-        data = inverse_dynamics(dm, sweep.z, sweep.z1[:, ix], sweep.z2[:, ix])
+        data = inverse_dynamics(dm, sweep.z, sweep.z1[:, ix], sweep.z2[:, ix], rates=(sweep.z1, sweep.z2))
     return ForceSweep(sweep, data)
 
 
