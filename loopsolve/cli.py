@@ -228,7 +228,7 @@ def cmd_forces(args) -> int:
         from .plotting import check_output
 
         check_output(args.plot, "figure")
-        plot_forces(result, output=args.plot)
+        plot_forces(result, output=args.plot, flywheel=fw)
         print(f"wrote {args.plot}", file=sys.stderr)
     if args.format == "json":
         text = result.to_json(flywheel=fw) + "\n"

@@ -527,3 +527,21 @@ class TestCommandLine:
         assert {"theta2", "theta2_vel", "theta2_acc", "kinetic_energy", "potential_energy"} <= set(doc["rows"][0])
         r = self.run("simulate", model, "--duration", 1, "--torque", "import os")
         assert r.returncode == 2 and len(r.stderr.strip().splitlines()) == 1
+
+
+class TestPlots:
+    def test_force_plots(self, tmp_path):
+        pytest.importorskip("matplotlib")
+        mech = ls.load(ls.models_dir() / "engine_slider_crank.toml")
+        fs = ls.forces(mech, 0, 360, 10)
+        assert fs.plot_torque().axes[0].get_ylabel() == "input_torque [N*m]"
+        assert len(fs.plot_joint_forces(joints=["B", "C"]).axes) == 2
+        fs.plot_shaking(output=tmp_path / "s.svg")
+        assert (tmp_path / "s.svg").stat().st_size > 0
+        from loopsolve.cli import main
+
+        assert main(["forces", str(mech.source), "--from", "0", "--to", "360", "--step", "30", "--plot",
+                     str(tmp_path / "f.png"), "-o", str(tmp_path / "f.txt")]) == 0
+        assert (tmp_path / "f.png").stat().st_size > 0
+        with pytest.raises(ls.ModelError, match="needs a sweep"):
+            ls.forces(mech, 30).plot_torque()
