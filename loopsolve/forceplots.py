@@ -43,7 +43,8 @@ def plot_drive(fs, *, output=None, ax=None, flywheel=None):
     ax = ax if ax is not None else fig.add_subplot()
     unit = "N*m" if fs.drive_name == "input_torque" else "N"
     ax.plot(x, fs.drive, lw=1.6, label=fs.drive_name)
-    mean = float(np.trapezoid(fs.drive, x) / (x[-1] - x[0])) if x[-1] != x[0] else float(np.mean(fs.drive))
+    area = float(np.sum(0.5 * (fs.drive[1:] + fs.drive[:-1]) * np.diff(x)))
+    mean = area / (x[-1] - x[0]) if x[-1] != x[0] else float(np.mean(fs.drive))
     ax.axhline(mean, color="0.4", lw=1, ls="--", label=f"mean {mean:.4g} {unit}")
     ax.axhline(0, color="0.75", lw=0.8)
     ax.set_xlabel(xlabel)
