@@ -28,15 +28,15 @@ from dataclasses import dataclass, field
 import numpy as np
 import sympy as sp
 
-from .bodies import FRAME, Body, Dynamics, LoadKind
+from .bodies import FRAME, Body, Dynamics
 from .compiled import CompiledKinematics, structure_key
 from .errors import ModelError
 from .model import Mechanism
 from .symbolic import Kinematics, derive, to_sympy
 from .units import Kind, length_factor
 
-__all__ = ["DynamicsModel", "compile_dynamics", "kinematic_coefficients", "equation_of_motion",
-           "mass_matrix_terms"]
+__all__ = ["DynamicsModel", "compile_dynamics", "kinematic_coefficients", "mass_matrix_terms", "mass_terms_from",
+           "compile_drive"]
 
 _LOCK = threading.Lock()
 _MEMO: dict = {}
@@ -309,39 +309,6 @@ def mass_terms_from(dm: DynamicsModel, e: dict) -> tuple[np.ndarray, np.ndarray]
     M = np.sum(m * np.sum(vg**2, axis=1) + inertia * om**2, axis=0)
     dM = np.sum(2 * m * np.sum(vg * ag, axis=1) + 2 * inertia * om * al, axis=0)
     return M, dM
-
-
-def equation_of_motion(mech: Mechanism, input=None):
-    """The symbolic equation of motion in terms of the kinematic coefficients (sympy).
-
-    Returns ``(M, Q, coefficients)``: the generalized inertia and the generalized force as sympy
-    expressions of the variables, the kinematic coefficients ``z'`` (symbols named
-    ``<variable>__d1``, the input's replaced by 1) and the input speed ``<input>__d1`` where a load
-    depends on a rate; ``coefficients`` maps each unknown's ``q'`` symbol to its name. ``M′`` is
-    ``dM/dx`` along the motion (``z'' `` as ``<variable>__d2`` symbols).
-    """
-    dm = compile_dynamics(mech, input)
-    kin = derive(mech, input=dm.ck.inputs)
-    conv, k = _converter(mech, kin)
-    D = kin.time_derivative
-    x = kin.input_symbols[0]
-    ix = kin.variables.index(kin.inputs[0])
-    unit = {kin.z1[ix]: 1, kin.z2[ix]: 0}
-    lf = sp.nsimplify(dm.length_factor)
-    s = 1 if dm.input_kind is Kind.ANGLE else lf
-    M = sp.Integer(0)
-    Q = sp.Integer(0)
-    g = dm.gravity
-    for b in dm.bodies:
-        v = _point_expr(kin, b.com, conv).applyfunc(D).xreplace(unit) * lf / s
-        m, inertia = sp.Float(b.mass), sp.Float(b.inertia)
-        M += m * (v[0] ** 2 + v[1] ** 2)
-        if b.angle is not None:
-            w = D(sp.expand(k * conv(b.angle))).xreplace(unit) / s
-            M += inertia * w**2
-        Q += m * (sp.Float(g[0]) * v[0] + sp.Float(g[1]) * v[1])
-    dM = D(M).xreplace(unit)
-    return M, dM, Q, x
 
 
 def compile_drive(mech: Mechanism, text, inputs) -> object:
