@@ -124,6 +124,11 @@ class Simulation:
         return "\n".join(out) + "\n"
 
 
+#: condition number of Φ_q (columns scaled: angles 1, lengths the model's scale) above which a
+#: simulation stops at a limit position of its input (the input cannot carry the motion through it)
+LIMIT_COND = 1e3
+
+
 class _Pose:
     """The pose at an input value, solved by Newton from the last pose (the mode is tracked).
 
@@ -223,7 +228,7 @@ def simulate(mech, duration: float, *, step: float = 0.01, torque=0.0, speed0=No
     >>> len(sim.t), sim.events, round(float(sim.x[0]), 4)
     (3, (), 1.5708)
     """
-    from scipy.integrate import solve_ivp
+    from scipy.integrate import DOP853, LSODA, RK45, Radau
 
     from .solve import input_rates
 
@@ -249,44 +254,67 @@ def simulate(mech, duration: float, *, step: float = 0.01, torque=0.0, speed0=No
     sig0 = ck.signature(state0.z)
     failure: list = []
 
+    class _Stop(Exception):
+        pass
+
+    col_scale = np.array([1.0 if k_ is Kind.ANGLE else ck.scale for k_ in ck.kinds])[ck.unknown_idx]
+
     def rhs(t, y):
         try:
-            return [y[1], equation_of_motion_rhs(dm, pose, y[0], y[1], t, drive)]
+            acc = equation_of_motion_rhs(dm, pose, y[0], y[1], t, drive)
         except SolveError as exc:
             failure.append((t, exc))
-            return [np.nan, np.nan]
+            raise _Stop from None
+        kappa = np.linalg.cond(ck.jac(pose.z) * col_scale)
+        if not kappa < LIMIT_COND:  # a dead centre of the input: the coordinate cannot carry the motion on
+            failure.append((t, f"the loops' Jacobian is nearly singular (condition {kappa:.3g})"))
+            raise _Stop
+        return np.array([y[1], acc])
 
-    blocks = ck.blocks
-
-    def limit(t, y):
-        try:
-            z = pose.at(y[0])
-        except SolveError:
-            return 0.0
-        j = ck.jac(z)
-        d = 1.0
-        for b in blocks:
-            d *= np.linalg.det(j[np.ix_(b.eqs, b.unknowns)])
-        sign = 1.0 if sig0.count("-") % 2 == 0 else -1.0
-        return sign * d
-
-    limit.terminal = True
-    limit.direction = -1
     n = int(math.floor(duration / step + 1e-9))
     t_eval = np.linspace(0.0, n * step, n + 1)
-    sol = solve_ivp(rhs, (0.0, n * step), [state0.z[ix], w0], method=method, t_eval=t_eval, rtol=rtol, atol=atol,
-                    events=limit, dense_output=False)
+    solvers = {"RK45": RK45, "DOP853": DOP853, "Radau": Radau, "LSODA": LSODA}
+    if method not in solvers:
+        raise ModelError(f"unknown integration method {method!r} (one of {', '.join(solvers)})")
+    y0 = np.array([state0.z[ix], w0])
+    out_t, out_y = [0.0], [y0]
     events = []
-    if failure:
-        t_f, exc = failure[0]
-        events.append(Event(EventKind.NOT_ASSEMBLABLE, float(t_f), f"the pose could not be solved: {exc}"))
-    if sol.t_events is not None and len(sol.t_events[0]):
-        te = float(sol.t_events[0][0])
-        events.append(Event(EventKind.LIMIT, te, f"a limit position of {ck.inputs[0]} is reached at t = {te:.6g} s "
-                            "(the loops' Jacobian is singular): the integration stops here"))
-    ts, xs, ws = sol.t, sol.y[0], sol.y[1]
-    keep = np.isfinite(xs) & np.isfinite(ws)
-    ts, xs, ws = ts[keep], xs[keep], ws[keep]
+    message = "the integration reached the duration"
+    check = _Pose(ck, state0.z)  # the pose at the accepted steps: a mode change there is a limit passed
+    solver = solvers[method](rhs, 0.0, y0, float(t_eval[-1]), rtol=rtol, atol=atol)
+    k = 1
+    while solver.status == "running" and k < len(t_eval):
+        t_before = solver.t
+        try:
+            solver.step()
+        except _Stop:
+            t_f, exc = failure[-1]
+            events.append(Event(EventKind.LIMIT, float(t_before), f"{ck.inputs[0]} reaches a limit position just "
+                                f"after t = {t_before:.6g} s ({exc}): the integration stops here"))
+            message = "stopped at a limit position"
+            break
+        if solver.status == "failed" or not np.all(np.isfinite(solver.y)):
+            message = f"the integrator failed at t = {solver.t:.6g} s"
+            events.append(Event(EventKind.SINGULAR, float(t_before), message))
+            break
+        try:
+            sig = ck.signature(check.at(solver.y[0]))
+        except SolveError:
+            sig = "?"
+        dense = solver.dense_output()
+        if sig != sig0:
+            events.append(Event(EventKind.LIMIT, float(t_before), f"a limit position of {ck.inputs[0]} is reached "
+                                f"between t = {t_before:.6g} s and {solver.t:.6g} s (the loops' Jacobian turns "
+                                "singular): the integration stops here"))
+            message = "stopped at a limit position"
+            break
+        while k < len(t_eval) and t_eval[k] <= solver.t + 1e-12 * max(1.0, solver.t):
+            out_t.append(float(t_eval[k]))
+            out_y.append(dense(min(t_eval[k], solver.t)))
+            k += 1
+    ts = np.array(out_t)
+    xs = np.array([y[0] for y in out_y])
+    ws = np.array([y[1] for y in out_y])
     # poses at the output times, tracked in order from the start
     out_pose = _Pose(ck, state0.z)
     zs = np.array([out_pose.at(x).copy() for x in xs]) if len(xs) else np.zeros((0, len(ck.variables)))
@@ -299,4 +327,4 @@ def simulate(mech, duration: float, *, step: float = 0.01, torque=0.0, speed0=No
     else:
         ke = pe = np.zeros(0)
         modes = ()
-    return Simulation(ck, ts, xs, ws, acc, zs, ke, pe, modes, tuple(events), str(sol.message))
+    return Simulation(ck, ts, xs, ws, acc, zs, ke, pe, modes, tuple(events), message)

@@ -355,6 +355,15 @@ class TestSimulate:
         assert np.ptp(e) <= 1e-8 * np.max(np.abs(e))
         assert set(sim.modes) == {sim.modes[0]}
 
+    def test_limit_position_is_an_event(self):
+        """Driving the engine by its piston: the piston's dead centre stops the integration, reported."""
+        spec = ls.model._deep_copy(ls.load(ls.models_dir() / "engine_slider_crank.toml").spec)
+        spec.pop("loads")
+        sim = ls.simulate(ls.build_mechanism(spec), 0.3, step=0.05, input="r1", at=150, speed0="500mm/s")
+        assert [e.kind for e in sim.events] == [ls.EventKind.LIMIT]
+        assert 0.05 < sim.events[0].input < 0.1 and len(sim.t) == 2
+        assert np.ptp(sim.total_energy) <= 1e-8 * np.max(np.abs(sim.total_energy))
+
     def test_inverse_dynamics_torque_keeps_speed_constant(self):
         mech = fourbar_dynamics()
         w = 2 * math.pi  # 60 rpm
