@@ -12,7 +12,7 @@ tracking, and gives velocities, accelerations and jerks, sweeps, plots and the L
 
 __version__ = "0.1.0"
 
-from . import diagram, errors, expr, newton, topology, units  # noqa: E402
+from . import bodies, diagram, errors, expr, newton, topology, units  # noqa: E402
 from .errors import (  # noqa: E402
     AssemblyError,
     BranchError,
@@ -72,6 +72,20 @@ def study(mech, vary, start, stop, step, **kwargs):
     return _study(mech, vary, start, stop, step, **kwargs)
 
 
+def forces(mech, at=None, stop=None, step=None, **kwargs):
+    """Force and torque analysis: see :func:`loopsolve.kinetostatics.forces` (imports sympy once)."""
+    from .kinetostatics import forces as _forces
+
+    return _forces(mech, at, stop, step, **kwargs)
+
+
+def simulate(mech, duration, **kwargs):
+    """Forward dynamics: see :func:`loopsolve.simulation.simulate`."""
+    from .simulation import simulate as _simulate
+
+    return _simulate(mech, duration, **kwargs)
+
+
 __all__ = [
     "__version__",
     "AssemblyError",
@@ -95,12 +109,14 @@ __all__ = [
     "compile_mechanism",
     "derive",
     "dumps",
+    "forces",
     "fourbar",
     "inverted_slider_crank",
     "load",
     "loads",
     "models_dir",
     "slider_crank",
+    "simulate",
     "solve",
     "study",
     "sweep",

@@ -79,7 +79,7 @@ def structure_key(mech: Mechanism, inputs: Sequence[str]) -> str:
         tuple((p.name, p.kind.name) for p in mech.parameters),
         mech.vectors,
         tuple((lp.name, lp.terms) for lp in mech.loops),
-        tuple((pt.name, pt.terms) for pt in mech.points),
+        tuple((pt.name, pt.terms, pt.factors) for pt in mech.points),
         tuple(inputs),
     )
     return hashlib.sha256(repr(parts).encode()).hexdigest()[:24]

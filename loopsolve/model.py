@@ -27,6 +27,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from . import expr as _expr
+from .bodies import Dynamics, parse_dynamics
 from .errors import ModelError, ModelFileError
 from .exprcheck import (MAX_DEGREE, MAX_EXPONENT, MAX_TERMS, _check_literals, _check_terms,  # noqa: F401
                         _constant_size, _degree, _nesting, _TooLarge)
@@ -122,11 +123,27 @@ class Loop:
 
 @dataclass(frozen=True, slots=True)
 class Point:
-    """A point of interest: a signed sum of vectors from the origin."""
+    """A point of interest: a sum of vectors with optional scalar factors, from the origin.
+
+    ``terms`` are the signed vector names; ``factors`` (same length, or empty when every factor
+    is 1) holds for each term its scalar factor as a parsed expression of numbers and parameters,
+    or ``None`` for a factor of 1 (``G3 = "r2 + 0.5*r3"`` has terms ``((1, 'r2'), (1, 'r3'))``
+    and factors ``(None, Num(0.5))``). ``"0"`` is the origin (no terms).
+    """
 
     name: str
     terms: tuple[tuple[int, str], ...]
     text: str
+    factors: tuple = ()
+
+    def factor(self, i: int):
+        """The factor of term ``i`` (``None`` for 1)."""
+        return self.factors[i] if self.factors else None
+
+    @property
+    def plain(self) -> bool:
+        """True when every factor is 1 (the point is a walk along whole vectors)."""
+        return not any(f is not None for f in self.factors)
 
 
 @dataclass(frozen=True)
@@ -155,6 +172,7 @@ class Mechanism:
     source: str | None = None
     spec: Mapping[str, Any] = field(default_factory=dict, compare=False, repr=False)
     mode_aliases: Mapping[str, str] = field(default_factory=dict, compare=False)
+    dynamics: Dynamics | None = field(default=None, compare=False, repr=False)
 
     # ----------------------------------------------------------------- lookups
     @property
@@ -249,6 +267,18 @@ class Mechanism:
         from .sweep import sweep
 
         return sweep(self, start, stop, step, **kwargs)
+
+    def forces(self, at=None, stop=None, step=None, **kwargs):
+        """Driving torque, joint forces, shaking force, energies: see :func:`loopsolve.kinetostatics.forces`."""
+        from .kinetostatics import forces
+
+        return forces(self, at, stop, step, **kwargs)
+
+    def simulate(self, duration, **kwargs):
+        """Integrate the equation of motion: see :func:`loopsolve.simulation.simulate`."""
+        from .simulation import simulate
+
+        return simulate(self, duration, **kwargs)
 
     def modes(self, at=None, **kwargs):
         """Every real assembly mode at one input: see :func:`loopsolve.modes.assembly_modes`."""
@@ -364,6 +394,128 @@ def _parse_terms(text: Any, key: str, problems: _Problems) -> tuple[tuple[int, s
     return tuple(terms)
 
 
+def parse_point(pname: str, text: Any, key: str, problems: _Problems, *, vec_names, param_names,
+                var_names=()) -> Point | None:
+    """Parse a point expression: a sum of vectors with optional scalar factors (``r2 + 0.5*r3``).
+
+    A name that is a declared vector is a vector (even when a parameter has the same name); the
+    factors are numbers, parameters and expressions of them (``k*r3``, ``(a/b)*r3``, ``r3/2``,
+    ``0.5*(r2 + r3)``). ``"0"`` is the origin. Problems go to ``problems`` (``None`` returned).
+    """
+    if isinstance(text, str) and text.strip() == "0":
+        return Point(pname, (), text)
+    if isinstance(text, str) and _TERM_SUM_RE.match(text):
+        terms = _parse_terms(text, key, problems)  # plain walk: the fast path, old messages
+        if terms is None:
+            return None
+        bad = [n for _, n in terms if n not in vec_names]
+        for n in bad:
+            problems.add(key, f"{text!r} names the undeclared vector {n!r}; declared vectors: "
+                         + ", ".join(sorted(vec_names)))
+        return None if bad else Point(pname, terms, text)
+    if not isinstance(text, str):
+        problems.add(key, f"expected a string such as \"r2 + 0.5*r3\", got {text!r}")
+        return None
+    node = _parse_expr(text, key, problems)
+    if node is None:
+        return None
+    try:
+        lin = _linear_in_vectors(node, frozenset(vec_names))
+    except _NotLinear as exc:
+        problems.add(key, f"cannot read {text!r} as a point: {exc}; write a sum of vectors with "
+                     "scalar factors such as \"r2 + 0.5*r3\" or \"r2 + k*r3 - r7\"")
+        return None
+    if not lin:
+        problems.add(key, f"{text!r} names no vector (write \"0\" for the origin)")
+        return None
+    ok = True
+    for _, factor in lin:
+        if factor is None:
+            continue
+        for nm in sorted(_expr.names(factor)):
+            if nm in var_names:
+                problems.add(key, f"{text!r}: the factor {_expr.to_text(factor)!r} uses the variable {nm!r}; "
+                             "factors are numbers and parameters")
+                ok = False
+            elif nm not in param_names:
+                problems.add(key, f"{text!r} names {nm!r}, which is neither a declared vector nor a "
+                             "parameter; declared vectors: " + ", ".join(sorted(vec_names)))
+                ok = False
+        for n in _expr.walk(factor):
+            if isinstance(n, _expr.Num) and n.unit is not None:
+                problems.add(key, f"{text!r}: a factor is a plain number, not {n.value:g}{n.unit}")
+                ok = False
+    if not ok:
+        return None
+    terms, factors = [], []
+    for name, factor in lin:
+        sign = 1
+        if isinstance(factor, _expr.Num) and factor.unit is None and abs(factor.value) == 1.0:
+            sign, factor = (1 if factor.value > 0 else -1), None
+        elif isinstance(factor, _expr.Unary) and factor.op == "-":
+            sign, factor = -1, factor.operand
+            if isinstance(factor, _expr.Num) and factor.unit is None and factor.value == 1.0:
+                factor = None
+        terms.append((sign, name))
+        factors.append(factor)
+    return Point(pname, tuple(terms), text, tuple(factors) if any(f is not None for f in factors) else ())
+
+
+_TERM_SUM_RE = re.compile(r"^\s*[+-]?\s*[A-Za-z][A-Za-z0-9_]*(\s*[+-]\s*[A-Za-z][A-Za-z0-9_]*)*\s*$")
+
+
+class _NotLinear(Exception):
+    pass
+
+
+def _mul(a, b):
+    if a is None:
+        return b
+    if b is None:
+        return a
+    return _expr.Binary("*", a, b)
+
+
+def _neg(a):
+    return _expr.Unary("-", _expr.Num(1.0) if a is None else a)
+
+
+def _linear_in_vectors(node, vecs: frozenset) -> list:
+    """``[(vector, factor node or None), ...]`` for an expression linear in the vector names."""
+
+    def has_vec(n) -> bool:
+        return bool(_expr.names(n) & vecs)
+
+    def go(n) -> list:
+        if isinstance(n, _expr.Name) and n.id in vecs:
+            return [(n.id, None)]
+        if not has_vec(n):
+            raise _NotLinear(f"the term {_expr.to_text(n)!r} has no vector")
+        if isinstance(n, _expr.Unary):
+            inner = go(n.operand)
+            return inner if n.op == "+" else [(v, _neg(f)) for v, f in inner]
+        if isinstance(n, _expr.Binary):
+            if n.op in ("+", "-"):
+                right = go(n.right)
+                if n.op == "-":
+                    right = [(v, _neg(f)) for v, f in right]
+                return go(n.left) + right
+            if n.op == "*":
+                lv, rv = has_vec(n.left), has_vec(n.right)
+                if lv and rv:
+                    raise _NotLinear(f"{_expr.to_text(n)!r} multiplies two vectors")
+                vec_side, scalar = (n.left, n.right) if lv else (n.right, n.left)
+                return [(v, _mul(scalar, f) if f is not None else scalar) for v, f in go(vec_side)]
+            if n.op == "/":
+                if has_vec(n.right):
+                    raise _NotLinear(f"{_expr.to_text(n)!r} divides by a vector")
+                inv = _expr.Binary("/", _expr.Num(1.0), n.right)
+                return [(v, _mul(f, inv) if f is not None else inv) for v, f in go(n.left)]
+        raise _NotLinear(f"{_expr.to_text(n)!r} is not a sum of vectors with scalar factors")
+
+    return go(node)
+
+
 def _parse_expr(value: Any, key: str, problems: _Problems, moving: frozenset | None = None) -> _expr.Node | None:
     """Parse one expression field; its problems go to ``problems`` under ``key``.
 
@@ -455,7 +607,8 @@ def build_mechanism(spec: Mapping[str, Any], *, source: str | None = None) -> Me
         problems.raise_if_any()
 
     known_top = {"name", "units", "parameters", "variables", "vectors", "loops", "points",
-                 "description", "schema", "links", "joints", "input", "version", "modes"}
+                 "description", "schema", "links", "joints", "input", "version", "modes",
+                 "gravity", "bodies", "loads"}
     for k in spec:
         if k not in known_top:
             problems.add(str(k), f"unknown key {k!r} (expected one of: {', '.join(sorted(known_top))})")
@@ -733,14 +886,10 @@ def build_mechanism(spec: Mapping[str, Any], *, source: str | None = None) -> Me
     for pname, pdef in point_spec.items():
         key = f"points.{pname}"
         _check_name(pname, key, problems)
-        terms = _parse_terms(pdef, key, problems)
-        if terms is None:
-            continue
-        bad = [n for _, n in terms if n not in vec_names]
-        for n in bad:
-            problems.add(key, f"{pdef!r} names the undeclared vector {n!r}")
-        if not bad:
-            points.append(Point(pname, terms, pdef))
+        pt = parse_point(pname, pdef, key, problems, vec_names=vec_names, param_names=set(param_spec),
+                         var_names=set(var_spec))
+        if pt is not None:
+            points.append(pt)
 
     _check_links(vectors, loops if len(loops) == len(loops_spec) else None, parameters, variables, problems)
 
@@ -777,6 +926,7 @@ def build_mechanism(spec: Mapping[str, Any], *, source: str | None = None) -> Me
                              f"signatures have at most {n_unknown} (one per diagonal block of the Jacobian)")
             else:
                 mode_aliases[str(alias)] = sig
+    dynamics = _dynamics(spec, problems, vectors, points, vec_names, param_spec, var_spec, units)
     problems.raise_if_any()
     return Mechanism(
         name=name.strip(),
@@ -789,6 +939,7 @@ def build_mechanism(spec: Mapping[str, Any], *, source: str | None = None) -> Me
         source=source,
         spec=_deep_copy(spec),
         mode_aliases=mode_aliases,
+        dynamics=dynamics,
     )
 
 
@@ -839,6 +990,34 @@ def _vector_names(v) -> set:
         if n is not None:
             out |= _expr.names(n)
     return out
+
+
+def _dynamics(spec, problems: _Problems, vectors, points, vec_names, param_spec, var_spec, units):
+    """``gravity``, ``[bodies]`` and ``[[loads]]`` (see :mod:`loopsolve.bodies`), problems collected."""
+    if not any(k in spec for k in ("gravity", "bodies", "loads")):
+        return None
+    variables = set(var_spec)
+    moving = {v.name for v in vectors
+              if any(_expr.names(n) & variables for n in (v.length, v.angle, v.offset, v.x, v.y) if n is not None)}
+    fixed = {p.name for p in points if not any(n in moving for _, n in p.terms)}
+    by_vec = {v.name: v for v in vectors}
+
+    def angle_text(vname):
+        v = by_vec.get(vname)
+        if v is None:
+            return None
+        if v.cartesian:
+            return None if vname not in moving else f"<direction of {vname}>"
+        return _expr.to_text(v.angle) if _expr.names(v.angle) & variables else None
+
+    return parse_dynamics(
+        spec, problems=problems,
+        parse_point=lambda n, t, k: parse_point(n, t, k, problems, vec_names=vec_names,
+                                                param_names=set(param_spec), var_names=variables),
+        parse_expr=lambda v, k: _parse_expr(v, k, problems),
+        vec_names=vec_names, point_names={p.name: p for p in points}, param_names=list(param_spec),
+        var_names=list(var_spec), fixed_points=fixed, vector_angle_text=angle_text,
+        length_unit=units.length, angle_unit=units.angle)
 
 
 def _unit_kind_of_text(text: str) -> Kind | None:
@@ -933,8 +1112,35 @@ class MechanismBuilder:
         return self
 
     def point(self, name: str, terms: str) -> "MechanismBuilder":
-        """Add a point of interest: a sum/difference of vectors from the origin."""
+        """Add a point of interest: a sum of vectors with optional factors (``"r2 + 0.5*r3"``), or ``"0"``."""
         return self._put("points", name, terms)
+
+    def body(self, name: str, *, com, mass=None, inertia=None, angle=None, joints=(), guide=None,
+             guide_body=None, bar=None) -> "MechanismBuilder":
+        """Add a moving rigid body (see :mod:`loopsolve.bodies`; SI numbers or quantity strings)."""
+        d: dict[str, Any] = {"com": com}
+        for k, v in (("mass", mass), ("inertia", inertia), ("angle", angle), ("guide", guide),
+                     ("guide_body", guide_body), ("bar", bar)):
+            if v is not None:
+                d[k] = dict(v) if isinstance(v, Mapping) else v
+        if joints:
+            d["joints"] = list(joints)
+        table = self._spec.setdefault("bodies", {})
+        if name in table:
+            raise ModelError(f"bodies.{name}: {name!r} is declared twice")
+        table[name] = d
+        return self
+
+    def load(self, **entry) -> "MechanismBuilder":
+        """Add a ``[[loads]]`` entry: ``load(at="C", body="rocker", force=["-50N", 0])``, ``load(body=..., torque=...)``,
+        ``load(spring=["A", "B"], stiffness=..., free_length=...)``, ``load(damper=[...], damping=...)``."""
+        self._spec.setdefault("loads", []).append({k: list(v) if isinstance(v, tuple) else v for k, v in entry.items()})
+        return self
+
+    def gravity(self, gx=0.0, gy="-9.81m/s^2") -> "MechanismBuilder":
+        """Set the gravity vector (components in m/s² or with a unit)."""
+        self._spec["gravity"] = [gx, gy]
+        return self
 
     # ------------------------------------------------------- kinematic diagram
     def revolute(self, name: str, at) -> "MechanismBuilder":

@@ -437,6 +437,8 @@ def _structure(ck) -> _Structure:
         nodes.union(cur, "origin" if start == "origin" else first)
     point_node = {}
     for p in mech.points:
+        if not p.plain:  # a point with factors (a centre of mass) is not a walk along whole vectors
+            continue
         cur = "origin"
         for sign, v in p.terms:
             tail, head = ("tail", v), ("head", v)

@@ -248,8 +248,9 @@ def derive(mech: Mechanism, input: str | Sequence[str] | None = None) -> Kinemat
     points: dict[str, tuple] = {}
     for p in mech.points:
         pos = sp.zeros(2, 1)
-        for sign, vn in p.terms:
-            pos += sign * vector_xy[vn]
+        for i, (sign, vn) in enumerate(p.terms):
+            f = p.factor(i)
+            pos += sign * (conv(f) if f is not None else 1) * vector_xy[vn]
         vel = pos.applyfunc(kin_tmp.D)
         acc = vel.applyfunc(kin_tmp.D)
         jerk = acc.applyfunc(kin_tmp.D)

@@ -1,0 +1,483 @@
+"""Inverse dynamics (kinetostatics): driving torque, joint forces, shaking force, energies, power balance.
+
+For a prescribed motion of the input (position, speed, acceleration at every point of a sweep),
+Newton–Euler for every moving body,
+
+    Σ F = m a_G,      Σ M_G = I α,
+
+is a linear system in the joint forces, the guide reactions (a normal force and a couple per
+sliding contact) and the driving torque (or force); it is assembled from the compiled kinematics
+and solved for all points at once. The shaking force and moment are what the mechanism exerts on
+the frame through the frame pins, the guides on the frame and the driver (moments about the
+model's origin). The power balance ``T ẋ = dE_k/dt + dV/dt − P_loads`` is reported as a residual.
+
+Sign conventions (contract): ``F_<joint>`` is the force **on** the body declared first among those
+carrying the joint **from** the other body (or the frame). Everything is SI.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .bodies import FRAME, LoadKind
+from .dynamics import DynamicsModel, kinematic_coefficients, mass_matrix_terms
+from .units import Kind
+
+__all__ = ["Layout", "layout", "inverse_dynamics", "generalized_force", "virtual_work_drive",
+           "SINGULAR_RATIO"]
+
+#: Hadamard ratio |det A| / Π‖row‖ of the Newton–Euler matrix below which a pose is reported as
+#: singular (a dead centre for the forces: the joint forces are undetermined)
+SINGULAR_RATIO = 1e-12
+_CHUNK = 4096
+
+
+def _cross(dx, dy, fx, fy):
+    return dx * fy - dy * fx
+
+
+@dataclass(frozen=True)
+class Layout:
+    """Unknowns of the Newton–Euler system: pins, guide reactions and the driver.
+
+    ``pins``: (column name, joint index in ``dm.point_names``, body index, other body index or −1);
+    ``guides``: (column name, body index, other index or −1, guide index); ``driver``: body index.
+    """
+
+    pins: tuple
+    guides: tuple
+    driver: int
+    n_unknowns: int
+    n_equations: int
+
+
+def layout(dm: DynamicsModel) -> Layout:
+    """The unknowns of the Newton–Euler system of ``dm`` (raises when it is not square)."""
+    from .errors import ModelError
+
+    names = [b.name for b in dm.bodies]
+    pins = []
+    for j, pname in enumerate(dm.point_names):
+        carriers = [i for i, b in enumerate(dm.bodies) if pname in b.joints]
+        if not carriers:
+            continue
+        if len(carriers) == 1:
+            pins.append((f"F_{pname}", j, carriers[0], -1))
+        elif len(carriers) == 2:
+            pins.append((f"F_{pname}", j, carriers[0], carriers[1]))
+        else:
+            for o in carriers[1:]:
+                pins.append((f"F_{pname}_{names[o]}", j, carriers[0], o))
+    guides = []
+    for i, b in enumerate(dm.bodies):
+        if b.guide is not None:
+            other = -1 if b.guide_body == FRAME else names.index(b.guide_body)
+            guides.append((f"{b.name}_guide", i, other, dm.guide_vectors.index(b.guide)))
+    n_u = 2 * len(pins) + 2 * len(guides) + 1
+    n_e = 3 * len(dm.bodies)
+    if n_u != n_e:
+        mech = dm.ck.mechanism
+        raise ModelError(
+            f"{mech.source or mech.name}: bodies: the joint forces cannot be found by statics: "
+            f"{len(dm.bodies)} bodies give {n_e} equations of motion but the pins, guides and the driver "
+            f"have {n_u} unknown force components (each pin 2, each guide 2, the driver 1); declare every "
+            "moving link as a body, with the joints it carries")
+    return Layout(tuple(pins), tuple(guides), names.index(dm.input_body), n_u, n_e)
+
+
+def _external(dm: DynamicsModel, e: dict, n: int):
+    """Known forces and moments (about each G) on every body, and the loads' power and potential."""
+    lf = dm.length_factor
+    nb = len(dm.bodies)
+    names = [b.name for b in dm.bodies]
+    F = np.zeros((nb, 2, n))
+    Mo = np.zeros((nb, n))
+    G, vG = e["G"] * lf, e["vG"] * lf
+    P, vP = e["P"] * lf, e["vP"] * lf
+    m = np.array([b.mass for b in dm.bodies])
+    F += m[:, None, None] * dm.gravity[None, :, None]
+    power = np.zeros(n)  # power of the non-conservative loads
+    potential = -np.sum(m[:, None] * np.einsum("k,bkn->bn", dm.gravity, G), axis=0)
+    dpot = -np.sum(m[:, None] * np.einsum("k,bkn->bn", dm.gravity, vG), axis=0)
+    slot = 0
+    pidx = {p: i for i, p in enumerate(dm.point_names)}
+
+    def apply(body, point_xy, f):
+        if body == FRAME:
+            return
+        b = names.index(body)
+        F[b] += f
+        Mo[b] += _cross(point_xy[0] - G[b, 0], point_xy[1] - G[b, 1], f[0], f[1])
+
+    frame_force = np.zeros((2, n))
+    frame_moment = np.zeros(n)
+    for ld in dm.dynamics.loads:
+        vals = e["load"][slot:slot + len(ld.values)]
+        slot += len(ld.values)
+        if ld.kind is LoadKind.FORCE:
+            j = pidx[ld.at]
+            f = np.asarray(vals)
+            apply(ld.body, P[j], f)
+            if ld.body != FRAME:
+                power += np.sum(f * vP[j], axis=0)
+        elif ld.kind is LoadKind.TORQUE:
+            if ld.body != FRAME:
+                b = names.index(ld.body)
+                Mo[b] += vals[0]
+                power += vals[0] * e["om"][b]
+        elif ld.kind in (LoadKind.SPRING, LoadKind.DAMPER):
+            a, c = pidx[ld.ends[0]], pidx[ld.ends[1]]
+            d = P[a] - P[c]
+            L = np.sqrt(np.sum(d**2, axis=0))
+            u = d / np.where(L > 0, L, 1.0)
+            Ld = np.sum(u * (vP[a] - vP[c]), axis=0)
+            if ld.kind is LoadKind.SPRING:
+                f = ld.stiffness * (L - ld.free * lf)
+                potential += 0.5 * ld.stiffness * (L - ld.free * lf) ** 2
+                dpot += f * Ld
+            else:
+                f = ld.damping * Ld
+                power -= f * Ld
+            for end, body, sgn in ((a, ld.bodies[0], -1.0), (c, ld.bodies[1], 1.0)):
+                apply(body, P[end], sgn * f * u)
+                if body == FRAME:
+                    frame_force += sgn * f * u
+                    frame_moment += _cross(P[end][0], P[end][1], sgn * f * u[0], sgn * f * u[1])
+        elif ld.kind is LoadKind.TORSION_SPRING:
+            b = names.index(ld.body)
+            tau = -ld.stiffness * (e["th"][b] - ld.free)
+            Mo[b] += tau
+            potential += 0.5 * ld.stiffness * (e["th"][b] - ld.free) ** 2
+            dpot += -tau * e["om"][b]
+        elif ld.kind is LoadKind.TORSION_DAMPER:
+            b = names.index(ld.body)
+            tau = -ld.damping * e["om"][b]
+            Mo[b] += tau
+            power += tau * e["om"][b]
+    return F, Mo, power, potential, dpot, frame_force, frame_moment
+
+
+def solve_batched(A: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Solve ``A[i] x[i] = b[i]`` for a stack of small square systems; also their Hadamard ratios.
+
+    Gaussian elimination with partial pivoting written across the stack (each step one numpy
+    operation on all systems: much faster than a LAPACK call per small matrix). The Hadamard ratio
+    ``|det A| / Π‖row‖`` is 1 for orthogonal rows and 0 for a singular matrix, whatever the scale
+    of each row; where it is 0 the solution is garbage (the caller masks it).
+
+    Examples
+    --------
+    >>> from loopsolve.kinetostatics import solve_batched
+    >>> x, r = solve_batched(np.array([[[0.0, 2.0], [1.0, 1.0]]]), np.array([[4.0, 3.0]]))
+    >>> x.round(12).tolist(), float(r[0].round(6))
+    ([[1.0, 2.0]], 0.707107)
+    """
+    M = np.ascontiguousarray(np.moveaxis(np.asarray(A, dtype=float), 0, -1))  # (n, n, N)
+    y = np.ascontiguousarray(np.asarray(b, dtype=float).T)  # (n, N)
+    x, ratio = _solve_stacked(M, y)
+    return x.T, ratio
+
+
+def _solve_stacked(M: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`solve_batched` on ``(n, n, N)`` / ``(n, N)`` arrays (overwritten); returns ``(n, N)``."""
+    n, N = y.shape
+    norms = np.prod(np.sqrt(np.einsum("ijk,ijk->ik", M, M)), axis=0)
+    absdet = np.ones(N)
+    for k in range(n):
+        col = M[k:, k, :]
+        rows = np.flatnonzero(np.any(col != 0, axis=1))  # rows that can hold the pivot
+        if rows.size:
+            piv = k + rows[np.argmax(np.abs(col[rows]), axis=0)]
+            moved = np.flatnonzero(piv != k)
+            if moved.size:
+                pk = piv[moved]
+                row = M[k, :, moved].copy()
+                M[k, :, moved] = M[pk, :, moved]
+                M[pk, :, moved] = row
+                yk = y[k, moved].copy()
+                y[k, moved] = y[pk, moved]
+                y[pk, moved] = yk
+        p = M[k, k, :]
+        absdet *= np.abs(p)
+        below = k + 1 + np.flatnonzero(np.any(M[k + 1:, k, :] != 0, axis=1))  # rows to eliminate
+        if below.size:
+            f = M[below, k, :] / np.where(p == 0, 1.0, p)
+            nzc = k + np.flatnonzero(np.any(M[k, k:, :] != 0, axis=1))  # nonzero columns of the pivot row
+            M[np.ix_(below, nzc)] -= f[:, None, :] * M[k, nzc, :][None]
+            y[below] -= f * y[k]
+    x = np.empty((n, N))
+    for k in range(n - 1, -1, -1):
+        acc = y[k] - np.einsum("jn,jn->n", M[k, k + 1:, :], x[k + 1:]) if k + 1 < n else y[k]
+        p = M[k, k, :]
+        x[k] = acc / np.where(p == 0, 1.0, p)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        ratio = np.where(norms > 0, absdet / np.where(norms > 0, norms, 1.0), 0.0)
+    return x, ratio
+
+
+def inverse_dynamics(dm: DynamicsModel, z, xd, xdd, *, rates=None) -> dict:
+    """Newton–Euler at every point: ``z`` ``(N, nvar)`` positions, ``xd``/``xdd`` input speed and acceleration.
+
+    ``xd``, ``xdd`` are in internal units (rad/s, rad/s² or length unit/s, /s²). Returns SI arrays:
+    ``drive`` (N·m or N), ``pins`` {name: (N, 2)}, ``guides`` {name: (N, 3)} (force x, y and couple),
+    ``shaking_force`` (N, 2), ``shaking_moment``, ``kinetic_energy``, ``potential_energy``,
+    ``power_residual`` (W) and ``power_scale`` (W), ``singular`` (bool), ``cond`` (the Hadamard ratio
+    of the matrix, 1 = well conditioned, 0 = singular), ``z1``, ``z2``,
+    ``residual`` (N, bodies, 3) the Newton–Euler residuals of the solution, ``force_scale``.
+    ``rates`` = ``(z1, z2)``, the ``(N, nvar)`` velocities and accelerations of this motion when
+    already known (a sweep's), skips solving for them.
+    """
+    z = np.atleast_2d(np.asarray(z, dtype=float))
+    n = z.shape[0]
+    xd = np.broadcast_to(np.asarray(xd, dtype=float), (n,))
+    xdd = np.broadcast_to(np.asarray(xdd, dtype=float), (n,))
+    lay = layout(dm)
+    if rates is None:
+        d1, d2 = kinematic_coefficients(dm.ck, z)
+        z1 = d1 * xd[:, None]
+        z2 = d1 * xdd[:, None] + d2 * (xd**2)[:, None]
+    else:  # the rates of a sweep at this input motion (consistent with xd, xdd)
+        z1, z2 = (np.asarray(r, dtype=float) for r in rates)
+        d1 = d2 = None
+    e = dm.evaluate(z.T, z1.T, z2.T)
+    lf = dm.length_factor
+    G, aG, vG = e["G"] * lf, e["aG"] * lf, e["vG"] * lf
+    P = e["P"] * lf
+    nb = len(dm.bodies)
+    m = np.array([b.mass for b in dm.bodies])
+    inertia = np.array([b.inertia for b in dm.bodies])
+    Fext, Mext, p_loads, pot, dpot, ff, fm = _external(dm, e, n)
+
+    # the matrix as (row, column, values) entries; filled and solved in chunks that stay in cache
+    entries: list = []
+    col = 0
+    for _, j, a, o in lay.pins:
+        for body, sgn in ((a, 1.0), (o, -1.0)):
+            if body < 0:
+                continue
+            dx, dy = P[j, 0] - G[body, 0], P[j, 1] - G[body, 1]
+            entries += [(3 * body, col, sgn), (3 * body + 1, col + 1, sgn),
+                        (3 * body + 2, col, -sgn * dy), (3 * body + 2, col + 1, sgn * dx)]
+        col += 2
+    for _, b, o, g in lay.guides:
+        phi = e["phi"][g]
+        nx, ny = -np.sin(phi), np.cos(phi)
+        entries += [(3 * b, col, nx), (3 * b + 1, col, ny), (3 * b + 2, col + 1, 1.0)]
+        if o >= 0:
+            dx, dy = G[b, 0] - G[o, 0], G[b, 1] - G[o, 1]
+            entries += [(3 * o, col, -nx), (3 * o + 1, col, -ny), (3 * o + 2, col, -_cross(dx, dy, nx, ny)),
+                        (3 * o + 2, col + 1, -1.0)]
+        col += 2
+    drv = lay.driver
+    if dm.input_kind is Kind.ANGLE:
+        entries.append((3 * drv + 2, col, 1.0))
+        ex = ey = None
+    else:
+        phi = e["phi"][dm.guide_vectors.index(dm.input_guide)]
+        ex, ey = np.cos(phi), np.sin(phi)
+        entries += [(3 * drv, col, ex), (3 * drv + 1, col, ey)]
+    rhs = np.zeros((n, lay.n_equations))
+    for b in range(nb):
+        rhs[:, 3 * b] = m[b] * aG[b, 0] - Fext[b, 0]
+        rhs[:, 3 * b + 1] = m[b] * aG[b, 1] - Fext[b, 1]
+        rhs[:, 3 * b + 2] = inertia[b] * e["al"][b] - Mext[b]
+
+    ne = lay.n_equations
+    u = np.empty((n, lay.n_unknowns))
+    residual = np.empty((n, ne))
+    ratio = np.empty(n)
+    eye = np.eye(ne)
+    for lo in range(0, n, _CHUNK):  # chunks that stay in cache
+        hi = min(n, lo + _CHUNK)
+        Mt = np.zeros((ne, lay.n_unknowns, hi - lo))  # (rows, columns, points)
+        for r, c, v in entries:
+            Mt[r, c] += v[lo:hi] if isinstance(v, np.ndarray) else v
+        b_ = rhs[lo:hi]
+        finite = np.all(np.isfinite(Mt), axis=(0, 1)) & np.all(np.isfinite(b_), axis=1)
+        if not finite.all():
+            Mt[:, :, ~finite] = eye[:, :, None]
+        uc, had = _solve_stacked(Mt, np.ascontiguousarray(np.where(finite[:, None], b_, 0.0).T))
+        had[~finite] = 0.0
+        bad = ~(had > SINGULAR_RATIO)
+        uc[:, bad] = np.nan
+        u[lo:hi] = uc.T
+        res = -b_.copy()
+        for r, c, v in entries:  # A u − b from the sparse entries
+            res[:, r] += (v[lo:hi] if isinstance(v, np.ndarray) else v) * uc[c]
+        residual[lo:hi] = res
+        ratio[lo:hi] = had
+    singular = ~(ratio > SINGULAR_RATIO)
+    residual = residual.reshape(n, nb, 3)
+    cond = ratio
+
+    out: dict = {"singular": singular, "cond": cond, "z1": z1, "z2": z2, "layout": lay}
+    pins, guides = {}, {}
+    col = 0
+    sf = np.zeros((n, 2))
+    sm = np.zeros(n)
+    for name, j, a, o in lay.pins:
+        f = u[:, col:col + 2]
+        pins[name] = f
+        if o < 0:
+            sf -= f
+            sm -= _cross(P[j, 0], P[j, 1], f[:, 0], f[:, 1])
+        col += 2
+    for name, b, o, g in lay.guides:
+        phi = e["phi"][g]
+        N, C = u[:, col], u[:, col + 1]
+        f = np.stack([-np.sin(phi) * N, np.cos(phi) * N], axis=1)
+        guides[name] = np.column_stack([f, C])
+        if o < 0:
+            sf -= f
+            sm -= _cross(G[b, 0], G[b, 1], f[:, 0], f[:, 1]) + C
+        col += 2
+    drive = u[:, col]
+    if ex is None:
+        sm -= drive
+        p_drive = drive * xd
+    else:
+        f = np.stack([ex * drive, ey * drive], axis=1)
+        sf -= f
+        sm -= _cross(G[drv, 0], G[drv, 1], f[:, 0], f[:, 1])
+        p_drive = drive * xd * lf
+    ke = 0.5 * np.sum(m[:, None] * np.sum(vG**2, axis=1) + inertia[:, None] * e["om"] ** 2, axis=0)
+    dke = np.sum(m[:, None] * np.sum(vG * aG, axis=1) + inertia[:, None] * e["om"] * e["al"], axis=0)
+    scale = np.abs(p_drive) + np.abs(dke) + np.abs(dpot) + np.abs(p_loads)
+    fscale = (np.sum(np.abs(m[:, None, None] * aG), axis=(0, 1)) + np.sum(np.abs(Fext), axis=(0, 1))
+              + np.abs(u).sum(axis=1))
+    out.update(drive=drive, pins=pins, guides=guides, shaking_force=sf, shaking_moment=sm,
+               kinetic_energy=ke, potential_energy=pot, power_residual=p_drive - (dke + dpot - p_loads),
+               power_scale=scale, residual=residual, force_scale=fscale, d1=d1, d2=d2)
+    return out
+
+
+def generalized_force(dm: DynamicsModel, z, xd, d1) -> np.ndarray:
+    """Q: the generalized force of gravity, loads, springs and dampers by virtual work (SI).
+
+    ``z`` and the kinematic coefficients ``d1`` are ``(N, nvar)``; ``xd`` the input speed (internal
+    units; loads and dampers may depend on it).
+    """
+    z = np.atleast_2d(z)
+    n = z.shape[0]
+    xd = np.broadcast_to(np.asarray(xd, dtype=float), (n,))
+    e1 = dm.evaluate(z.T, d1.T, np.zeros_like(z.T))  # geometric coefficients dr/dx
+    ev = dm.evaluate(z.T, (d1 * xd[:, None]).T, np.zeros_like(z.T)) if dm.loads_use_rates else e1
+    return generalized_from(dm, e1, ev["load"], xd)
+
+
+def generalized_from(dm: DynamicsModel, e1: dict, load_values, xd) -> np.ndarray:
+    """Q from an evaluation ``e1`` at the kinematic coefficients and the loads' values (see above)."""
+    s = dm.coord_factor
+    lf = dm.length_factor
+    m = np.array([b.mass for b in dm.bodies])
+    names = [b.name for b in dm.bodies]
+    pidx = {p: i for i, p in enumerate(dm.point_names)}
+    vg = e1["vG"] * lf / s
+    Q = np.sum(m[:, None] * np.einsum("k,bkn->bn", dm.gravity, vg), axis=0)
+    P = e1["P"] * lf
+    dP = e1["vP"] * lf / s
+    xs = np.asarray(xd) * s  # generalized speed (SI)
+    slot = 0
+    for ld in dm.dynamics.loads:
+        vals = load_values[slot:slot + len(ld.values)]
+        slot += len(ld.values)
+        if ld.kind is LoadKind.FORCE:
+            if ld.body != FRAME:
+                Q = Q + np.sum(np.asarray(vals) * dP[pidx[ld.at]], axis=0)
+        elif ld.kind is LoadKind.TORQUE:
+            if ld.body != FRAME:
+                Q = Q + vals[0] * e1["om"][names.index(ld.body)] / s
+        elif ld.kind in (LoadKind.SPRING, LoadKind.DAMPER):
+            a, c = pidx[ld.ends[0]], pidx[ld.ends[1]]
+            d = P[a] - P[c]
+            L = np.sqrt(np.sum(d**2, axis=0))
+            u = d / np.where(L > 0, L, 1.0)
+            dL = np.sum(u * (dP[a] - dP[c]), axis=0)
+            if ld.kind is LoadKind.SPRING:
+                Q = Q - ld.stiffness * (L - ld.free * lf) * dL
+            else:
+                Q = Q - ld.damping * dL * xs * dL
+        elif ld.kind is LoadKind.TORSION_SPRING:
+            b = names.index(ld.body)
+            Q = Q - ld.stiffness * (e1["th"][b] - ld.free) * e1["om"][b] / s
+        elif ld.kind is LoadKind.TORSION_DAMPER:
+            b = names.index(ld.body)
+            w = e1["om"][b] / s
+            Q = Q - ld.damping * w * xs * w
+    return Q
+
+
+def virtual_work_drive(dm: DynamicsModel, z, xd, xdd) -> np.ndarray:
+    """Driving torque (force) from the equation of motion: ``T = M ẍ + ½ M′ ẋ² − Q`` (SI).
+
+    Independent of the joint forces: M, M′ and Q come from the kinematic coefficients.
+    """
+    z = np.atleast_2d(np.asarray(z, dtype=float))
+    d1, d2 = kinematic_coefficients(dm.ck, z)
+    M, dM = mass_matrix_terms(dm, z, d1, d2)
+    s = dm.coord_factor
+    Q = generalized_force(dm, z, xd, d1)
+    return M * np.asarray(xdd) * s + 0.5 * dM * (np.asarray(xd) * s) ** 2 - Q
+
+
+def force_analysis(sweep, *, dynamics: DynamicsModel | None = None):
+    """Force analysis along an existing kinematic sweep (its input speed and acceleration).
+
+    Returns a :class:`~loopsolve.forceresults.ForceSweep`.
+    """
+    from .dynamics import compile_dynamics
+    from .forceresults import ForceSweep
+
+    ck = sweep.compiled
+    dm = dynamics if dynamics is not None else compile_dynamics(ck.mechanism, compiled=ck)
+    ix = ck.input_idx[0]
+    if len(sweep) == 0:
+        data = inverse_dynamics(dm, np.zeros((0, len(ck.variables))), np.zeros(0), np.zeros(0))
+    else:
+        data = inverse_dynamics(dm, sweep.z, sweep.z1[:, ix], sweep.z2[:, ix], rates=(sweep.z1, sweep.z2))
+    return ForceSweep(sweep, data)
+
+
+def forces(mech, at=None, stop=None, step=None, *, speed=None, accel=None, input=None, mode=None,
+           through_limits: bool = False, progress=False, method: str = "auto"):
+    """Driving torque, joint forces, shaking force and energies at one input or along a sweep.
+
+    ``forces(mech, 90)`` analyses one input value; ``forces(mech, 0, 360, 5)`` a sweep (the
+    arguments of :meth:`Mechanism.sweep`). ``speed``/``accel`` set the input's motion (default:
+    the model's, else 1 rad/s and 0). Results are SI.
+
+    Returns
+    -------
+    ForceSweep
+
+    Raises
+    ------
+    ModelError
+        The model declares no bodies, or the pins, guides and driver do not match the bodies.
+
+    Examples
+    --------
+    >>> mech = ls.load(ls.models_dir() / "thesis_crank_rocker_dynamics.toml")
+    >>> f = ls.forces(mech, 90, speed="60rpm")
+    >>> round(float(f["input_torque"][0]), 5)
+    0.03015
+    """
+    from .dynamics import compile_dynamics
+
+    ck = mech.compile(input)
+    dm = compile_dynamics(mech, compiled=ck)
+    if stop is None:
+        from .results import Sweep
+
+        state = mech.solve(at, speed=speed, accel=accel, input=input, mode=mode, compiled=ck)
+        sweep = Sweep(ck, [state], (), state.mode)
+    else:
+        if at is None or step is None:
+            from .errors import ModelError
+
+            raise ModelError("a force sweep needs start, stop and step: forces(mech, 0, 360, 5)")
+        sweep = mech.sweep(at, stop, step, speed=speed, accel=accel, input=input, mode=mode,
+                           through_limits=through_limits, progress=progress, method=method)
+    return force_analysis(sweep, dynamics=dm)
