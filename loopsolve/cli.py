@@ -330,6 +330,12 @@ def cmd_forces(args) -> int:
     from .errors import ModelError
     from .kinetostatics import forces
 
+    _check_output(args.output)
+    if args.plot:
+        from .plotting import check_output
+
+        check_output(args.plot, "figure")
+        _check_output(args.plot)
     mech = _load(args.model)
     sweep_args = (args.start, args.stop, args.step)
     if any(a is not None for a in sweep_args):
@@ -342,11 +348,10 @@ def cmd_forces(args) -> int:
     fw = result.flywheel(args.flywheel) if args.flywheel is not None else None
     if args.plot:
         from .forceplots import plot_forces
-        from .plotting import check_output
 
-        check_output(args.plot, "figure")
-        plot_forces(result, output=args.plot, flywheel=fw)
-        print(f"wrote {args.plot}", file=sys.stderr)
+        with _output(args.plot) as tmp:
+            plot_forces(result, output=tmp, flywheel=fw)
+        print(f"wrote {_one_line(args.plot)}", file=sys.stderr)
     if args.format == "json":
         text = result.to_json(flywheel=fw) + "\n"
     elif args.format == "csv":
@@ -362,6 +367,7 @@ def cmd_forces(args) -> int:
 def cmd_simulate(args) -> int:
     from .simulation import simulate
 
+    _check_output(args.output)
     mech = _load(args.model)
     sim = simulate(mech, args.duration, step=args.step, torque=args.torque, speed0=args.speed0, at=args.at,
                    input=args.input, mode=args.mode)

@@ -200,7 +200,6 @@ def compile_dynamics(mech: Mechanism, input=None, *, compiled: CompiledKinematic
         fns = _derive_function(mech, inputs, dyn, points, guides, slots)
         with _LOCK:
             _MEMO[key] = fns
-    u = mech.units
     return DynamicsModel(ck=ck, dynamics=dyn, bodies=dyn.bodies, point_names=tuple(points),
                          guide_vectors=tuple(guides), load_slots=tuple(slots), input_body=input_body,
                          input_kind=input_kind, input_guide=input_guide,

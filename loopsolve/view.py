@@ -283,6 +283,30 @@ def _event_rows(x: np.ndarray, events) -> list[int]:
     return rows
 
 
+def force_series(sweep) -> dict:
+    """The driving torque (or force) per row when the model declares mass properties, else ``{}``.
+
+    A page of a model with ``[bodies]`` plots it next to the chosen variables (the default
+    ``extra_series`` of :func:`to_html`); pass ``extra_series={}`` to leave it out.
+
+    Examples
+    --------
+    >>> from loopsolve.view import force_series
+    >>> sw = ls.load(ls.models_dir() / "thesis_crank_rocker_dynamics.toml").sweep(0, 360, 90)
+    >>> [(k, len(v)) for k, v in force_series(sw).items()]
+    [('input_torque [N*m]', 5)]
+    >>> force_series(ls.load(ls.models_dir() / "thesis_crank_rocker.toml").sweep(0, 360, 90))
+    {}
+    """
+    if getattr(sweep.mechanism, "dynamics", None) is None or len(sweep) == 0:
+        return {}
+    from .kinetostatics import force_analysis
+
+    fs = force_analysis(sweep)
+    unit = "N*m" if fs.drive_name == "input_torque" else "N"
+    return {f"{fs.drive_name} [{unit}]": np.asarray(fs.drive, dtype=float)}
+
+
 def page_data(sweep, vars=None, *, extra_series=None, title=None) -> dict:
     """Everything the page shows, as plain JSON-ready data (see :func:`to_html` for the arguments).
 
@@ -324,8 +348,10 @@ def page_data(sweep, vars=None, *, extra_series=None, title=None) -> dict:
                        "units": [_pretty_unit(units[name + s]) for s in ("", "_vel", "_acc")],
                        "angular": angular, "wrap": period,
                        "q": [_nums(pos), _nums(cols[name + "_vel"]), _nums(cols[name + "_acc"])]})
+    if extra_series is None:
+        extra_series = force_series(sweep)
     extras = []
-    for key, values in (extra_series or {}).items():
+    for key, values in extra_series.items():
         values = np.asarray(values, dtype=float).ravel()
         if values.shape != (n,):
             raise ModelError(f"extra series {key!r} has {values.size} values; the sweep has {n} rows")
@@ -384,7 +410,8 @@ def to_html(sweep, vars=None, *, extra_series=None, title=None) -> str:
         (``C_x``) to plot against the input. Default: the unknowns.
     extra_series : mapping of str to array, optional
         More quantities to plot and tabulate, one value per row, keyed ``"name [unit]"``
-        (for example the driving torque of a force analysis: ``{"input_torque [N*m]": tau}``).
+        (for example ``{"input_torque [N*m]": tau}``). Default: the driving torque (force) of
+        the force analysis when the model declares ``[bodies]`` (:func:`force_series`), else none.
     title : str, optional
         The page's title; default the mechanism's name.
 

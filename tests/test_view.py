@@ -128,6 +128,21 @@ def test_extra_series_and_errors():
         ls.Sweep(sw.compiled).to_html()
 
 
+def test_models_with_bodies_plot_the_driving_torque(tmp_path):
+    """With [bodies] the page carries the driving torque of the force analysis, row by row."""
+    mech = ls.load(ls.models_dir() / "thesis_crank_rocker_dynamics.toml")
+    sw = mech.sweep(0, 360, 30)
+    extra = page_data(sw)["extra"]
+    assert [(e["name"], e["unit"]) for e in extra] == [("input_torque", "N·m")]
+    assert np.allclose(extra[0]["q"][0], ls.forces(mech, 0, 360, 30).drive, rtol=1e-10, atol=0)  # 12 digits
+    assert page_data(sw, extra_series={})["extra"] == []          # opt out
+    assert page_data(sweep_of(ls.models_dir() / "thesis_crank_rocker.toml"))["extra"] == []  # no bodies: none
+    out = tmp_path / "dyn.html"
+    args = build_parser().parse_args(["view", str(ls.models_dir() / "thesis_crank_rocker_dynamics.toml"),
+                                      "--from", "0", "--to", "360", "--step", "30", "-q", "-o", str(out)])
+    assert to_html(_sweep_for(args)) == to_html(sw) and "input_torque" in to_html(sw)
+
+
 def test_cli_errors(tmp_path):
     from loopsolve.cli import main
 
