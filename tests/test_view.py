@@ -140,7 +140,8 @@ def test_models_with_bodies_plot_the_driving_torque(tmp_path):
     out = tmp_path / "dyn.html"
     args = build_parser().parse_args(["view", str(ls.models_dir() / "thesis_crank_rocker_dynamics.toml"),
                                       "--from", "0", "--to", "360", "--step", "30", "-q", "-o", str(out)])
-    assert to_html(_sweep_for(args)) == to_html(sw) and "input_torque" in to_html(sw)
+    same = mech.sweep("0", "360", "30")  # the command line passes strings (see test_cli_page_equals_to_html)
+    assert to_html(_sweep_for(args)) == to_html(same) and "input_torque" in to_html(same)
 
 
 def test_cli_errors(tmp_path):
