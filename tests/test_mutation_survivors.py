@@ -25,3 +25,72 @@ def test_state_table_ends_with_its_last_section(capsys):
     assert main(["solve", str(ls.models_dir() / "example1_slider_crank.toml")]) == 0
     printed = capsys.readouterr().out
     assert printed.endswith("\n") and printed.rstrip("\n").splitlines()[-1].split()[0] == "C"
+
+
+def _cos_angle(a, b, opposite):
+    """Angle [deg] between sides a and b of a triangle, from the side opposite it (law of cosines)."""
+    return math.degrees(math.acos((a * a + b * b - opposite * opposite) / (2 * a * b)))
+
+
+def test_info_fourbar_values_by_hand():
+    """loopsolve.info.x_info__mutmut_39/189/239 renamed the variables' key, dropped the crank length
+    from the input range and reported the transmission angle's maximum twice."""
+    data = ls.load(ls.models_dir() / "thesis_crank_rocker.toml").info()
+    assert [(v["name"], v["kind"], v["input"]) for v in data["variables"]] == [
+        ("theta2", "angle", True), ("theta3", "angle", False), ("theta4", "angle", False)]
+    (fb,) = data["fourbars"]
+    assert fb["links"] == {"ground": "r1", "crank": "r2", "coupler": "r3", "rocker": "r4"}
+    # transmission angle (coupler r3 = 70 to rocker r4 = 45) is extreme with the crank along the ground:
+    # the diagonal B-O4 is then r1 - r2 = 35 or r1 + r2 = 85
+    lo, hi = fb["transmission_angle_range"]
+    assert lo == _approx(_cos_angle(70, 45, 35)) and hi == _approx(_cos_angle(70, 45, 85))
+    data = ls.load(ls.models_dir() / "double_rocker.toml").info()
+    (fb,) = data["fourbars"]
+    assert fb["grashof"] == "double rocker"
+    # r1 = 60, r2 = 50, r3 = 20, r4 = 45: the crank stops where B-O4 = r3 + r4 = 65 or |r3 - r4| = 25
+    a, b = _cos_angle(60, 50, 65), _cos_angle(60, 50, 25)
+    assert [list(r) for r in fb["input_range"]] == [[_approx(-a), _approx(-b)], [_approx(b), _approx(a)]]
+
+
+def test_info_quick_return_by_hand():
+    """loopsolve.info.x_info__mutmut_139 lost the angle conversion of the quick-return figures."""
+    (qr,) = ls.load(ls.models_dir() / "quick_return.toml").info()["quick_return"]
+    # crank r2 = 100 on pivot distance d = 200: the lever's extremes are tangent to the crank circle,
+    # crank angle between them 2*acos(r2/d) for the return, the rest for the advance
+    ret = math.degrees(2 * math.acos(100 / 200))
+    assert qr["return_angle"] == _approx(ret) and qr["advance_angle"] == _approx(360 - ret)
+    assert qr["time_ratio"] == _approx((360 - ret) / ret)
+    assert qr["rocking_angle"] == _approx(2 * math.degrees(math.asin(100 / 200)))
+
+
+def test_info_topology_of_a_diagram_model():
+    """loopsolve.info.x_info__mutmut_89 renamed the joints count of a diagram model's topology."""
+    topo = ls.load(ls.models_dir() / "thesis_crank_rocker_diagram.toml").info()["topology"]
+    assert (topo["links"], topo["joints"]) == (4, 4)  # ground, crank, coupler, rocker; four pins
+
+
+def _approx(x):
+    import pytest
+
+    return pytest.approx(x, abs=1e-9)
+
+
+def test_a_warm_disk_cache_is_used_without_deriving(tmp_path, monkeypatch):
+    """loopsolve.compiled.x__fits__mutmut_17 rejected every good cache file (sympy on every call).
+    In-process twin of test_compiled's subprocess test, which mutmut cannot see."""
+    import loopsolve.symbolic
+    from loopsolve import compiled
+
+    monkeypatch.setattr(compiled, "_MEMO", {})
+    monkeypatch.setenv("LOOPSOLVE_CACHE_DIR", str(tmp_path))
+    mech = ls.load(ls.models_dir() / "thesis_crank_rocker.toml")
+    mech.compile()
+    assert len(list(tmp_path.glob("m_*.py"))) == 1
+    compiled._MEMO.clear()
+
+    def no_sympy(*args, **kwargs):
+        raise AssertionError("derived again although a valid cache file exists")
+
+    monkeypatch.setattr(loopsolve.symbolic, "derive", no_sympy)
+    ck = mech.compile()
+    assert ck.points == ("B", "C") and ck.unknowns == ("theta3", "theta4")
