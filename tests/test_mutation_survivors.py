@@ -8,6 +8,8 @@ from __future__ import annotations
 
 import math
 
+import pytest
+
 import loopsolve as ls
 from loopsolve import export
 from loopsolve.cli import main
@@ -70,8 +72,6 @@ def test_info_topology_of_a_diagram_model():
 
 
 def _approx(x):
-    import pytest
-
     return pytest.approx(x, abs=1e-9)
 
 
@@ -94,3 +94,27 @@ def test_a_warm_disk_cache_is_used_without_deriving(tmp_path, monkeypatch):
     monkeypatch.setattr(loopsolve.symbolic, "derive", no_sympy)
     ck = mech.compile()
     assert ck.points == ("B", "C") and ck.unknowns == ("theta3", "theta4")
+
+
+def test_info_table_lines_by_hand(capsys):
+    """loopsolve.info.x_format_info__mutmut_15/115/165/215 and x__quick_returns__mutmut_156/256:
+    the printed ``loopsolve info`` lines of a four-bar and of a crank-shaper (crank 40 on frame 100)."""
+    assert main(["info", str(ls.models_dir() / "thesis_crank_rocker.toml")]) == 0
+    out = capsys.readouterr().out
+    first = out.splitlines()[0]
+    assert first.startswith("Crank-rocker four-bar  (") and first.endswith("thesis_crank_rocker.toml)")
+    assert "ground r1, crank r2, coupler r3, rocker r4: crank-rocker" in out
+    assert f"transmission angle (deg): {_cos_angle(70, 45, 35):.6g} to {_cos_angle(70, 45, 85):.6g}" in out
+    assert main(["info", str(ls.models_dir() / "crank_shaper.toml")]) == 0
+    out = capsys.readouterr().out
+    ret = math.degrees(2 * math.acos(40 / 100))
+    assert "crank r_crank = 40, frame d = 100, lever theta_lever, slide s_slot" in out
+    assert f"time ratio {(360 - ret) / ret:.6g} (advance {360 - ret:.6g}, return {ret:.6g} deg)" in out
+    assert f"lever swing {2 * math.degrees(math.asin(0.4)):.6g} deg" in out
+    (qr,) = ls.load(ls.models_dir() / "crank_shaper.toml").info()["quick_return"]
+    (ram,) = qr["rams"]
+    # the ram's extremes are at the lever's (rod term even in the lever angle): stroke = 2 |O4 D| sin(swing/2)
+    lever = math.hypot(74.278135, 185.695338)
+    assert ram["max"] - ram["min"] == pytest.approx(2 * lever * 0.4, rel=1e-8)
+    assert f"({ram['min']:.6g} to {ram['max']:.6g})" in out
+    assert ram["advance_angle"] + ram["return_angle"] == _approx(360)
