@@ -148,3 +148,15 @@ def test_info_table_of_a_model_without_a_file():
 
     mech = ls.fourbar(60, 25, 70, 45)
     assert format_info(mech.info()).splitlines()[0] == mech.name
+
+
+def test_a_nan_residual_at_the_start_is_a_solve_error():
+    """loopsolve.newton.x_newton__mutmut_59 broke the NOT_FINITE result (a bare TypeError escaped).
+    The vector r1 is r1 + sqrt(r1 - 9) long: from the guess r1 = 5 the residual is NaN at once."""
+    text = (ls.models_dir() / "example1_slider_crank.toml").read_text()
+    text = text.replace('r1 = { length = "r1", angle = 0 }', 'r1 = { length = "r1 + 0.001*sqrt(r1 - 9)", angle = 0 }')
+    text = text.replace("r1 = { guess = 10.7 }", 'r1 = { guess = 5, kind = "length" }')
+    mech = ls.loads(text, source="nan_start.toml")
+    with pytest.raises(ls.SolveError) as info:
+        mech.solve(45)
+    assert "NaN" in str(info.value) or "finite" in str(info.value)
