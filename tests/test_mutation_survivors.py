@@ -160,3 +160,16 @@ def test_a_nan_residual_at_the_start_is_a_solve_error():
     with pytest.raises(ls.SolveError) as info:
         mech.solve(45)
     assert "NaN" in str(info.value) or "finite" in str(info.value)
+
+
+def test_angle_literals_with_a_unit_in_expressions():
+    """loopsolve.symbolic.x_to_sympy__mutmut_12 / x__angle_const__mutmut_1 (no test used a literal
+    such as ``30deg`` inside an expression): in a radian model ``theta2 + 30deg`` is theta2 + pi/6,
+    in a degree model ``theta2 + 0.5rad`` is theta2 + 28.6479 deg."""
+    from test_cache_key import assert_is_a_closure, fourbar_positions, model, solve_rad
+
+    deg = math.pi / 180
+    rad_model = model(angle="rad", ab_angle="theta2 + 30deg", guesses=(0.7, 1.0, 1.7))
+    assert_is_a_closure(*solve_rad(rad_model, 0.7), fourbar_positions(20, 66, 56, 80, 10.0, 0.7 + math.pi / 6))
+    deg_model = model(ab_angle="theta2 + 0.5rad")
+    assert_is_a_closure(*solve_rad(deg_model, 40.0), fourbar_positions(20, 66, 56, 80, 10 * deg, 40 * deg + 0.5))
