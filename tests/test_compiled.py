@@ -6,6 +6,7 @@ compiles (sympy), the second must find the cached module and never import sympy.
 
 from __future__ import annotations
 
+import math
 import os
 import subprocess
 import sys
@@ -21,6 +22,28 @@ from loopsolve.compiled import cache_dir, structure_key
 
 MODELS = sorted(ls.models_dir().glob("*.toml"))
 THESIS = ls.models_dir() / "thesis_crank_rocker.toml"
+
+
+def _thesis_theta4(t2_deg: float) -> float:
+    """theta4 [deg] of the thesis four-bar (60, 25, 70, 45), open mode, by the law of cosines."""
+    t2 = math.radians(t2_deg)
+    bx, by = 25 * math.cos(t2), 25 * math.sin(t2)
+    d = math.hypot(60 - bx, by)  # B to O4
+    beta = math.atan2(-by, 60 - bx)  # direction O4 -> ... seen from B
+    gamma = math.acos((45 ** 2 + d ** 2 - 70 ** 2) / (2 * 45 * d))  # angle at O4 between O4->B and O4->C
+    return math.degrees(beta + math.pi - gamma) % 360
+
+
+def _example1_r1_with_extra_term() -> float:
+    """The edited example-1 slider: r1 + 0.001*sqrt(r1 - 9) = 5 cos 45 + sqrt(64 - 12.5) (Newton here)."""
+    target = 5 * math.cos(math.radians(45)) + math.sqrt(64 - (5 * math.sin(math.radians(45))) ** 2)
+    r = target
+    for _ in range(50):
+        r -= (r + 0.001 * math.sqrt(r - 9) - target) / (1 + 0.0005 / math.sqrt(r - 9))
+    return r
+
+
+THESIS_THETA4_AT_90 = _thesis_theta4(90.0)
 
 
 def _python(code: str, cache, *, check=True):
@@ -87,7 +110,7 @@ def test_corrupt_cache_file_is_regenerated(tmp_path, monkeypatch):
         ck = _fresh_compile(mech)
         np.testing.assert_array_equal(ck.phi(np.array([1.0, 0.2, 1.3])), reference)
         assert path.read_text() == good  # regenerated on disk as well
-        assert mech.solve(90)["theta4"] == pytest.approx(80.7225, abs=1e-4)
+        assert mech.solve(90)["theta4"] == pytest.approx(THESIS_THETA4_AT_90, abs=1e-11)
 
 
 def test_cache_can_be_disabled(tmp_path, monkeypatch):
@@ -110,7 +133,7 @@ def test_unwritable_cache_still_solves(tmp_path, monkeypatch):
     monkeypatch.setenv("LOOPSOLVE_CACHE_DIR", str(blocker / "cache"))
     mech = ls.load(THESIS)
     ck = _fresh_compile(mech)
-    assert mech.solve(90, compiled=ck)["theta4"] == pytest.approx(80.7225, abs=1e-4)
+    assert mech.solve(90, compiled=ck)["theta4"] == pytest.approx(THESIS_THETA4_AT_90, abs=1e-11)
 
 
 def test_structure_key_ignores_parameter_values_but_not_structure():
@@ -166,6 +189,7 @@ def test_math_domain_errors_become_nan_not_exceptions():
     ck = mech.compile()
     z = np.array([np.pi, 0.0, 3.0])  # r1 - 9 < 0
     assert np.all(np.isnan(ck.phi(z))) and np.all(np.isnan(ck.jac(z)))
-    assert mech.solve(45)["r1"] == pytest.approx(10.7106, abs=1e-4)
+    # the vector r1 is r1 + 0.001*sqrt(r1 - 9) long, and that length is 5 cos 45 + sqrt(64 - (5 sin 45)^2)
+    assert mech.solve(45)["r1"] == pytest.approx(_example1_r1_with_extra_term(), abs=1e-12)
     with pytest.raises(ls.SolveError):  # at 180 deg the slider would sit at r1 = 3 < 9: no real solution
         mech.solve(180)

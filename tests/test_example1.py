@@ -50,12 +50,15 @@ def state():
     return mech.solve()  # the model declares θ2 = 45°, 10 rad/s, 0 rad/s²
 
 
-def test_hand_solution_numbers():
-    """The hand solution itself (rounded as a student would write it down)."""
+def test_hand_solution_numbers(state):
+    """The hand solution (rounded as a student would write it down), and loopsolve's, rounded alike."""
     assert round(math.degrees(TH3), 4) == -26.2278
     assert round(R1, 4) == 10.7119
     assert (round(W3, 4), round(R1_DOT, 4)) == (-4.9266, -52.7737)
     assert (round(A3, 3), round(R1_DDOT, 3)) == (37.309, -395.831)
+    assert (round(state["theta3"], 4), round(state["r1"], 4)) == (-26.2278, 10.7119)
+    assert (round(state["theta3_vel"], 4), round(state["r1_vel"], 4)) == (-4.9266, -52.7737)
+    assert (round(state["theta3_acc"], 3), round(state["r1_acc"], 3)) == (37.309, -395.831)
 
 
 def test_model_is_at_the_example_input(state):
@@ -91,10 +94,11 @@ def test_acceleration_of_c_and_alpha3(state):
     assert state["C_y_acc"] == pytest.approx(0.0, abs=1e-10)
 
 
-def test_printed_acceleration_matrix_sign_is_a_typo():
+def test_printed_acceleration_matrix_sign_is_a_typo(state):
     """Solving the notes' printed matrix [[+cos θ1, −r3 sin θ3], [−sin θ1, r3 cos θ3]] flips r̈1.
 
     The component equations (and loopsolve) give r̈1 = R1_DDOT; the matrix as printed gives −R1_DDOT.
+    loopsolve's own coefficient matrix Φ_q (columns r1, θ3) at the solution is the corrected one.
     """
     rhs = np.array([R2 * A2 * math.sin(TH2) + R2 * W2**2 * math.cos(TH2) + R3 * W3**2 * math.cos(TH3),
                     -R2 * A2 * math.cos(TH2) + R2 * W2**2 * math.sin(TH2) + R3 * W3**2 * math.sin(TH3)])
@@ -104,6 +108,14 @@ def test_printed_acceleration_matrix_sign_is_a_typo():
     r_correct, a3_correct = np.linalg.solve(correct, rhs)
     assert r_correct == pytest.approx(R1_DDOT, rel=1e-12) and a3_correct == pytest.approx(A3, rel=1e-12)
     assert r_printed == pytest.approx(-R1_DDOT, rel=1e-12) and a3_printed == pytest.approx(A3, rel=1e-12)
+    # loopsolve: its r̈1 is the corrected one, and so is its matrix (Φ_q columns in the order r1, θ3)
+    assert state["r1_acc"] == pytest.approx(r_correct, rel=1e-12)
+    assert abs(state["r1_acc"] - r_printed) > 700
+    ck = state.compiled
+    cols = [ck.unknowns.index("r1"), ck.unknowns.index("theta3")]
+    jac = ck.jac(state.z)[:, cols]
+    np.testing.assert_allclose(jac, correct, rtol=1e-13, atol=1e-13)
+    assert np.max(np.abs(jac - printed)) == pytest.approx(2.0)  # differs in the top-left entry
 
 
 def test_inversion_gives_back_the_crank_angle():

@@ -222,6 +222,30 @@ def test_assembly_failures_are_typed(model):
         assert info.value.input_value == pytest.approx(x / k)
 
 
+def test_assembly_failures_are_typed_when_an_unknown_drives(model):
+    """Every model: driving an unknown with a bounded range (a rocker, a slider...) outside that range
+    is an AssemblyError naming the input value (the test above only bites on models whose own input
+    is bounded)."""
+    name, mech, ck0 = model
+    for u in ck0.unknowns:
+        inputs = [u if n == ck0.inputs[0] else n for n in ck0.inputs]
+        ck = mech.compile(inputs)
+        try:
+            missing = [x for x, z in _trace(ck, _samples(ck)) if z is None]
+        except ls.ConvergenceError:
+            continue
+        if missing:
+            break
+    else:
+        pytest.fail(f"{name}: no unknown of bounded range found")
+    i = ck.input_idx[0]
+    k = angle_factor(mech.units.angle) if ck.kinds[i] is Kind.ANGLE else 1.0
+    for x in missing[:: max(1, len(missing) // 3)]:
+        with pytest.raises(ls.AssemblyError) as info:
+            mech.solve(x / k, compiled=ck)
+        assert info.value.input_value == pytest.approx(x / k)
+
+
 # ----------------------------------------------------------------------------- rates vs finite differences
 
 

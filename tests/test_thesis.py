@@ -70,13 +70,26 @@ def rows(mech):
     return _table(mech)
 
 
+#: SHA-256 of /work/shared/reference/thesis_crank_rocker.json (the project's published numbers),
+#: recorded when tests/data was copied from it, so the copy is checked even where ../shared is absent
+SHARED_REFERENCE_SHA256 = "5badb3f301f1bd87f3ebfae22bd993e066128b13c5d84727f54ae386e5c064b0"
+
+
 def test_reference_copy_matches_shared_reference():
     """tests/data holds the shared reference verbatim (provenance: its ``source`` field)."""
+    import hashlib
+
+    assert hashlib.sha256(DATA.read_bytes()).hexdigest() == SHARED_REFERENCE_SHA256
     shared = Path(__file__).resolve().parents[2] / "shared" / "reference" / "thesis_crank_rocker.json"
     if shared.exists():  # the shared tree sits beside the repository in the project workspace
         assert json.loads(shared.read_text()) == REF
     assert "001_6bcfc5c45935de12" in REF["source"]
     assert REF["mechanism"]["ground_L1_mm"] == L1 and REF["mechanism"]["rocker_L4_mm"] == L4
+    # both published tables are here, complete: 13 rows of every column
+    for table in (EXCEL, SW):
+        assert table and all(len(v) == len(THETA2) for v in table.values()), table.keys()
+    assert set(SW) >= {"theta3_deg", "theta4_inner_deg", "abs_omega3_deg_s", "abs_omega4_deg_s",
+                       "abs_alpha3_deg_s2", "abs_alpha4_deg_s2"}
 
 
 def test_model_runs_at_exact_10_rpm(rows):
@@ -181,9 +194,21 @@ def test_alpha4_wrong_excel_rows_are_recorded(rows):
     assert solver[k] < 0 < printed[k]
 
 
-def test_excel_alpha4_is_the_printed_eq25_typo():
-    """Every printed Excel α4 (right or wrong) is eq. (25) as printed in the thesis, rounded."""
-    assert np.all(np.abs(_alpha4_thesis_eq25() - np.array(EXCEL["alpha4_rad_s2"])) <= ROUND)
+def test_excel_alpha4_is_the_printed_eq25_typo(rows):
+    """Every printed Excel α4 (right or wrong) is eq. (25) as printed in the thesis, rounded —
+    evaluated on loopsolve's solved θ3, θ4, ω3 as well as on the classic closed forms."""
+    printed = np.array(EXCEL["alpha4_rad_s2"])
+    assert np.all(np.abs(_alpha4_thesis_eq25() - printed) <= ROUND)
+    t2 = np.radians(THETA2)
+    t3 = np.radians([s["theta3"] for s in rows])
+    t4 = np.radians([s["theta4"] for s in rows])
+    w3 = np.array([s["theta3_vel"] for s in rows])
+    eq25 = (OMEGA2**2 * L2 * np.cos(t2 - t3) + w3**2 * L3 - w3**2 * L4 * np.cos(t4 - t3)) / (L4 * np.sin(t4 - t3))
+    assert np.all(np.abs(eq25 - printed) <= ROUND)
+    # with ω4² (Myszka's formula) the same expression is loopsolve's α4, not the printed column
+    w4 = np.array([s["theta4_vel"] for s in rows])
+    fixed = (OMEGA2**2 * L2 * np.cos(t2 - t3) + w3**2 * L3 - w4**2 * L4 * np.cos(t4 - t3)) / (L4 * np.sin(t4 - t3))
+    np.testing.assert_allclose(fixed, [s["theta4_acc"] for s in rows], rtol=1e-10, atol=1e-12)
 
 
 def test_solidworks_agrees_with_the_correct_alpha4(mech):
