@@ -206,15 +206,14 @@ def test_parameter_values_are_not_baked_in(tmp_path, monkeypatch):
     monkeypatch.setenv("LOOPSOLVE_CACHE_DIR", str(tmp_path))
     base = model()
     cases = [(20, 66, 56, 80), (25, 66, 56, 80), (20, 70, 56, 80), (20, 66, 50, 80), (20, 66, 56, 75)]
-    mods = set()
     for a, b, c, d in cases:
         m = base.with_parameters(AB=a, BC=b, CD=c, AD=d)
         assert structure_key(m, m.inputs) == structure_key(base, base.inputs)
         ck = fresh(m)
-        mods.add(ck.module.__file__)
         np.testing.assert_array_equal(ck.p, [d, a, b, c])  # declaration order AD, AB, BC, CD
         assert_is_a_closure(*solve_rad(m, 40.0), fourbar_positions(a, b, c, d, 10 * DEG, 40 * DEG))
-    assert len(mods) == 1  # the disk file is shared: parameter values are really run-time inputs
+    # one disk file serves them all: parameter values are really run-time inputs
+    assert len(list(tmp_path.glob("m_*.py"))) == 1
     # a file edit of a parameter value alone gives the new number, not the cached one
     m = model(AB="27")
     fresh(m)
