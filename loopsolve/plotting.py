@@ -4,22 +4,10 @@ Nothing here runs at import time: matplotlib is imported inside the functions, a
 are made with the object-oriented API on an Agg canvas (``matplotlib.figure.Figure``), so
 the global pyplot state and backend of the caller (a script, a notebook) are never touched.
 
-The kinematic diagram is rebuilt from the solved state alone:
-
-* every vector is placed by walking the loops (``lhs`` forward, ``rhs`` backward, starting at
-  the origin or at a vector an earlier loop already placed) and then the points of interest
-  (sums of vectors from the origin), with the lengths and angles of
-  :meth:`CompiledKinematics.vector_values`;
-* a vector whose length and angle do not depend on any variable is *ground* when one of its
-  ends is fixed (the origin is); its ends are fixed points;
-* a vector whose angle depends on variables and whose length is constant is part of a *link*;
-  vectors whose angles depend on the same variables are the same rigid link (a link with
-  three or more joints is drawn as a filled polygon: a ternary link is a triangle);
-* a vector whose length is a variable is a *slider*: a block at its tip on a guide along it
-  (a fixed guide, hatched, when its angle is constant; a slotted lever when it rotates).
-
-A model written as a kinematic diagram (``[joints]``/``[links]``, see :mod:`loopsolve.diagram`)
-is drawn from its links and joints instead, when its ``spec`` still carries them.
+This module only renders. What is drawn for a pose (links, joints, ground pivots, blocks on
+guides, slotted levers, labels, vector arrows) and the style shared by the frames of a
+picture come from :mod:`loopsolve.geometry`, which the interactive page
+(:mod:`loopsolve.view`) uses too.
 """
 
 from __future__ import annotations
@@ -28,12 +16,13 @@ import math
 import re
 import shutil
 import sys
-from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
 from .errors import LoopsolveError, MissingDependencyError, ModelError
+from .geometry import (LINK_COLORS, Frame, Style, arrow_label_sides, drawing_style, hull_order, label_placements,
+                       mode_label, plot_vars, polygon_area, pose_frames, unwrapped)
 
 __all__ = ["plot_sweep", "draw", "animate", "check_output", "tex_name", "FIGURE_FORMATS", "ANIMATION_FORMATS"]
 
@@ -47,7 +36,6 @@ _GREEK = ("alpha", "beta", "gamma", "delta", "epsilon", "zeta", "eta", "theta", 
           "mu", "nu", "xi", "pi", "rho", "sigma", "tau", "upsilon", "phi", "chi", "psi", "omega")
 _EVENT_STYLE = {"limit": ("tab:red", "--"), "singular": ("tab:orange", "-."),
                 "not-assemblable": ("0.4", ":"), "mode-change": ("tab:purple", "--")}
-_LINK_COLORS = ("#1f4e79", "#b03a2e", "#1e8449", "#7d3c98", "#b9770e", "#117a65", "#5d6d7e", "#a04000")
 
 
 # ----------------------------------------------------------------------------------- imports
@@ -163,37 +151,6 @@ def _pretty_unit(unit: str) -> str:
     return unit.replace("^2", "\u00b2").replace("^3", "\u00b3")
 
 
-def _plot_vars(sweep, vars) -> list[str]:
-    ck = sweep.compiled
-    if vars is None:
-        return list(ck.unknowns)
-    if isinstance(vars, str):
-        vars = [vars]
-    out: list[str] = []
-    for v in vars:
-        if v in ck.variables or v in {f"{p}_{c}" for p in ck.points for c in "xy"}:
-            out.append(v)
-        elif v in ck.points:
-            out += [f"{v}_x", f"{v}_y"]
-        else:
-            raise ModelError(f"cannot plot {v!r}: choose variables ({', '.join(ck.variables)}), points "
-                             f"({', '.join(ck.points) or 'none'}) or point coordinates such as "
-                             f"{(ck.points[0] if ck.points else 'P')}_x")
-    return list(dict.fromkeys(out))
-
-
-def _unwrapped(values: np.ndarray, unit: str) -> np.ndarray:
-    """Angles tracked continuously (the table wraps them to (−180°, 180°])."""
-    period = 360.0 if unit == "deg" else 2 * math.pi
-    good = np.isfinite(values)
-    if good.sum() < 2:
-        return values
-    out = values.copy()
-    out[good] = np.unwrap(values[good], period=period)
-    shift = period * np.round(np.nanmean(out) / period)
-    return out - shift
-
-
 def _angle_ticks(ax, lo: float, hi: float, unit: str) -> None:
     if unit != "deg" or not np.isfinite([lo, hi]).all() or hi - lo < 90:
         return
@@ -259,7 +216,7 @@ def plot_sweep(sweep, vars=None, *, output=None):
     >>> [ax.get_ylabel() for ax in fig.axes]
     ['angle [deg]', 'angular velocity [rad/s]', 'angular acceleration [rad/s²]']
     """
-    names = _plot_vars(sweep, vars)
+    names = plot_vars(sweep, vars)
     ck = sweep.compiled
     units = sweep.units()
     cols = sweep.columns
@@ -281,7 +238,7 @@ def plot_sweep(sweep, vars=None, *, output=None):
             for k, n in enumerate(members):
                 y = np.array(cols[n + suffix], dtype=float)
                 if r == 0 and angular and n in ck.variables:
-                    y = _unwrapped(y, unit)
+                    y = unwrapped(y, unit)
                 if r > 0:  # at a limit position the rates are unbounded: no value there
                     y[at_limit] = np.nan
                 style = "-o" if len(x) < 40 else "-"
@@ -300,7 +257,7 @@ def plot_sweep(sweep, vars=None, *, output=None):
         if len(x):
             _angle_ticks(axes[-1, c], float(np.nanmin(x)), float(np.nanmax(x)), x_unit)
     modes = [m for m in dict.fromkeys([sweep.mode] + [st.mode for st in sweep.states]) if m]
-    mode = (", mode " + " → ".join(_mode_label(ck.mechanism, m) for m in modes)) if modes else ""
+    mode = (", mode " + " → ".join(mode_label(ck.mechanism, m) for m in modes)) if modes else ""
     fig.suptitle(f"{ck.mechanism.name}{mode}\n{_rate_note(sweep)}", fontsize=11)
     if output is not None:
         _save(fig, output)
@@ -354,458 +311,7 @@ def _mark_events(ax, events, *, legend: bool) -> None:
                    zorder=1.5 if kind == "limit" else 2)
 
 
-# ------------------------------------------------------------------------- diagram geometry
-class _Nodes:
-    """Union-find over vector ends: ``("tail", v)``, ``("head", v)`` and ``"origin"``."""
-
-    def __init__(self):
-        self.parent: dict = {}
-
-    def find(self, k):
-        self.parent.setdefault(k, k)
-        while self.parent[k] != k:
-            self.parent[k] = self.parent[self.parent[k]]
-            k = self.parent[k]
-        return k
-
-    def union(self, a, b):
-        ra, rb = self.find(a), self.find(b)
-        if ra != rb:
-            # keep "origin" as the representative when present
-            if rb == "origin":
-                ra, rb = rb, ra
-            self.parent[rb] = ra
-
-
-def _walk_sequence(loop) -> tuple[tuple[int, str], ...]:
-    """The closed path of a loop: the left side forward, then the right side backward."""
-    if loop.rhs:
-        return tuple(loop.lhs) + tuple((-s, n) for s, n in reversed(loop.rhs))
-    return tuple(loop.terms)
-
-
-@dataclass
-class _Structure:
-    """Pose-independent structure of a mechanism's diagram (from its vectors and loops)."""
-
-    walks: list  # (start: "origin" | (vec, index in sequence), sequence, closing: bool, point name | None)
-    node_of: dict  # (end, vec) -> node id
-    kind: dict  # vec -> "ground" | "bar" | "slider" | "rslider" | "offset" | "moving"
-    link_of: dict  # vec -> link key (bars, rotating sliders)
-    fixed: set  # fixed node ids
-    point_node: dict  # point name -> node id
-    names: dict  # node id -> label
-    vectors: tuple  # placed vectors in compiled order
-    links: dict = field(default_factory=dict)  # link key -> list of node ids (declared order)
-    blocks: list = field(default_factory=list)  # (slider vec, node id of the block)
-
-
-def _structure(ck) -> _Structure:
-    from .expr import names as expr_names
-
-    mech = ck.mechanism
-    variables = set(ck.variables)
-    nodes = _Nodes()
-    nodes.find("origin")
-    placed: set[str] = set()
-    walks = []
-    pending = list(mech.loops)
-    while pending:
-        pick, start = None, "origin"
-        for loop in pending:
-            seq = _walk_sequence(loop)
-            hit = next((i for i, (_, v) in enumerate(seq) if v in placed), None)
-            if hit is not None:
-                pick, start = loop, (seq[hit][1], hit)
-                break
-        if pick is None:
-            pick = pending[0]
-        pending.remove(pick)
-        seq = _walk_sequence(pick)
-        walks.append((start, seq, True, None))
-        cur = "origin" if start == "origin" else None
-        first = None
-        for sign, v in seq:
-            tail, head = ("tail", v), ("head", v)
-            enter, leave = (tail, head) if sign > 0 else (head, tail)
-            if cur is None:
-                first = enter
-            else:
-                nodes.union(cur, enter)
-            cur = leave
-            placed.add(v)
-        nodes.union(cur, "origin" if start == "origin" else first)
-    point_node = {}
-    for p in mech.points:
-        if not p.plain:  # a point with factors (a centre of mass) is not a walk along whole vectors
-            continue
-        cur = "origin"
-        for sign, v in p.terms:
-            tail, head = ("tail", v), ("head", v)
-            enter, leave = (tail, head) if sign > 0 else (head, tail)
-            nodes.union(cur, enter)
-            cur = leave
-        walks.append(("origin", tuple(p.terms), False, p.name))
-        placed.update(v for _, v in p.terms)
-        point_node[p.name] = cur
-    vectors = tuple(v for v in ck.vectors if v in placed)
-    node_of = {}
-    for v in vectors:
-        for end in ("tail", "head"):
-            node_of[(end, v)] = nodes.find((end, v))
-    point_node = {p: nodes.find(k) for p, k in point_node.items()}
-    origin = nodes.find("origin")
-
-    lvars, avars = {}, {}
-    for v in vectors:
-        vec = mech.vector(v)
-        if vec.cartesian:
-            deps = (expr_names(vec.x) | expr_names(vec.y)) & variables
-            lvars[v], avars[v] = deps, deps
-        else:
-            lvars[v] = expr_names(vec.length) & variables
-            avars[v] = (expr_names(vec.angle) | (expr_names(vec.offset) if vec.offset is not None else set())) \
-                & variables
-    # fixed nodes: the origin and everything reached from it through constant vectors
-    fixed = {origin}
-    changed = True
-    while changed:
-        changed = False
-        for v in vectors:
-            if lvars[v] or avars[v]:
-                continue
-            a, b = node_of[("tail", v)], node_of[("head", v)]
-            if (a in fixed) != (b in fixed):
-                fixed.update((a, b))
-                changed = True
-    kind, link_of, links = {}, {}, {}
-    for v in vectors:
-        a, b = node_of[("tail", v)], node_of[("head", v)]
-        if lvars[v]:
-            kind[v] = "rslider" if avars[v] else "slider"
-        elif avars[v]:
-            kind[v] = "moving" if mech.vector(v).cartesian else "bar"
-        else:
-            kind[v] = "ground" if a in fixed else "offset"
-        if kind[v] in ("bar", "rslider", "moving"):
-            key = frozenset(avars[v])
-            link_of[v] = key
-            members = links.setdefault(key, [])
-            for n in (a, b) if kind[v] != "rslider" else (a,):
-                if n not in members:
-                    members.append(n)
-    # block of each slider: at its tip, or further along constant offsets where a link is pinned
-    pinned = {n for key, members in links.items() for n in members}
-    blocks = []
-    offsets: dict = {}
-    for v in vectors:
-        if kind[v] == "offset":
-            a, b = node_of[("tail", v)], node_of[("head", v)]
-            offsets.setdefault(a, set()).add(b)
-            offsets.setdefault(b, set()).add(a)
-    for v in vectors:
-        if kind[v] not in ("slider", "rslider"):
-            continue
-        tip = node_of[("head", v)]
-        block = tip
-        if kind[v] == "slider" and tip not in pinned:
-            seen, frontier = {tip}, [tip]
-            while frontier:
-                n = frontier.pop(0)
-                if n in pinned:
-                    block = n
-                    break
-                for m in offsets.get(n, ()):
-                    if m not in seen:
-                        seen.add(m)
-                        frontier.append(m)
-        blocks.append((v, block))
-    names = _node_names(mech, vectors, node_of, point_node, kind, fixed, links)
-    return _Structure(walks, node_of, kind, link_of, fixed, point_node, names, vectors, links, blocks)
-
-
-def _node_names(mech, vectors, node_of, point_node, kind, fixed, links) -> dict:
-    """Labels: point names first, then names read off vector names (``rAB``: A→B, ``r2``: O2)."""
-    names: dict = {}
-    for p, n in point_node.items():
-        names.setdefault(n, p)
-    for v in vectors:
-        m = re.fullmatch(r"r_?([A-Z][0-9]*)([A-Z][0-9]*)", v)
-        if m:
-            names.setdefault(node_of[("tail", v)], m.group(1))
-            names.setdefault(node_of[("head", v)], m.group(2))
-    pivots = {n for key, members in links.items() for n in members} & fixed
-    taken = set(names.values())
-    for v in vectors:
-        if kind[v] not in ("bar", "rslider"):
-            continue
-        for end in ("tail", "head"):
-            n = node_of[(end, v)]
-            if n in pivots and n not in names:
-                m = re.fullmatch(r"[a-zA-Z]+_?([0-9]+[a-z]*)", v)
-                label = f"O{m.group(1)}" if m else f"O({v})"
-                if label not in taken:
-                    names[n] = label
-                    taken.add(label)
-    return names
-
-
-def _positions(st: _Structure, ck, z) -> dict:
-    """Node id → (x, y) at the pose ``z`` (internal units)."""
-    vv = ck.vector_values(0, z)
-    disp = {}
-    for v in st.vectors:
-        length, angle = vv[ck.vectors.index(v)]
-        disp[v] = np.array([length * math.cos(angle), length * math.sin(angle)])
-    tails: dict[str, np.ndarray] = {}
-    for start, seq, closing, _point in st.walks:
-        if start == "origin":
-            cur = np.zeros(2)
-        else:
-            anchor, hit = start
-            rel = np.zeros(2)
-            for sign, v in seq[:hit]:
-                rel = rel + sign * disp[v]
-            own = rel if seq[hit][0] > 0 else rel - disp[anchor]
-            cur = tails[anchor] - own
-        for sign, v in seq:
-            if sign > 0:
-                tails.setdefault(v, cur.copy())
-                cur = cur + disp[v]
-            else:
-                cur = cur - disp[v]
-                tails.setdefault(v, cur.copy())
-    pos = {}
-    for v in st.vectors:
-        pos.setdefault(st.node_of[("tail", v)], tails[v])
-        pos.setdefault(st.node_of[("head", v)], tails[v] + disp[v])
-    return pos, tails, disp
-
-
-@dataclass
-class _Frame:
-    """Everything drawn for one pose (data coordinates)."""
-
-    links: list  # (key, [xy...], color index)
-    pivots: list  # (xy, name|None)
-    blocks: list  # (xy, angle)
-    guides: list  # (key, block xy, unit direction, ground: bool, tail xy | None)
-    levers: list  # (vector, pivot xy, unit direction, block xy)
-    joints: list  # xy
-    points: list  # (xy, name)
-    labels: list  # (xy, text, attached directions)
-    arrows: list  # (tail, head, name)
-    ground_lines: list  # (p0, p1)
-
-
-def _unit(v) -> np.ndarray:
-    n = float(np.hypot(*v))
-    return np.asarray(v, dtype=float) / n if n > 0 else np.zeros(2)
-
-
-def _diagram_spec(mech):
-    spec = getattr(mech, "spec", None) or {}
-    joints, links = spec.get("joints"), spec.get("links")
-    if isinstance(joints, dict) and isinstance(links, dict) and links:
-        return joints, links
-    return None
-
-
-def _frames(states, *, vectors: bool) -> tuple[list[_Frame], _Structure]:
-    ck = states[0].compiled
-    st = _structure(ck)
-    layout = _diagram_spec(ck.mechanism)
-    frames = []
-    for s in states:
-        pos, tails, disp = _positions(st, ck, s.z)
-        frames.append(_frame_from_layout(layout, s, st, pos) if layout else _frame(st, ck, s, pos))
-        if vectors:
-            frames[-1].arrows = [(tails[v], tails[v] + disp[v], v) for v in st.vectors
-                                 if float(np.hypot(*disp[v])) > 0]
-    return frames, st
-
-
-def _frame(st: _Structure, ck, s, pos) -> _Frame:
-    links, pivots, blocks, guides, levers, joints, points, ground_lines = [], [], [], [], [], set(), [], []
-    for i, (key, members) in enumerate(st.links.items()):
-        links.append((key, [pos[n] for n in members], i))
-        joints.update(members)
-    vv = ck.vector_values(0, s.z)
-    for v, block in st.blocks:
-        length, angle = vv[ck.vectors.index(v)]
-        d = np.array([math.cos(angle), math.sin(angle)])
-        tail = pos[st.node_of[("tail", v)]]
-        if st.kind[v] == "rslider":
-            levers.append((v, tail, d, pos[block]))
-        else:
-            ground = st.node_of[("tail", v)] in st.fixed
-            guides.append((v, pos[block], d, ground, tail))
-        blocks.append((pos[block], angle))
-        joints.add(block)
-    for v in st.vectors:
-        if st.kind[v] == "ground":
-            ground_lines.append((pos[st.node_of[("tail", v)]], pos[st.node_of[("head", v)]]))
-    pivot_nodes = joints & st.fixed
-    pivots = [(pos[n], n) for n in pivot_nodes]
-    point_nodes = set(st.point_node.values())
-    points = [(pos[n], n) for n in point_nodes - joints]
-    labels = {n: st.names[n] for n in (joints | point_nodes) if n in st.names}
-    return _Frame(links, pivots, blocks, guides, levers, [pos[n] for n in joints], points,
-                  [(pos[n], text, n) for n, text in labels.items()], [], ground_lines)
-
-
-def _frame_from_layout(layout, s, st: _Structure, pos) -> _Frame:
-    """A frame from a kinematic-diagram model: links and joints by name (every joint is a point).
-
-    A link is drawn through its distinct joint positions (coincident joints, such as a pin
-    and the prismatic joint of the same block, count once); a link whose joints all coincide
-    is a block, drawn by its prismatic joint. A prismatic joint is a block along the sliding
-    vector that ends at it (its ``axis`` when none does), on a hatched guide when the joint
-    belongs to the ground link.
-    """
-    joints_spec, links_spec = layout
-    ck = s.compiled
-    where = {p: np.asarray(s.points[0, j], dtype=float) for j, p in enumerate(ck.points)}
-    missing = [j for j in joints_spec if j not in where]
-    if missing:
-        raise ModelError(f"cannot draw {ck.mechanism.name!r}: joints {', '.join(missing)} are not points "
-                         "of the solved model")
-    tol = 1e-9 * ck.scale
-    ground_name = "ground" if "ground" in links_spec else None
-    ground_joints = set(links_spec.get(ground_name, ())) if ground_name else set()
-    vv = ck.vector_values(0, s.z)
-
-    def distinct(names):
-        out = []
-        for n in names:
-            if not any(np.linalg.norm(where[n] - q) < tol for q in out):
-                out.append(where[n])
-        return out
-
-    links, pivots, blocks, guides, joints = [], [], [], [], []
-    for i, (name, members) in enumerate(links_spec.items()):
-        xy = distinct(members)
-        if name != ground_name and len(xy) >= 2:
-            links.append((name, xy, i))
-    kinds = {n: (str(spec.get("type", "R")).upper() if isinstance(spec, dict) else "R")
-             for n, spec in joints_spec.items()}
-    carried: dict[str, int] = {}
-    for members in links_spec.values():
-        for n in set(members):
-            carried[n] = carried.get(n, 0) + 1
-    # a revolute joint named by one link only is a tracer point of that link: a dot, not a pin
-    tracers = [n for n in joints_spec if kinds[n] == "R" and carried.get(n, 0) == 1]
-    for name, spec in joints_spec.items():
-        if name in tracers:
-            continue
-        p = where[name]
-        if kinds[name] == "P":
-            angle = None
-            for v, block in st.blocks:
-                if np.linalg.norm(pos[block] - p) < tol:
-                    angle = float(vv[ck.vectors.index(v)][1])
-            if angle is None:
-                axis = spec.get("axis", (1.0, 0.0))
-                angle = math.atan2(float(axis[1]), float(axis[0]))
-            blocks.append((p, angle))
-            if name in ground_joints:
-                guides.append((name, p, np.array([math.cos(angle), math.sin(angle)]), True, None))
-        else:
-            if name in ground_joints:
-                pivots.append((p, name))
-        if not any(np.linalg.norm(p - q) < tol for q in joints):
-            joints.append(p)
-    # one label per position: the revolute joints there (else the prismatic one)
-    labels = []
-    for p in joints:
-        here = [n for n in joints_spec if np.linalg.norm(where[n] - p) < tol]
-        named = [n for n in here if kinds[n] == "R"] or here
-        labels.append((p, ", ".join(named), named[0]))
-    extra = [(where[p], p) for p in ck.points if p not in joints_spec or p in tracers]
-    return _Frame(links, pivots, blocks, guides, [], joints, extra,
-                  labels + [(xy, p, p) for xy, p in extra], [], [])
-
-
 # ------------------------------------------------------------------------------ rendering
-@dataclass
-class _Style:
-    size: float  # the characteristic symbol size (data units)
-    lo: np.ndarray
-    hi: np.ndarray
-    pivot_dir: dict  # pivot key -> unit vector towards the ground
-    guide_side: dict  # guide key -> unit normal of the hatched side
-    guide_span: dict  # guide key -> (s_min, s_max) along the guide through its reference point
-    lever_len: dict  # lever key -> drawn length
-
-
-def _style(frames: list[_Frame]) -> _Style:
-    pts = []
-    for f in frames:
-        for _, xy, _ in f.links:
-            pts += list(xy)
-        pts += [p for p, _ in f.pivots] + [p for p, _ in f.blocks] + list(f.joints) + [p for p, _ in f.points]
-        pts += [p for pair in f.ground_lines for p in pair]
-        pts += [t for t, h, _ in f.arrows] + [h for t, h, _ in f.arrows]
-        for v, tail, d, block in f.levers:
-            pts.append(tail)
-    pts = np.array(pts, dtype=float).reshape(-1, 2)
-    lo, hi = pts.min(axis=0), pts.max(axis=0)
-    span = float(max(hi - lo)) or 1.0
-    size = 0.045 * span
-    centre = pts.mean(axis=0)
-    # a pivot's ground symbol points away from the links it carries (averaged over all frames)
-    # a pivot's ground symbol goes where nothing is attached: of the four axis directions, the
-    # one with the largest clearance from its links and frame lines (averaged over all frames;
-    # pointing down when free)
-    choices = [np.array(c, dtype=float) for c in ((0, -1), (0, 1), (-1, 0), (1, 0))]
-    clearance: dict = {}
-    for f in frames:
-        for p, key in f.pivots:
-            dirs = []
-            for _, xy, _ in f.links:
-                if any(np.allclose(q, p, atol=1e-9 * span) for q in xy):
-                    dirs += [_unit(np.asarray(r) - p) for r in xy if not np.allclose(r, p, atol=1e-9 * span)]
-            dirs += [d for v, tail, d, _ in f.levers if np.allclose(tail, p, atol=1e-9 * span)]
-            for a, b in f.ground_lines:
-                if np.allclose(a, p, atol=1e-9 * span):
-                    dirs.append(_unit(np.asarray(b) - a))
-                elif np.allclose(b, p, atol=1e-9 * span):
-                    dirs.append(_unit(np.asarray(a) - b))
-            score = clearance.setdefault(key, np.zeros(len(choices)))
-            for i, c in enumerate(choices):
-                clear = min((math.acos(max(-1.0, min(1.0, float(c @ d)))) for d in dirs), default=math.pi)
-                score[i] += min(clear, 0.5 * math.pi)  # a right angle is clear enough
-    snapped = {}
-    for key, score in clearance.items():
-        score = score / len(frames) + np.array([0.3, 0.1, 0.0, 0.0])
-        snapped[key] = choices[int(np.argmax(score))]
-    guide_side, guide_span, guide_ref = {}, {}, {}
-    for f in frames:
-        for key, p, d, ground, tail in f.guides:
-            ref = guide_ref.setdefault(key, np.asarray(p, dtype=float))
-            n = np.array([-d[1], d[0]])
-            side = guide_side.setdefault(key, np.zeros(2))
-            side += -(n @ (centre - p)) * n
-            s = float((p - ref) @ d)
-            cand = [s - 3.0 * size, s + 3.0 * size]
-            s_lo, s_hi = guide_span.get(key, (math.inf, -math.inf))
-            guide_span[key] = (min(s_lo, *cand), max(s_hi, *cand))
-    for key, side in guide_side.items():
-        guide_side[key] = _unit(side) if np.hypot(*side) > 1e-12 else np.array([0.0, -1.0])
-    extra = [guide_ref[k] + d * s for f in frames[:1] for k, _, d, _, _ in f.guides for s in guide_span[k]]
-    # a slotted lever is drawn from its pivot to beyond the farthest position of its block
-    lever_len = {}
-    for f in frames:
-        for v, tail, d, block in f.levers:
-            lever_len[v] = max(lever_len.get(v, 0.0), float((np.asarray(block) - tail) @ d))
-    lever_len = {v: L + 2.5 * size for v, L in lever_len.items()}
-    for f in frames:
-        extra += [tail + d * lever_len[v] for v, tail, d, _ in f.levers]
-    if extra:
-        pts = np.vstack([pts, np.array(extra)])
-    lo, hi = pts.min(axis=0), pts.max(axis=0)
-    return _Style(size, lo, hi, snapped, guide_side, guide_span, lever_len)
-
 
 def _ground_symbol(ax, p, u, size, zorder=2):
     from matplotlib.patches import Polygon
@@ -824,7 +330,7 @@ def _ground_symbol(ax, p, u, size, zorder=2):
     return out
 
 
-def _render_static(ax, frame: _Frame, style: _Style):
+def _render_static(ax, frame: Frame, style: Style):
     """Ground: hatched pivots, hatched guides and the (dashed) fixed vectors."""
     from matplotlib.patches import Polygon
 
@@ -853,7 +359,7 @@ def _render_static(ax, frame: _Frame, style: _Style):
     return out
 
 
-def _render_moving(ax, frame: _Frame, style: _Style, *, label_fixed: bool = True):
+def _render_moving(ax, frame: Frame, style: Style, *, label_fixed: bool = True):
     from matplotlib.patches import Circle, Polygon
 
     size = style.size
@@ -864,10 +370,10 @@ def _render_moving(ax, frame: _Frame, style: _Style, *, label_fixed: bool = True
                        alpha=0.9)
         out += ax.plot(*np.array([tail, end]).T, color="white", lw=2.0, zorder=3)  # the slot
     for key, xy, i in frame.links:
-        color = _LINK_COLORS[i % len(_LINK_COLORS)]
+        color = LINK_COLORS[i % len(LINK_COLORS)]
         xy = np.asarray(xy, dtype=float)
-        if len(xy) >= 3 and _area(xy) > 1e-6 * (style.size / 0.045) ** 2:
-            order = _hull_order(xy)
+        if len(xy) >= 3 and polygon_area(xy) > 1e-6 * (style.size / 0.045) ** 2:
+            order = hull_order(xy)
             out.append(ax.add_patch(Polygon(xy[order], closed=True, facecolor=color, alpha=0.35, edgecolor=color,
                                             lw=2.5, joinstyle="round", zorder=4)))
         else:
@@ -893,7 +399,7 @@ def _render_moving(ax, frame: _Frame, style: _Style, *, label_fixed: bool = True
         out.append(ax.annotate("", xy=head, xytext=tail, zorder=7,
                                arrowprops=dict(arrowstyle="-|>", color="tab:blue", lw=1.4, shrinkA=0, shrinkB=0,
                                                mutation_scale=14)))
-    for (tail, head, name), (mid, n) in zip(frame.arrows, _arrow_label_sides(frame, style)):
+    for (tail, head, name), (mid, n) in zip(frame.arrows, arrow_label_sides(frame, style)):
         ha = "left" if n[0] > 0.35 else "right" if n[0] < -0.35 else "center"
         va = "bottom" if n[1] > 0.35 else "top" if n[1] < -0.35 else "center"
         out.append(ax.annotate(tex_name(name), mid, xytext=tuple(7 * n), textcoords="offset points",
@@ -903,119 +409,14 @@ def _render_moving(ax, frame: _Frame, style: _Style, *, label_fixed: bool = True
     return out
 
 
-def _segment_distance(p, a, b) -> float:
-    ab = b - a
-    t = float(np.clip((p - a) @ ab / (ab @ ab), 0.0, 1.0)) if ab @ ab > 0 else 0.0
-    return float(np.hypot(*(p - a - t * ab)))
-
-
-def _inside(p, poly) -> bool:
-    """``p`` inside the convex polygon ``poly`` (corners in hull order)."""
-    signs = [float((b[0] - a[0]) * (p[1] - a[1]) - (b[1] - a[1]) * (p[0] - a[0]))
-             for a, b in zip(poly, np.roll(poly, -1, axis=0))]
-    return all(s > 0 for s in signs) or all(s < 0 for s in signs)
-
-
-def _arrow_label_sides(frame: _Frame, style: _Style) -> list[tuple[np.ndarray, np.ndarray]]:
-    """For every vector arrow: its midpoint and the unit normal on the side its name goes.
-
-    The name sits beside the arrow, perpendicular to it, on the side that is clearer of the
-    links (bars, the inside of plates, frame lines) and of the other arrows and their names.
-    """
-    size = style.size
-    segs, plates = [], []
-    for _, xy, _ in frame.links:
-        xy = np.asarray(xy, dtype=float)
-        segs += [(xy[a], xy[b]) for a in range(len(xy)) for b in range(a + 1, len(xy))]
-        if len(xy) >= 3:
-            plates.append(xy[_hull_order(xy)])
-    segs += [(np.asarray(a, dtype=float), np.asarray(b, dtype=float)) for a, b in frame.ground_lines]
-    arrows = [(np.asarray(t, dtype=float), np.asarray(h, dtype=float)) for t, h, _ in frame.arrows]
-    placed: list[np.ndarray] = []
-    out = []
-    for k, (tail, head) in enumerate(arrows):
-        d = _unit(head - tail)
-        n = np.array([-d[1], d[0]])
-        mid = 0.5 * (tail + head)
-        best, best_score = n, -math.inf
-        for side in (n, -n):
-            p = mid + side * 0.9 * size
-            clear = min([_segment_distance(p, a, b) for a, b in segs]
-                        + [_segment_distance(p, a, b) for i, (a, b) in enumerate(arrows) if i != k]
-                        + [float(np.hypot(*(p - q))) for q in placed], default=10 * size)
-            score = min(clear, 2 * size) - sum(2 * size for poly in plates if _inside(p, poly))
-            if score > best_score + 1e-12:
-                best, best_score = side, score
-        placed.append(mid + best * 0.9 * size)
-        out.append((mid, best))
-    return out
-
-
-def _labels(ax, frame: _Frame, style: _Style):
+def _labels(ax, frame: Frame, style: Style):
     """Joint and point names, each in the freest direction around its joint (data units)."""
-    out = []
-    span = float(max(style.hi - style.lo)) or 1.0
-    tol = 1e-9 * span
-    segs = []
-    for _, xy, _ in frame.links:
-        xy = [np.asarray(q, dtype=float) for q in xy]
-        segs += [(a, b) for i, a in enumerate(xy) for b in xy[i + 1:]]
-    segs += [(np.asarray(a), np.asarray(b)) for a, b in frame.ground_lines]
-    for v, tail, d, _ in frame.levers:
-        segs.append((tail, tail + d * style.lever_len[v]))
-    for tail, head, _ in frame.arrows:
-        segs.append((np.asarray(tail), np.asarray(head)))
-    pivots = {key: style.pivot_dir.get(key, np.array([0.0, -1.0])) for _, key in frame.pivots}
-    blocks = [(np.asarray(p), a) for p, a in frame.blocks]
-    sides = {g[0]: style.guide_side.get(g[0]) for g in frame.guides}
-    candidates = [np.array([math.cos(t), math.sin(t)]) for t in np.linspace(0, 2 * math.pi, 24, endpoint=False)]
-    for p, text, key in frame.labels:
-        p = np.asarray(p, dtype=float)
-        dirs = []
-        for a, b in segs:
-            if np.linalg.norm(a - p) < tol and np.linalg.norm(b - p) > tol:
-                dirs.append(_unit(b - a))
-            elif np.linalg.norm(b - p) < tol and np.linalg.norm(a - p) > tol:
-                dirs.append(_unit(a - b))
-        if key in pivots:
-            u = pivots[key]
-            dirs += [u, _unit(u + np.array([-u[1], u[0]])), _unit(u - np.array([-u[1], u[0]]))]
-        radius = 0.75 * style.size
-        for bp, angle in blocks:
-            if np.linalg.norm(bp - p) < tol:
-                d = np.array([math.cos(angle), math.sin(angle)])
-                dirs += [d, -d]
-                radius = 1.0 * style.size
-                for g in frame.guides:
-                    if np.linalg.norm(np.asarray(g[1]) - p) < tol and sides.get(g[0]) is not None:
-                        dirs.append(sides[g[0]])
-        want = -_unit(np.sum(dirs, axis=0)) if dirs else np.array([0.6, 0.8])
-
-        def score(c):
-            clear = min((math.acos(max(-1.0, min(1.0, float(c @ d)))) for d in dirs), default=math.pi)
-            return clear + 0.25 * float(c @ want) + 0.05 * c[1]
-
-        c = max(candidates, key=score)
-        ha = "left" if c[0] > 0.35 else "right" if c[0] < -0.35 else "center"
-        va = "bottom" if c[1] > 0.35 else "top" if c[1] < -0.35 else "center"
-        out.append(ax.text(*(p + c * radius), text, fontsize=11, fontweight="bold", ha=ha, va=va, zorder=9,
-                           bbox=dict(boxstyle="round,pad=0.12", fc="white", ec="none", alpha=0.75)))
-    return out
+    return [ax.text(*xy, text, fontsize=11, fontweight="bold", ha=ha, va=va, zorder=9,
+                    bbox=dict(boxstyle="round,pad=0.12", fc="white", ec="none", alpha=0.75))
+            for xy, text, ha, va in label_placements(frame, style)]
 
 
-def _area(xy) -> float:
-    c = xy - xy.mean(axis=0)
-    order = _hull_order(xy)
-    q = c[order]
-    return 0.5 * abs(float(np.sum(q[:, 0] * np.roll(q[:, 1], -1) - np.roll(q[:, 0], -1) * q[:, 1])))
-
-
-def _hull_order(xy) -> np.ndarray:
-    c = xy - xy.mean(axis=0)
-    return np.argsort(np.arctan2(c[:, 1], c[:, 0]))
-
-
-def _frame_axes(ax, style: _Style, mech) -> None:
+def _frame_axes(ax, style: Style, mech) -> None:
     pad = 2.6 * style.size
     lo, hi = style.lo - pad, style.hi + pad
     ax.set_xlim(lo[0], hi[0])
@@ -1027,21 +428,15 @@ def _frame_axes(ax, style: _Style, mech) -> None:
     ax.grid(True, alpha=0.25)
 
 
-def _mode_label(mech, signature: str) -> str:
-    """``-`` → ``- (open)`` when the model names the mode."""
-    alias = {v: k for k, v in getattr(mech, "mode_aliases", {}).items()}.get(signature)
-    return f"{signature} ({alias})" if alias else signature
-
-
 def _pose_title(state) -> str:
     ck = state.compiled
     name = ck.inputs[0]
     unit = state.units()[name]
-    mode = f", mode {_mode_label(ck.mechanism, state.mode)}" if state.mode else ""
+    mode = f", mode {mode_label(ck.mechanism, state.mode)}" if state.mode else ""
     return f"{ck.mechanism.name}\n{tex_name(name)} = {state.input_value:.4g} {_pretty_unit(unit)}{mode}"
 
 
-def _figsize(style: _Style, width: float = 7.0) -> tuple[float, float]:
+def _figsize(style: Style, width: float = 7.0) -> tuple[float, float]:
     w, h = (style.hi - style.lo) + 5.2 * style.size
     ratio = float(h / w) if w > 0 else 1.0
     height = width * ratio + 1.0
@@ -1097,8 +492,8 @@ def draw(mech, at=None, *, input=None, mode=None, vectors=False, output=None, ax
         state = mech
     else:
         state = mech.solve(at, input=input, mode=mode, **solve_kwargs)
-    frames, _ = _frames([state], vectors=vectors)
-    style = _style(frames)
+    frames, _ = pose_frames([state], vectors=vectors)
+    style = drawing_style(frames)
     if ax is None:
         fig = _new_figure(_figsize(style))
         ax = fig.add_subplot()
@@ -1277,8 +672,8 @@ def animate(sweep, *, output, fps: float = 20, progress=None, vectors: bool = Fa
     if not len(sweep):
         raise ModelError("cannot animate an empty sweep (no solved positions)")
     check_frames(len(sweep), max_frames)
-    frames, _ = _frames(list(sweep.states), vectors=vectors)
-    style = _style(frames)
+    frames, _ = pose_frames(list(sweep.states), vectors=vectors)
+    style = drawing_style(frames)
     fig = _new_figure(_figsize(style))
     ax = fig.add_subplot()
     _render_static(ax, frames[0], style)

@@ -19,7 +19,7 @@ dependency to keep up with, and the contract's hooks (``#loopsolve-input``, ``[d
 circles in model coordinates under a y-flipping parent transform) are natural in it.
 
 What is drawn comes from the same geometry as the matplotlib pictures: the frames and
-style of :mod:`loopsolve.plotting` (links and their joints, ground pivots with their
+style of :mod:`loopsolve.geometry` (links and their joints, ground pivots with their
 directions, blocks on guides, slotted levers) are computed once per row in Python and
 shipped as point trajectories plus a scene that refers to them. The page is deterministic:
 the same sweep gives the same bytes (no time stamps, no random ids), whether written by
@@ -38,6 +38,8 @@ from pathlib import Path
 import numpy as np
 
 from .errors import ModelError
+from .geometry import (LINK_COLORS, drawing_style, hull_order, mode_label, plot_vars, polygon_area, pose_frames,
+                       unit_vector, unwrapped)
 
 __all__ = ["to_html", "write_html", "page_data", "check_output", "Page", "MAX_INLINE_ROWS"]
 
@@ -50,7 +52,6 @@ _GREEK = {"alpha": "α", "beta": "β", "gamma": "γ", "delta": "δ", "epsilon": 
           "theta": "θ", "iota": "ι", "kappa": "κ", "lambda": "λ", "mu": "μ", "nu": "ν", "xi": "ξ", "pi": "π",
           "rho": "ρ", "sigma": "σ", "tau": "τ", "upsilon": "υ", "phi": "φ", "chi": "χ", "psi": "ψ",
           "omega": "ω"}
-_STYLE_FRAMES = 360  # rows the drawing style is computed from (see _scene)
 _DIGITS = 12  # significant digits of every number in the page (1e-12 relative: far below any drawing)
 
 
@@ -118,16 +119,10 @@ def _angles(values) -> float | list:
 
 
 def _scene(sweep) -> dict:
-    """Trajectories and shapes of the diagram, from :mod:`loopsolve.plotting`'s frames and style."""
-    from .plotting import _LINK_COLORS, _area, _frames, _hull_order, _style
-
+    """Trajectories and shapes of the diagram, from :mod:`loopsolve.geometry`'s frames and style."""
     ck = sweep.compiled
-    frames, _ = _frames(list(sweep.states), vectors=False)
-    # the style (symbol size, pivot directions, guide spans, lever lengths) from at most
-    # _STYLE_FRAMES evenly spaced rows: _style costs ~1.5 ms a row; the extent is widened below
-    # to every row
-    idx = sorted(set(np.linspace(0, len(frames) - 1, min(len(frames), _STYLE_FRAMES)).round().astype(int)))
-    style = _style([frames[i] for i in idx])
+    frames, _ = pose_frames(list(sweep.states), vectors=False)
+    style = drawing_style(frames)
     size = float(style.size)
     table = _Table(ck.scale)
     f0 = frames[0]
@@ -176,10 +171,10 @@ def _scene(sweep) -> dict:
     for k, (key, xy, color) in enumerate(f0.links):
         members = [traj(lambda f, k=k, j=j: f.links[k][1][j]) for j in range(len(xy))]
         xy0 = np.asarray(xy, dtype=float)
-        polygon = len(xy0) >= 3 and _area(xy0) > 1e-6 * (size / 0.045) ** 2
+        polygon = len(xy0) >= 3 and polygon_area(xy0) > 1e-6 * (size / 0.045) ** 2
         if polygon:
-            members = [members[j] for j in _hull_order(xy0)]
-        links.append({"n": members, "poly": bool(polygon), "color": _LINK_COLORS[color % len(_LINK_COLORS)]})
+            members = [members[j] for j in hull_order(xy0)]
+        links.append({"n": members, "poly": bool(polygon), "color": LINK_COLORS[color % len(LINK_COLORS)]})
     angle_list: list = []
 
     def angle(values) -> int:
@@ -215,13 +210,13 @@ def _scene(sweep) -> dict:
             if pv["t"] == t:
                 u = np.array(pv["u"])
                 n = np.array([-u[1], u[0]])
-                lab["dirs"] += [_nums(u), _nums(_unit(u + n)), _nums(_unit(u - n))]
+                lab["dirs"] += [_nums(u), _nums(unit_vector(u + n)), _nums(unit_vector(u - n))]
         p0 = np.asarray(table.items[t][:2], dtype=float)
         for a, b in f0.ground_lines:
             a, b = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
             for here, there in ((a, b), (b, a)):
                 if np.linalg.norm(here - p0) < 1e-9 * ck.scale < np.linalg.norm(there - p0):
-                    lab["dirs"].append(_nums(_unit(there - here)))
+                    lab["dirs"].append(_nums(unit_vector(there - here)))
     # the named points: the contract's [data-point] circles, at the sweep's own coordinates
     cols = sweep.columns
     points = []
@@ -245,11 +240,6 @@ def _scene(sweep) -> dict:
     return {"size": _num(size), "extent": extent, "traj": table.items, "angles": angle_list,
             "static": statics, "links": links, "levers": levers, "guides": guides, "blocks": blocks,
             "joints": joints, "labels": labels, "points": points, "unit": ck.mechanism.units.length}
-
-
-def _unit(v) -> np.ndarray:
-    n = float(np.hypot(*v))
-    return np.asarray(v, dtype=float) / n if n > 0 else np.zeros(2)
 
 
 def _close(a: list, b: list, tol: float) -> bool:
@@ -327,13 +317,11 @@ def page_data(sweep, vars=None, *, extra_series=None, title=None) -> dict:
     >>> [run[2] for run in data["modes"]["runs"]]
     ['-', '+']
     """
-    from .plotting import _mode_label, _plot_vars, _unwrapped
-
     ck = sweep.compiled
     n = len(sweep)
     if n == 0:
         raise ModelError("cannot make a page of an empty sweep (no solved positions)")
-    names = _plot_vars(sweep, vars)
+    names = plot_vars(sweep, vars)
     units = sweep.units()
     cols = sweep.columns
     inp = ck.inputs[0]
@@ -342,7 +330,7 @@ def page_data(sweep, vars=None, *, extra_series=None, title=None) -> dict:
     for name in names:
         unit = units[name]
         angular = name in ck.variables and unit in ("deg", "rad")
-        pos = _unwrapped(np.asarray(cols[name], dtype=float), unit) if angular else cols[name]
+        pos = unwrapped(np.asarray(cols[name], dtype=float), unit) if angular else cols[name]
         period = (360.0 if unit == "deg" else 2 * math.pi) if angular and name not in ck.inputs else 0
         series.append({"name": name, "label": _pretty_name(name), "unit": _pretty_unit(unit),
                        "units": [_pretty_unit(units[name + s]) for s in ("", "_vel", "_acc")],
@@ -371,7 +359,7 @@ def page_data(sweep, vars=None, *, extra_series=None, title=None) -> dict:
         else:
             runs.append([i, i, m])
     mech = ck.mechanism
-    aliases = {sig: _mode_label(mech, sig) for sig in dict.fromkeys(modes) if sig}
+    aliases = {sig: mode_label(mech, sig) for sig in dict.fromkeys(modes) if sig}
     parts = [[_pretty_name(ck.unknowns[u]) for u in b.unknowns] for b in ck.blocks]
     return {
         "title": title or mech.name,

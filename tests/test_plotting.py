@@ -23,7 +23,7 @@ import numpy as np
 import pytest
 
 import loopsolve as ls
-from loopsolve import cli, plotting
+from loopsolve import cli, geometry, plotting
 from loopsolve.errors import MissingDependencyError, ModelError
 from loopsolve.results import Event, EventKind, Sweep
 
@@ -312,8 +312,8 @@ def test_draw_second_loop_anchored_on_shared_vector():
     }
     mech = ls.build_mechanism(spec)
     state = mech.solve(90)
-    st = plotting._structure(state.compiled)
-    pos, _, _ = plotting._positions(st, state.compiled, state.z)
+    st = geometry._structure(state.compiled)
+    pos, _, _ = geometry._positions(st, state.compiled, state.z)
     for name, node in st.point_node.items():
         np.testing.assert_allclose(pos[node], [state[name + "_x"], state[name + "_y"]], atol=1e-9)
     assert st.point_node["F"] in st.fixed  # O4 + r6 is a ground pivot
@@ -325,12 +325,12 @@ def test_draw_second_loop_anchored_on_shared_vector():
 def test_geometry_matches_solved_points(model):
     mech = ls.load(model)
     state = mech.solve()
-    st = plotting._structure(state.compiled)
-    pos, tails, disp = plotting._positions(st, state.compiled, state.z)
+    st = geometry._structure(state.compiled)
+    pos, tails, disp = geometry._positions(st, state.compiled, state.z)
     for name, node in st.point_node.items():
         np.testing.assert_allclose(pos[node], [state[name + "_x"], state[name + "_y"]], atol=1e-8)
     for loop in mech.loops:  # walking each loop from its start meets every vector where it was placed
-        seq = plotting._walk_sequence(loop)
+        seq = geometry._walk_sequence(loop)
         sign, first = seq[0]
         start = tails[first] if sign > 0 else tails[first] + disp[first]
         cur = start.copy()
@@ -478,7 +478,7 @@ def test_watt1_vectors_tip_to_tail_on_the_joints():
     mech = ls.load(ls.models_dir() / "watt1_sixbar.toml")
     assert mech.loops[1].text == "r_crank + r_coupler_F = r_crank_E + r_link5 + r_link6"
     state = mech.solve(60)
-    frames, _ = plotting._frames([state], vectors=True)
+    frames, _ = geometry.pose_frames([state], vectors=True)
     joints = {n: np.array([state[n + "_x"], state[n + "_y"]]) for n in ("O2", "A", "B", "O4", "E", "F", "G")}
     ends = {"r_crank": ("O2", "A"), "r_crank_E": ("O2", "E"), "r_coupler": ("A", "B"), "r_coupler_F": ("A", "F"),
             "r_rocker": ("O4", "B"), "r_link5": ("E", "G"), "r_link6": ("G", "F"), "r_ground_O4": ("O2", "O4")}
@@ -493,11 +493,11 @@ def test_watt1_vectors_tip_to_tail_on_the_joints():
 def test_vector_names_beside_their_arrows_clear_of_the_links(model):
     """A vector's name sits off the arrow's side that is clear of bars and outside plates."""
     mech = ls.load(ls.models_dir() / f"{model}.toml")
-    frames, _ = plotting._frames([mech.solve()], vectors=True)
-    style = plotting._style(frames)
+    frames, _ = geometry.pose_frames([mech.solve()], vectors=True)
+    style = geometry.drawing_style(frames)
     f = frames[0]
-    sides = plotting._arrow_label_sides(f, style)
-    plates = [np.asarray(xy, float)[plotting._hull_order(np.asarray(xy, float))] for _, xy, _ in f.links
+    sides = geometry.arrow_label_sides(f, style)
+    plates = [np.asarray(xy, float)[geometry.hull_order(np.asarray(xy, float))] for _, xy, _ in f.links
               if len(xy) >= 3]
     bars = [(np.asarray(xy[0], float), np.asarray(xy[1], float)) for _, xy, _ in f.links if len(xy) == 2]
     for (tail, head, name), (mid, n) in zip(f.arrows, sides):
@@ -508,8 +508,8 @@ def test_vector_names_beside_their_arrows_clear_of_the_links(model):
             t = np.clip((label - a) @ (b - a) / ((b - a) @ (b - a)), 0, 1)
             assert np.linalg.norm(label - a - t * (b - a)) > 0.5 * style.size, (name, a, b)
         other = mid - n * 0.9 * style.size  # a chord across a plate has the plate on both sides
-        if any(plotting._inside(label, poly) for poly in plates):
-            assert any(plotting._inside(other, poly) for poly in plates), name
+        if any(geometry._inside(label, poly) for poly in plates):
+            assert any(geometry._inside(other, poly) for poly in plates), name
 
 
 # ------------------------------------------------------------------- frame cap (issue 9)
@@ -539,7 +539,7 @@ def test_animate_caps_frames_before_rendering(thesis, tmp_path):
 def test_coupler_point_is_drawn_as_a_point_and_traced(tmp_path):
     mech = ls.load(ls.models_dir() / "fourbar_coupler_curve.toml")
     state = mech.solve(60)
-    frames, _ = plotting._frames([state], vectors=False)
+    frames, _ = geometry.pose_frames([state], vectors=False)
     f = frames[0]
     p = np.array([state["P_x"], state["P_y"]])
     assert any(np.allclose(q, p) for q, _ in f.points)  # a dot, not a pin

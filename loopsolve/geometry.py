@@ -1,0 +1,907 @@
+"""What a picture of a mechanism shows, as numbers: the drawing geometry (no matplotlib).
+
+Both renderers use it: :mod:`loopsolve.plotting` (matplotlib figures and animations) and
+:mod:`loopsolve.view` (the interactive HTML page). For every solved pose, :func:`pose_frames`
+says what is drawn where (a :class:`Frame`), and :func:`drawing_style` derives from all the
+frames of a picture what stays the same in it (a :class:`Style`: the symbol size, the
+extent, the side of every ground symbol and guide, the length of slotted levers).
+
+The kinematic diagram is rebuilt from the solved state alone:
+
+* every vector is placed by walking the loops (``lhs`` forward, ``rhs`` backward, starting at
+  the origin or at a vector an earlier loop already placed) and then the points of interest
+  (sums of vectors from the origin), with the lengths and angles of
+  :meth:`CompiledKinematics.vector_values`;
+* a vector whose length and angle do not depend on any variable is *ground* when one of its
+  ends is fixed (the origin is); its ends are fixed points;
+* a vector whose angle depends on variables and whose length is constant is part of a *link*;
+  vectors whose angles depend on the same variables are the same rigid link (a link with
+  three or more joints is drawn as a filled polygon: a ternary link is a triangle);
+* a vector whose length is a variable is a *slider*: a block at its tip on a guide along it
+  (a fixed guide, hatched, when its angle is constant; a slotted lever when it rotates).
+
+A model written as a kinematic diagram (``[joints]``/``[links]``, see :mod:`loopsolve.diagram`)
+is drawn from its links and joints instead, when its ``spec`` still carries them.
+
+Also here, for the plots against the input: which columns to plot (:func:`plot_vars`),
+angles tracked continuously (:func:`unwrapped`) and the names of assembly modes
+(:func:`mode_label`).
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .errors import ModelError
+
+__all__ = ["LINK_COLORS", "Frame", "Style", "pose_frames", "drawing_style", "polygon_area", "hull_order",
+           "unit_vector", "arrow_label_sides", "label_placements", "plot_vars", "unwrapped", "mode_label"]
+
+#: the colours of the links, in turn (a link's ``color`` index in its :class:`Frame` wraps around)
+LINK_COLORS = ("#1f4e79", "#b03a2e", "#1e8449", "#7d3c98", "#b9770e", "#117a65", "#5d6d7e", "#a04000")
+
+
+# ------------------------------------------------------------------------ plotted columns
+def plot_vars(sweep, vars) -> list[str]:
+    """The columns to plot for ``vars``: variables, both coordinates of points, point coordinates.
+
+    Parameters
+    ----------
+    sweep : Sweep
+    vars : str or sequence of str or None
+        Variables (``theta3``), points (``C``: ``C_x`` and ``C_y``) or point coordinates
+        (``C_x``); ``None``: the unknowns.
+
+    Returns
+    -------
+    list of str
+        Column names, each once, in the order asked.
+
+    Raises
+    ------
+    ModelError
+        A name that is neither a variable, a point nor a point coordinate.
+
+    Examples
+    --------
+    >>> from loopsolve.geometry import plot_vars
+    >>> sw = ls.load(ls.models_dir() / "thesis_crank_rocker.toml").sweep(0, 90, 45)
+    >>> plot_vars(sw, None), plot_vars(sw, ["theta3", "theta3"])
+    (['theta3', 'theta4'], ['theta3'])
+    """
+    ck = sweep.compiled
+    if vars is None:
+        return list(ck.unknowns)
+    if isinstance(vars, str):
+        vars = [vars]
+    out: list[str] = []
+    for v in vars:
+        if v in ck.variables or v in {f"{p}_{c}" for p in ck.points for c in "xy"}:
+            out.append(v)
+        elif v in ck.points:
+            out += [f"{v}_x", f"{v}_y"]
+        else:
+            raise ModelError(f"cannot plot {v!r}: choose variables ({', '.join(ck.variables)}), points "
+                             f"({', '.join(ck.points) or 'none'}) or point coordinates such as "
+                             f"{(ck.points[0] if ck.points else 'P')}_x")
+    return list(dict.fromkeys(out))
+
+
+def unwrapped(values: np.ndarray, unit: str) -> np.ndarray:
+    """Angles tracked continuously (the table wraps them to (−180°, 180°]).
+
+    The jumps of a whole turn are removed between finite values, then the curve is shifted by
+    whole turns so that its mean lies within half a turn of zero. Fewer than two finite
+    values are returned as they are.
+
+    Parameters
+    ----------
+    values : ndarray
+        Angles, one per row (NaN where there is no value).
+    unit : str
+        ``"deg"`` (a turn is 360) or anything else (a turn is 2π).
+
+    Returns
+    -------
+    ndarray
+
+    Examples
+    --------
+    >>> from loopsolve.geometry import unwrapped
+    >>> unwrapped(np.array([170.0, 180.0, -170.0, np.nan, -160.0]), "deg")
+    array([-190., -180., -170.,   nan, -160.])
+    """
+    period = 360.0 if unit == "deg" else 2 * math.pi
+    good = np.isfinite(values)
+    if good.sum() < 2:
+        return values
+    out = values.copy()
+    out[good] = np.unwrap(values[good], period=period)
+    shift = period * np.round(np.nanmean(out) / period)
+    return out - shift
+
+
+
+# ------------------------------------------------------------------------- diagram geometry
+class _Nodes:
+    """Union-find over vector ends: ``("tail", v)``, ``("head", v)`` and ``"origin"``."""
+
+    def __init__(self):
+        self.parent: dict = {}
+
+    def find(self, k):
+        self.parent.setdefault(k, k)
+        while self.parent[k] != k:
+            self.parent[k] = self.parent[self.parent[k]]
+            k = self.parent[k]
+        return k
+
+    def union(self, a, b):
+        ra, rb = self.find(a), self.find(b)
+        if ra != rb:
+            # keep "origin" as the representative when present
+            if rb == "origin":
+                ra, rb = rb, ra
+            self.parent[rb] = ra
+
+
+def _walk_sequence(loop) -> tuple[tuple[int, str], ...]:
+    """The closed path of a loop: the left side forward, then the right side backward."""
+    if loop.rhs:
+        return tuple(loop.lhs) + tuple((-s, n) for s, n in reversed(loop.rhs))
+    return tuple(loop.terms)
+
+
+@dataclass
+class _Structure:
+    """Pose-independent structure of a mechanism's diagram (from its vectors and loops)."""
+
+    walks: list  # (start: "origin" | (vec, index in sequence), sequence, closing: bool, point name | None)
+    node_of: dict  # (end, vec) -> node id
+    kind: dict  # vec -> "ground" | "bar" | "slider" | "rslider" | "offset" | "moving"
+    link_of: dict  # vec -> link key (bars, rotating sliders)
+    fixed: set  # fixed node ids
+    point_node: dict  # point name -> node id
+    names: dict  # node id -> label
+    vectors: tuple  # placed vectors in compiled order
+    links: dict = field(default_factory=dict)  # link key -> list of node ids (declared order)
+    blocks: list = field(default_factory=list)  # (slider vec, node id of the block)
+
+
+def _structure(ck) -> _Structure:
+    from .expr import names as expr_names
+
+    mech = ck.mechanism
+    variables = set(ck.variables)
+    nodes = _Nodes()
+    nodes.find("origin")
+    placed: set[str] = set()
+    walks = []
+    pending = list(mech.loops)
+    while pending:
+        pick, start = None, "origin"
+        for loop in pending:
+            seq = _walk_sequence(loop)
+            hit = next((i for i, (_, v) in enumerate(seq) if v in placed), None)
+            if hit is not None:
+                pick, start = loop, (seq[hit][1], hit)
+                break
+        if pick is None:
+            pick = pending[0]
+        pending.remove(pick)
+        seq = _walk_sequence(pick)
+        walks.append((start, seq, True, None))
+        cur = "origin" if start == "origin" else None
+        first = None
+        for sign, v in seq:
+            tail, head = ("tail", v), ("head", v)
+            enter, leave = (tail, head) if sign > 0 else (head, tail)
+            if cur is None:
+                first = enter
+            else:
+                nodes.union(cur, enter)
+            cur = leave
+            placed.add(v)
+        nodes.union(cur, "origin" if start == "origin" else first)
+    point_node = {}
+    for p in mech.points:
+        if not p.plain:  # a point with factors (a centre of mass) is not a walk along whole vectors
+            continue
+        cur = "origin"
+        for sign, v in p.terms:
+            tail, head = ("tail", v), ("head", v)
+            enter, leave = (tail, head) if sign > 0 else (head, tail)
+            nodes.union(cur, enter)
+            cur = leave
+        walks.append(("origin", tuple(p.terms), False, p.name))
+        placed.update(v for _, v in p.terms)
+        point_node[p.name] = cur
+    vectors = tuple(v for v in ck.vectors if v in placed)
+    node_of = {}
+    for v in vectors:
+        for end in ("tail", "head"):
+            node_of[(end, v)] = nodes.find((end, v))
+    point_node = {p: nodes.find(k) for p, k in point_node.items()}
+    origin = nodes.find("origin")
+
+    lvars, avars = {}, {}
+    for v in vectors:
+        vec = mech.vector(v)
+        if vec.cartesian:
+            deps = (expr_names(vec.x) | expr_names(vec.y)) & variables
+            lvars[v], avars[v] = deps, deps
+        else:
+            lvars[v] = expr_names(vec.length) & variables
+            avars[v] = (expr_names(vec.angle) | (expr_names(vec.offset) if vec.offset is not None else set())) \
+                & variables
+    # fixed nodes: the origin and everything reached from it through constant vectors
+    fixed = {origin}
+    changed = True
+    while changed:
+        changed = False
+        for v in vectors:
+            if lvars[v] or avars[v]:
+                continue
+            a, b = node_of[("tail", v)], node_of[("head", v)]
+            if (a in fixed) != (b in fixed):
+                fixed.update((a, b))
+                changed = True
+    kind, link_of, links = {}, {}, {}
+    for v in vectors:
+        a, b = node_of[("tail", v)], node_of[("head", v)]
+        if lvars[v]:
+            kind[v] = "rslider" if avars[v] else "slider"
+        elif avars[v]:
+            kind[v] = "moving" if mech.vector(v).cartesian else "bar"
+        else:
+            kind[v] = "ground" if a in fixed else "offset"
+        if kind[v] in ("bar", "rslider", "moving"):
+            key = frozenset(avars[v])
+            link_of[v] = key
+            members = links.setdefault(key, [])
+            for n in (a, b) if kind[v] != "rslider" else (a,):
+                if n not in members:
+                    members.append(n)
+    # block of each slider: at its tip, or further along constant offsets where a link is pinned
+    pinned = {n for key, members in links.items() for n in members}
+    blocks = []
+    offsets: dict = {}
+    for v in vectors:
+        if kind[v] == "offset":
+            a, b = node_of[("tail", v)], node_of[("head", v)]
+            offsets.setdefault(a, set()).add(b)
+            offsets.setdefault(b, set()).add(a)
+    for v in vectors:
+        if kind[v] not in ("slider", "rslider"):
+            continue
+        tip = node_of[("head", v)]
+        block = tip
+        if kind[v] == "slider" and tip not in pinned:
+            seen, frontier = {tip}, [tip]
+            while frontier:
+                n = frontier.pop(0)
+                if n in pinned:
+                    block = n
+                    break
+                for m in offsets.get(n, ()):
+                    if m not in seen:
+                        seen.add(m)
+                        frontier.append(m)
+        blocks.append((v, block))
+    names = _node_names(mech, vectors, node_of, point_node, kind, fixed, links)
+    return _Structure(walks, node_of, kind, link_of, fixed, point_node, names, vectors, links, blocks)
+
+
+def _node_names(mech, vectors, node_of, point_node, kind, fixed, links) -> dict:
+    """Labels: point names first, then names read off vector names (``rAB``: A→B, ``r2``: O2)."""
+    names: dict = {}
+    for p, n in point_node.items():
+        names.setdefault(n, p)
+    for v in vectors:
+        m = re.fullmatch(r"r_?([A-Z][0-9]*)([A-Z][0-9]*)", v)
+        if m:
+            names.setdefault(node_of[("tail", v)], m.group(1))
+            names.setdefault(node_of[("head", v)], m.group(2))
+    pivots = {n for key, members in links.items() for n in members} & fixed
+    taken = set(names.values())
+    for v in vectors:
+        if kind[v] not in ("bar", "rslider"):
+            continue
+        for end in ("tail", "head"):
+            n = node_of[(end, v)]
+            if n in pivots and n not in names:
+                m = re.fullmatch(r"[a-zA-Z]+_?([0-9]+[a-z]*)", v)
+                label = f"O{m.group(1)}" if m else f"O({v})"
+                if label not in taken:
+                    names[n] = label
+                    taken.add(label)
+    return names
+
+
+def _positions(st: _Structure, ck, z) -> dict:
+    """Node id → (x, y) at the pose ``z`` (internal units)."""
+    vv = ck.vector_values(0, z)
+    disp = {}
+    for v in st.vectors:
+        length, angle = vv[ck.vectors.index(v)]
+        disp[v] = np.array([length * math.cos(angle), length * math.sin(angle)])
+    tails: dict[str, np.ndarray] = {}
+    for start, seq, closing, _point in st.walks:
+        if start == "origin":
+            cur = np.zeros(2)
+        else:
+            anchor, hit = start
+            rel = np.zeros(2)
+            for sign, v in seq[:hit]:
+                rel = rel + sign * disp[v]
+            own = rel if seq[hit][0] > 0 else rel - disp[anchor]
+            cur = tails[anchor] - own
+        for sign, v in seq:
+            if sign > 0:
+                tails.setdefault(v, cur.copy())
+                cur = cur + disp[v]
+            else:
+                cur = cur - disp[v]
+                tails.setdefault(v, cur.copy())
+    pos = {}
+    for v in st.vectors:
+        pos.setdefault(st.node_of[("tail", v)], tails[v])
+        pos.setdefault(st.node_of[("head", v)], tails[v] + disp[v])
+    return pos, tails, disp
+
+
+@dataclass
+class Frame:
+    """Everything drawn for one pose, in data coordinates (model length units).
+
+    Made by :func:`pose_frames`; keys (``key``, ``name``) identify the same item in the
+    frames of other poses and in :class:`Style`.
+
+    Examples
+    --------
+    >>> from loopsolve.geometry import pose_frames
+    >>> (frame,), _ = pose_frames([ls.load(ls.models_dir() / "thesis_crank_rocker.toml").solve(60)],
+    ...                           vectors=False)
+    >>> len(frame.links), len(frame.pivots), len(frame.joints), sorted(t for _, t, _ in frame.labels)
+    (3, 2, 4, ['B', 'C', 'O2', 'O4'])
+    """
+
+    links: list  # (key, [xy...], color index)
+    pivots: list  # (xy, name|None)
+    blocks: list  # (xy, angle)
+    guides: list  # (key, block xy, unit direction, ground: bool, tail xy | None)
+    levers: list  # (vector, pivot xy, unit direction, block xy)
+    joints: list  # xy
+    points: list  # (xy, name)
+    labels: list  # (xy, text, attached directions)
+    arrows: list  # (tail, head, name)
+    ground_lines: list  # (p0, p1)
+
+
+def unit_vector(v) -> np.ndarray:
+    """``v`` divided by its length (the zero vector for a zero vector).
+
+    Examples
+    --------
+    >>> from loopsolve.geometry import unit_vector
+    >>> unit_vector([3.0, 4.0]), unit_vector([0.0, 0.0])
+    (array([0.6, 0.8]), array([0., 0.]))
+    """
+    n = float(np.hypot(*v))
+    return np.asarray(v, dtype=float) / n if n > 0 else np.zeros(2)
+
+
+def _diagram_spec(mech):
+    spec = getattr(mech, "spec", None) or {}
+    joints, links = spec.get("joints"), spec.get("links")
+    if isinstance(joints, dict) and isinstance(links, dict) and links:
+        return joints, links
+    return None
+
+
+def pose_frames(states, *, vectors: bool) -> tuple[list[Frame], _Structure]:
+    """What is drawn for each of ``states`` (poses of one compiled model), and the diagram's structure.
+
+    Parameters
+    ----------
+    states : sequence of State
+        Solved poses of the same compiled model (a sweep's ``states``), at least one.
+    vectors : bool
+        Also list the loop vectors as arrows (``Frame.arrows``).
+
+    Returns
+    -------
+    frames : list of Frame
+        One per state, in order.
+    structure
+        The pose-independent structure (which vectors are ground, links, sliders).
+
+    Raises
+    ------
+    ModelError
+        A kinematic-diagram model whose joints are not all points of the solved model.
+
+    Examples
+    --------
+    >>> from loopsolve.geometry import pose_frames
+    >>> mech = ls.load(ls.models_dir() / "thesis_crank_rocker.toml")
+    >>> frames, _ = pose_frames([mech.solve(0), mech.solve(90)], vectors=True)
+    >>> len(frames), sorted(name for _, _, name in frames[1].arrows)
+    (2, ['r1', 'r2', 'r3', 'r4'])
+    """
+    ck = states[0].compiled
+    st = _structure(ck)
+    layout = _diagram_spec(ck.mechanism)
+    frames = []
+    for s in states:
+        pos, tails, disp = _positions(st, ck, s.z)
+        frames.append(_frame_from_layout(layout, s, st, pos) if layout else _frame(st, ck, s, pos))
+        if vectors:
+            frames[-1].arrows = [(tails[v], tails[v] + disp[v], v) for v in st.vectors
+                                 if float(np.hypot(*disp[v])) > 0]
+    return frames, st
+
+
+def _frame(st: _Structure, ck, s, pos) -> Frame:
+    links, pivots, blocks, guides, levers, joints, points, ground_lines = [], [], [], [], [], set(), [], []
+    for i, (key, members) in enumerate(st.links.items()):
+        links.append((key, [pos[n] for n in members], i))
+        joints.update(members)
+    vv = ck.vector_values(0, s.z)
+    for v, block in st.blocks:
+        length, angle = vv[ck.vectors.index(v)]
+        d = np.array([math.cos(angle), math.sin(angle)])
+        tail = pos[st.node_of[("tail", v)]]
+        if st.kind[v] == "rslider":
+            levers.append((v, tail, d, pos[block]))
+        else:
+            ground = st.node_of[("tail", v)] in st.fixed
+            guides.append((v, pos[block], d, ground, tail))
+        blocks.append((pos[block], angle))
+        joints.add(block)
+    for v in st.vectors:
+        if st.kind[v] == "ground":
+            ground_lines.append((pos[st.node_of[("tail", v)]], pos[st.node_of[("head", v)]]))
+    pivot_nodes = joints & st.fixed
+    pivots = [(pos[n], n) for n in pivot_nodes]
+    point_nodes = set(st.point_node.values())
+    points = [(pos[n], n) for n in point_nodes - joints]
+    labels = {n: st.names[n] for n in (joints | point_nodes) if n in st.names}
+    return Frame(links, pivots, blocks, guides, levers, [pos[n] for n in joints], points,
+                  [(pos[n], text, n) for n, text in labels.items()], [], ground_lines)
+
+
+def _frame_from_layout(layout, s, st: _Structure, pos) -> Frame:
+    """A frame from a kinematic-diagram model: links and joints by name (every joint is a point).
+
+    A link is drawn through its distinct joint positions (coincident joints, such as a pin
+    and the prismatic joint of the same block, count once); a link whose joints all coincide
+    is a block, drawn by its prismatic joint. A prismatic joint is a block along the sliding
+    vector that ends at it (its ``axis`` when none does), on a hatched guide when the joint
+    belongs to the ground link.
+    """
+    joints_spec, links_spec = layout
+    ck = s.compiled
+    where = {p: np.asarray(s.points[0, j], dtype=float) for j, p in enumerate(ck.points)}
+    missing = [j for j in joints_spec if j not in where]
+    if missing:
+        raise ModelError(f"cannot draw {ck.mechanism.name!r}: joints {', '.join(missing)} are not points "
+                         "of the solved model")
+    tol = 1e-9 * ck.scale
+    ground_name = "ground" if "ground" in links_spec else None
+    ground_joints = set(links_spec.get(ground_name, ())) if ground_name else set()
+    vv = ck.vector_values(0, s.z)
+
+    def distinct(names):
+        out = []
+        for n in names:
+            if not any(np.linalg.norm(where[n] - q) < tol for q in out):
+                out.append(where[n])
+        return out
+
+    links, pivots, blocks, guides, joints = [], [], [], [], []
+    for i, (name, members) in enumerate(links_spec.items()):
+        xy = distinct(members)
+        if name != ground_name and len(xy) >= 2:
+            links.append((name, xy, i))
+    kinds = {n: (str(spec.get("type", "R")).upper() if isinstance(spec, dict) else "R")
+             for n, spec in joints_spec.items()}
+    carried: dict[str, int] = {}
+    for members in links_spec.values():
+        for n in set(members):
+            carried[n] = carried.get(n, 0) + 1
+    # a revolute joint named by one link only is a tracer point of that link: a dot, not a pin
+    tracers = [n for n in joints_spec if kinds[n] == "R" and carried.get(n, 0) == 1]
+    for name, spec in joints_spec.items():
+        if name in tracers:
+            continue
+        p = where[name]
+        if kinds[name] == "P":
+            angle = None
+            for v, block in st.blocks:
+                if np.linalg.norm(pos[block] - p) < tol:
+                    angle = float(vv[ck.vectors.index(v)][1])
+            if angle is None:
+                axis = spec.get("axis", (1.0, 0.0))
+                angle = math.atan2(float(axis[1]), float(axis[0]))
+            blocks.append((p, angle))
+            if name in ground_joints:
+                guides.append((name, p, np.array([math.cos(angle), math.sin(angle)]), True, None))
+        else:
+            if name in ground_joints:
+                pivots.append((p, name))
+        if not any(np.linalg.norm(p - q) < tol for q in joints):
+            joints.append(p)
+    # one label per position: the revolute joints there (else the prismatic one)
+    labels = []
+    for p in joints:
+        here = [n for n in joints_spec if np.linalg.norm(where[n] - p) < tol]
+        named = [n for n in here if kinds[n] == "R"] or here
+        labels.append((p, ", ".join(named), named[0]))
+    extra = [(where[p], p) for p in ck.points if p not in joints_spec or p in tracers]
+    return Frame(links, pivots, blocks, guides, [], joints, extra,
+                  labels + [(xy, p, p) for xy, p in extra], [], [])
+
+
+
+# ---------------------------------------------------------------------------------- style
+@dataclass
+class Style:
+    """What stays the same over all the frames of one picture (made by :func:`drawing_style`).
+
+    Examples
+    --------
+    >>> from loopsolve.geometry import drawing_style, pose_frames
+    >>> frames, _ = pose_frames([ls.load(ls.models_dir() / "thesis_crank_rocker.toml").solve(60)], vectors=False)
+    >>> style = drawing_style(frames)
+    >>> sorted(np.round(u, 3).tolist() for u in style.pivot_dir.values())
+    [[0.0, -1.0], [0.0, -1.0]]
+    """
+
+    size: float  # the characteristic symbol size (data units)
+    lo: np.ndarray
+    hi: np.ndarray
+    pivot_dir: dict  # pivot key -> unit vector towards the ground
+    guide_side: dict  # guide key -> unit normal of the hatched side
+    guide_span: dict  # guide key -> (s_min, s_max) along the guide through its reference point
+    lever_len: dict  # lever key -> drawn length
+
+
+#: the directions a ground symbol may point (down, up, left, right) and the bias towards each
+_PIVOT_CHOICES = np.array([(0.0, -1.0), (0.0, 1.0), (-1.0, 0.0), (1.0, 0.0)])
+_PIVOT_BIAS = np.array([0.3, 0.1, 0.0, 0.0])
+
+
+def _units(v: np.ndarray) -> np.ndarray:
+    """:func:`unit_vector` of every row of ``v`` (``(..., 2)``)."""
+    n = np.hypot(v[..., 0], v[..., 1])[..., None]
+    safe = np.where(n > 0, n, 1.0)
+    return np.where(n > 0, v / safe, 0.0)
+
+
+def _pivot_clearance(frames: list[Frame], span: float) -> dict:
+    """Per pivot key: the sum over frames of each choice's clearance (``(4,)``), in frame order.
+
+    A choice's clearance in a frame is its angle to the nearest direction attached at the
+    pivot (links through it, levers pivoted there, frame lines ending there), at most a right
+    angle; π/2 when nothing is attached. Frames with the same shapes are stacked and done in
+    one go (numpy), so the cost is O(frames) array work. The attachment test is
+    ``np.isclose(q, pivot, atol=1e-9 * span)`` on both coordinates.
+    """
+    atol = 1e-9 * span
+    groups: dict = {}
+    for i, f in enumerate(frames):
+        if f.pivots:
+            sig = (tuple(len(xy) for _, xy, _ in f.links), tuple(key for _, key in f.pivots), len(f.levers),
+                   len(f.ground_lines))
+            groups.setdefault(sig, []).append(i)
+    per_frame: dict = {}  # key -> (len(frames), 4) contributions (zero where the key is absent)
+    for (_, keys, n_levers, n_lines), rows in groups.items():
+        fs = [frames[i] for i in rows]
+        P = np.array([[p for p, _ in f.pivots] for f in fs], dtype=float)[:, :, None, :]  # (G, K, 1, 2)
+        best = np.full((len(fs), len(keys), len(_PIVOT_CHOICES)), -np.inf)
+
+        def close(q):  # q (G, 1, M, 2) -> (G, K, M)
+            return np.isclose(q, P, rtol=1e-5, atol=atol).all(axis=-1)
+
+        def take(dirs, valid):  # dirs (G, K|1, M, 2), valid (G, K, M)
+            nonlocal best
+            if valid.shape[-1]:
+                dots = np.where(valid[..., None], dirs @ _PIVOT_CHOICES.T, -np.inf)
+                best = np.maximum(best, dots.max(axis=2))
+
+        for j in range(len(fs[0].links)):
+            Q = np.array([f.links[j][1] for f in fs], dtype=float)[:, None, :, :]
+            on = close(Q)
+            take(_units(Q - P), on.any(axis=-1, keepdims=True) & ~on)
+        if n_levers:
+            tails = np.array([[t for _, t, _, _ in f.levers] for f in fs], dtype=float)[:, None, :, :]
+            dirs = np.array([[d for _, _, d, _ in f.levers] for f in fs], dtype=float)[:, None, :, :]
+            take(dirs, close(tails))
+        if n_lines:
+            A = np.array([[a for a, _ in f.ground_lines] for f in fs], dtype=float)[:, None, :, :]
+            B = np.array([[b for _, b in f.ground_lines] for f in fs], dtype=float)[:, None, :, :]
+            at_a = close(A)
+            take(_units(B - A), at_a)
+            take(_units(A - B), close(B) & ~at_a)
+        # angle to the nearest direction = acos of the largest cosine; capped at a right angle
+        clear = np.full(best.shape, 0.5 * math.pi)
+        for idx in zip(*np.nonzero(best > 0)):
+            clear[idx] = min(math.acos(min(1.0, float(best[idx]))), 0.5 * math.pi)
+        for k, key in enumerate(keys):
+            per_frame.setdefault(key, np.zeros((len(frames), len(_PIVOT_CHOICES))))[rows] = clear[:, k, :]
+    first = {}
+    for f in frames:
+        for _, key in f.pivots:
+            first.setdefault(key, None)
+    # summed in frame order (as a running sum would), so the result does not depend on grouping
+    return {key: np.cumsum(per_frame[key], axis=0)[-1] for key in first}
+
+
+def drawing_style(frames: list[Frame]) -> Style:
+    """The style of a picture made of ``frames``: symbol size, extent, ground sides, guide spans, levers.
+
+    * the symbol size is 4.5 % of the larger side of the box around everything drawn;
+    * a ground pivot's symbol points, of the four axis directions, where it is clearest of
+      what is attached at the pivot, averaged over all frames (down when free);
+    * a fixed guide is hatched on the side away from the centre of the drawing and spans
+      every position of its block, plus three symbol sizes either side;
+    * a slotted lever reaches 2.5 symbol sizes beyond the farthest position of its block.
+
+    The cost is O(frames) numpy work (a few microseconds a frame).
+
+    Parameters
+    ----------
+    frames : list of Frame
+        From :func:`pose_frames`, at least one.
+
+    Returns
+    -------
+    Style
+
+    Examples
+    --------
+    >>> from loopsolve.geometry import drawing_style, pose_frames
+    >>> sw = ls.load(ls.models_dir() / "example1_slider_crank.toml").sweep(0, 360, 30)
+    >>> style = drawing_style(pose_frames(list(sw.states), vectors=False)[0])
+    >>> list(style.guide_side), style.guide_side["r1"].tolist()
+    (['r1'], [0.0, -1.0])
+    >>> lo, hi = style.guide_span["r1"]
+    >>> bool(np.isclose(hi - lo, 2 * 5 + 6 * style.size))  # the slider's stroke (twice the crank) + margins
+    True
+    """
+    pts = []
+    for f in frames:
+        for _, xy, _ in f.links:
+            pts += list(xy)
+        pts += [p for p, _ in f.pivots] + [p for p, _ in f.blocks] + list(f.joints) + [p for p, _ in f.points]
+        pts += [p for pair in f.ground_lines for p in pair]
+        pts += [t for t, h, _ in f.arrows] + [h for t, h, _ in f.arrows]
+        for v, tail, d, block in f.levers:
+            pts.append(tail)
+    pts = np.array(pts, dtype=float).reshape(-1, 2)
+    lo, hi = pts.min(axis=0), pts.max(axis=0)
+    span = float(max(hi - lo)) or 1.0
+    size = 0.045 * span
+    centre = pts.mean(axis=0)
+    choices = list(_PIVOT_CHOICES)
+    snapped = {key: choices[int(np.argmax(score / len(frames) + _PIVOT_BIAS))]
+               for key, score in _pivot_clearance(frames, span).items()}
+    guide_side, guide_span, guide_ref = {}, {}, {}
+    for f in frames:
+        for key, p, d, ground, tail in f.guides:
+            ref = guide_ref.setdefault(key, np.asarray(p, dtype=float))
+            n = np.array([-d[1], d[0]])
+            side = guide_side.setdefault(key, np.zeros(2))
+            side += -(n @ (centre - p)) * n
+            s = float((p - ref) @ d)
+            cand = [s - 3.0 * size, s + 3.0 * size]
+            s_lo, s_hi = guide_span.get(key, (math.inf, -math.inf))
+            guide_span[key] = (min(s_lo, *cand), max(s_hi, *cand))
+    for key, side in guide_side.items():
+        guide_side[key] = unit_vector(side) if np.hypot(*side) > 1e-12 else np.array([0.0, -1.0])
+    extra = [guide_ref[k] + d * s for f in frames[:1] for k, _, d, _, _ in f.guides for s in guide_span[k]]
+    # a slotted lever is drawn from its pivot to beyond the farthest position of its block
+    lever_len = {}
+    for f in frames:
+        for v, tail, d, block in f.levers:
+            lever_len[v] = max(lever_len.get(v, 0.0), float((np.asarray(block) - tail) @ d))
+    lever_len = {v: L + 2.5 * size for v, L in lever_len.items()}
+    for f in frames:
+        extra += [tail + d * lever_len[v] for v, tail, d, _ in f.levers]
+    if extra:
+        pts = np.vstack([pts, np.array(extra)])
+    lo, hi = pts.min(axis=0), pts.max(axis=0)
+    return Style(size, lo, hi, snapped, guide_side, guide_span, lever_len)
+
+
+# --------------------------------------------------------------------------------- labels
+def _segment_distance(p, a, b) -> float:
+    ab = b - a
+    t = float(np.clip((p - a) @ ab / (ab @ ab), 0.0, 1.0)) if ab @ ab > 0 else 0.0
+    return float(np.hypot(*(p - a - t * ab)))
+
+
+def _inside(p, poly) -> bool:
+    """``p`` inside the convex polygon ``poly`` (corners in hull order)."""
+    signs = [float((b[0] - a[0]) * (p[1] - a[1]) - (b[1] - a[1]) * (p[0] - a[0]))
+             for a, b in zip(poly, np.roll(poly, -1, axis=0))]
+    return all(s > 0 for s in signs) or all(s < 0 for s in signs)
+
+
+def arrow_label_sides(frame: Frame, style: Style) -> list[tuple[np.ndarray, np.ndarray]]:
+    """For every vector arrow: its midpoint and the unit normal on the side its name goes.
+
+    The name sits beside the arrow, perpendicular to it, on the side that is clearer of the
+    links (bars, the inside of plates, frame lines) and of the other arrows and their names.
+
+    Returns
+    -------
+    list of (mid, normal)
+        One per ``frame.arrows``, in order: the arrow's midpoint and the unit normal towards
+        its name.
+
+    Examples
+    --------
+    >>> from loopsolve.geometry import arrow_label_sides, drawing_style, pose_frames
+    >>> frames, _ = pose_frames([ls.load(ls.models_dir() / "thesis_crank_rocker.toml").solve(60)], vectors=True)
+    >>> sides = arrow_label_sides(frames[0], drawing_style(frames))
+    >>> len(sides) == len(frames[0].arrows), [bool(np.isclose(np.hypot(*n), 1.0)) for _, n in sides]
+    (True, [True, True, True, True])
+    """
+    size = style.size
+    segs, plates = [], []
+    for _, xy, _ in frame.links:
+        xy = np.asarray(xy, dtype=float)
+        segs += [(xy[a], xy[b]) for a in range(len(xy)) for b in range(a + 1, len(xy))]
+        if len(xy) >= 3:
+            plates.append(xy[hull_order(xy)])
+    segs += [(np.asarray(a, dtype=float), np.asarray(b, dtype=float)) for a, b in frame.ground_lines]
+    arrows = [(np.asarray(t, dtype=float), np.asarray(h, dtype=float)) for t, h, _ in frame.arrows]
+    placed: list[np.ndarray] = []
+    out = []
+    for k, (tail, head) in enumerate(arrows):
+        d = unit_vector(head - tail)
+        n = np.array([-d[1], d[0]])
+        mid = 0.5 * (tail + head)
+        best, best_score = n, -math.inf
+        for side in (n, -n):
+            p = mid + side * 0.9 * size
+            clear = min([_segment_distance(p, a, b) for a, b in segs]
+                        + [_segment_distance(p, a, b) for i, (a, b) in enumerate(arrows) if i != k]
+                        + [float(np.hypot(*(p - q))) for q in placed], default=10 * size)
+            score = min(clear, 2 * size) - sum(2 * size for poly in plates if _inside(p, poly))
+            if score > best_score + 1e-12:
+                best, best_score = side, score
+        placed.append(mid + best * 0.9 * size)
+        out.append((mid, best))
+    return out
+
+
+def label_placements(frame: Frame, style: Style) -> list[tuple[np.ndarray, str, str, str]]:
+    """Where the joint and point names of ``frame`` go: each in the freest direction around its joint.
+
+    Of 24 directions, the one farthest (in angle) from everything attached at the joint
+    (links, frame lines, levers, arrows, the ground symbol, a block and its guide), leaning
+    away from their mean direction and slightly upwards; the name is put 0.75 symbol sizes
+    away (a full size at a block).
+
+    Returns
+    -------
+    list of (xy, text, ha, va)
+        The anchor point (data units), the name, and its horizontal (``left``, ``center``,
+        ``right``) and vertical (``bottom``, ``center``, ``top``) alignment at the anchor.
+
+    Examples
+    --------
+    >>> from loopsolve.geometry import drawing_style, label_placements, pose_frames
+    >>> frames, _ = pose_frames([ls.load(ls.models_dir() / "thesis_crank_rocker.toml").solve(60)], vectors=False)
+    >>> sorted((text, va) for _, text, _, va in label_placements(frames[0], drawing_style(frames)))
+    [('B', 'bottom'), ('C', 'bottom'), ('O2', 'bottom'), ('O4', 'bottom')]
+    """
+    out = []
+    span = float(max(style.hi - style.lo)) or 1.0
+    tol = 1e-9 * span
+    segs = []
+    for _, xy, _ in frame.links:
+        xy = [np.asarray(q, dtype=float) for q in xy]
+        segs += [(a, b) for i, a in enumerate(xy) for b in xy[i + 1:]]
+    segs += [(np.asarray(a), np.asarray(b)) for a, b in frame.ground_lines]
+    for v, tail, d, _ in frame.levers:
+        segs.append((tail, tail + d * style.lever_len[v]))
+    for tail, head, _ in frame.arrows:
+        segs.append((np.asarray(tail), np.asarray(head)))
+    pivots = {key: style.pivot_dir.get(key, np.array([0.0, -1.0])) for _, key in frame.pivots}
+    blocks = [(np.asarray(p), a) for p, a in frame.blocks]
+    sides = {g[0]: style.guide_side.get(g[0]) for g in frame.guides}
+    candidates = [np.array([math.cos(t), math.sin(t)]) for t in np.linspace(0, 2 * math.pi, 24, endpoint=False)]
+    for p, text, key in frame.labels:
+        p = np.asarray(p, dtype=float)
+        dirs = []
+        for a, b in segs:
+            if np.linalg.norm(a - p) < tol and np.linalg.norm(b - p) > tol:
+                dirs.append(unit_vector(b - a))
+            elif np.linalg.norm(b - p) < tol and np.linalg.norm(a - p) > tol:
+                dirs.append(unit_vector(a - b))
+        if key in pivots:
+            u = pivots[key]
+            dirs += [u, unit_vector(u + np.array([-u[1], u[0]])), unit_vector(u - np.array([-u[1], u[0]]))]
+        radius = 0.75 * style.size
+        for bp, angle in blocks:
+            if np.linalg.norm(bp - p) < tol:
+                d = np.array([math.cos(angle), math.sin(angle)])
+                dirs += [d, -d]
+                radius = 1.0 * style.size
+                for g in frame.guides:
+                    if np.linalg.norm(np.asarray(g[1]) - p) < tol and sides.get(g[0]) is not None:
+                        dirs.append(sides[g[0]])
+        want = -unit_vector(np.sum(dirs, axis=0)) if dirs else np.array([0.6, 0.8])
+
+        def score(c):
+            clear = min((math.acos(max(-1.0, min(1.0, float(c @ d)))) for d in dirs), default=math.pi)
+            return clear + 0.25 * float(c @ want) + 0.05 * c[1]
+
+        c = max(candidates, key=score)
+        ha = "left" if c[0] > 0.35 else "right" if c[0] < -0.35 else "center"
+        va = "bottom" if c[1] > 0.35 else "top" if c[1] < -0.35 else "center"
+        out.append((p + c * radius, text, ha, va))
+    return out
+
+
+def polygon_area(xy) -> float:
+    """The area of the convex polygon through the points ``xy`` (an ``(n, 2)`` array), in any order.
+
+    Examples
+    --------
+    >>> from loopsolve.geometry import polygon_area
+    >>> polygon_area(np.array([[0.0, 0.0], [2.0, 1.0], [2.0, 0.0], [0.0, 1.0]]))
+    2.0
+    """
+    c = xy - xy.mean(axis=0)
+    order = hull_order(xy)
+    q = c[order]
+    return 0.5 * abs(float(np.sum(q[:, 0] * np.roll(q[:, 1], -1) - np.roll(q[:, 0], -1) * q[:, 1])))
+
+
+def hull_order(xy) -> np.ndarray:
+    """The order in which to join the points ``xy`` (``(n, 2)``) into a convex polygon: by angle about their mean.
+
+    Examples
+    --------
+    >>> from loopsolve.geometry import hull_order
+    >>> hull_order(np.array([[1.0, 1.0], [-1.0, -1.0], [1.0, -1.0], [-1.0, 1.0]]))
+    array([1, 2, 0, 3])
+    """
+    c = xy - xy.mean(axis=0)
+    return np.argsort(np.arctan2(c[:, 1], c[:, 0]))
+
+
+def mode_label(mech, signature: str) -> str:
+    """An assembly mode's signature with the model's name for it: ``-`` → ``- (open)``.
+
+    Parameters
+    ----------
+    mech : Mechanism
+    signature : str
+        A mode signature such as ``+`` or ``-+``.
+
+    Returns
+    -------
+    str
+        The signature, followed by its alias in parentheses when the model declares one.
+
+    Examples
+    --------
+    >>> from loopsolve.geometry import mode_label
+    >>> mech = ls.load(ls.models_dir() / "thesis_crank_rocker.toml")
+    >>> mech.mode_aliases
+    {'open': '-', 'crossed': '+'}
+    >>> mode_label(mech, "-"), mode_label(mech, "-+")
+    ('- (open)', '-+')
+    """
+    alias = {v: k for k, v in getattr(mech, "mode_aliases", {}).items()}.get(signature)
+    return f"{signature} ({alias})" if alias else signature
