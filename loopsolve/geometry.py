@@ -466,13 +466,14 @@ def _frame(st: _Structure, ck, s, pos) -> Frame:
     for v in st.vectors:
         if st.kind[v] == "ground":
             ground_lines.append((pos[st.node_of[("tail", v)]], pos[st.node_of[("head", v)]]))
-    pivot_nodes = joints & st.fixed
+    # sets are walked in a fixed order, so a picture does not depend on the hash seed
+    pivot_nodes = sorted(joints & st.fixed, key=repr)
     pivots = [(pos[n], n) for n in pivot_nodes]
     point_nodes = set(st.point_node.values())
-    points = [(pos[n], n) for n in point_nodes - joints]
-    labels = {n: st.names[n] for n in (joints | point_nodes) if n in st.names}
-    return Frame(links, pivots, blocks, guides, levers, [pos[n] for n in joints], points,
-                  [(pos[n], text, n) for n, text in labels.items()], [], ground_lines)
+    points = [(pos[n], n) for n in sorted(point_nodes - joints, key=repr)]
+    labels = {n: st.names[n] for n in sorted(joints | point_nodes, key=repr) if n in st.names}
+    return Frame(links, pivots, blocks, guides, levers, [pos[n] for n in sorted(joints, key=repr)], points,
+                 [(pos[n], text, n) for n, text in labels.items()], [], ground_lines)
 
 
 def _frame_from_layout(layout, s, st: _Structure, pos) -> Frame:

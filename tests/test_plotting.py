@@ -548,3 +548,18 @@ def test_coupler_point_is_drawn_as_a_point_and_traced(tmp_path):
     assert any(np.allclose(q, p) for q in coupler)  # part of the coupler plate
     fig = plotting.draw(state)
     assert "P" in _texts(fig)
+
+
+@pytest.mark.parametrize("model", ["quick_return", "thesis_crank_rocker", "prob2_offset_slider_crank"])
+def test_drawing_does_not_depend_on_the_hash_seed(tmp_path, model):
+    """Pivots, joints and labels are drawn in a fixed order: the same SVG under two hash seeds."""
+    code = ("import matplotlib; matplotlib.rcParams['svg.hashsalt'] = 'loopsolve'\n"
+            "import loopsolve as ls, sys\n"
+            f"ls.load(ls.models_dir() / '{model}.toml').draw(None, vectors=True, output=sys.argv[1])\n")
+    outs = []
+    for seed in ("0", "1"):
+        out = tmp_path / f"{seed}.svg"
+        env = dict(os.environ, PYTHONHASHSEED=seed, SOURCE_DATE_EPOCH="0", MPLBACKEND="Agg")
+        subprocess.run([sys.executable, "-c", code, str(out)], check=True, env=env, capture_output=True)
+        outs.append(out.read_bytes())
+    assert outs[0] == outs[1]
