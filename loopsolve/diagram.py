@@ -45,7 +45,9 @@ __all__ = ["Diagram", "parse_diagram", "diagram_to_spec", "diagram_data", "from_
            "topology_of", "to_vector_model"]
 
 _TOP_KEYS = {"name", "description", "units", "joints", "links", "input", "parameters", "modes",
-             "schema", "version"}
+             "schema", "version", "gravity", "bodies", "loads"}
+#: keys of a body in a diagram model (``angle``, ``joints`` and ``guide`` come from the diagram)
+_DBODY_KEYS = {"mass", "inertia", "bar", "com", "at"}
 _JOINT_KEYS = {"at", "type", "axis", "guide"}
 _INPUT_KEYS = {"joint", "link", "speed", "accel", "jerk"}
 _TYPES = {"r": "R", "revolute": "R", "pin": "R", "p": "P", "prismatic": "P", "slider": "P"}
@@ -73,6 +75,9 @@ class Diagram:
     raw: Mapping[str, Any] = field(default_factory=dict, repr=False)
     #: points carried by one link only (``(name, (x, y), link)``, declaration order): tracer points
     points: tuple[tuple[str, tuple[float, float], str], ...] = ()
+    #: bodies ``(link, mass properties, com point name)``; a com drawn with ``at`` is the tracer
+    #: point ``G_<link>`` of :attr:`points`
+    bodies: tuple[tuple[str, dict, str], ...] = ()
 
 
 # =============================================================================
@@ -223,11 +228,92 @@ def parse_diagram(data: Mapping[str, Any], *, source: str | None = None) -> Diag
         problems.add("modes", "expected a table of alias = \"signature\"")
         modes = {}
     description = data.get("description")
+    body_raw = _parse_bodies(data.get("bodies"), links, joints, length, problems)
     problems.raise_if_any()
     links, joints, points = _split_points(links, joints, source)
+    bodies = []
+    for lname, props, com in body_raw:
+        if isinstance(com, tuple):
+            points = points + ((f"G_{lname}", com, lname),)
+            com = f"G_{lname}"
+        bodies.append((lname, props, com))
     top = Topology(tuple(links), tuple(joints), where=source or "")
     return Diagram(name.strip(), length_unit, angle_unit, top, tuple(inputs), rates, dict(overrides),
-                   description, dict(modes), source, dict(data), points)
+                   description, dict(modes), source, dict(data), points, tuple(bodies))
+
+
+def _parse_bodies(bspec, links: list[Link], joints: list, length, problems: _Problems) -> list:
+    """The ``[bodies]`` of a diagram: ``(link, mass properties, com)`` with ``com`` a drawn
+    position ``(x, y)`` or the name of a point of the link; problems collected.
+
+    A body is named after the link it is (``crank = { mass = ..., inertia = ...,
+    com = { at = [x, y] } }``); its angle, joints and guide come from the diagram.
+    """
+    if bspec is None:
+        return []
+    if not isinstance(bspec, Mapping):
+        problems.add("bodies", f"expected a table of bodies named after links: crank = {{ mass = \"0.3kg\", "
+                     f"inertia = ..., at = [x, y] }}, got {bspec!r}")
+        return []
+    lmap = {lk.name: lk for lk in links}
+    jnames = {j.name for j in joints}
+    taken = jnames | set(lmap)
+    out = []
+    for bname, bdef in bspec.items():
+        key = f"bodies.{bname}"
+        if bname == GROUND:
+            problems.add(key, "the ground is the fixed link: list only moving links")
+            continue
+        if bname not in lmap:
+            problems.add(key, f"{bname!r} is not a link of [links]: a body of a diagram model is named after "
+                         f"its link (the moving links are {', '.join(n for n in lmap if n != GROUND) or 'none'})")
+            continue
+        if not isinstance(bdef, Mapping):
+            problems.add(key, f"expected a table like {{ mass = \"0.3kg\", inertia = ..., at = [x, y] }}, got {bdef!r}")
+            continue
+        extra = set(bdef) - _DBODY_KEYS
+        if extra:
+            hint = ("; a diagram gives the angle, joints and guide of a link's body" if
+                    extra & {"angle", "joints", "guide", "guide_body"} else "")
+            problems.add(key, f"unknown key(s) {sorted(extra)} (allowed: {', '.join(sorted(_DBODY_KEYS))}){hint}")
+            continue
+        if "com" in bdef and "at" in bdef:
+            problems.add(key, "give the centre of mass once: `at = [x, y]` or `com = { at = [x, y] }`")
+            continue
+        craw = bdef.get("com", bdef.get("at"))
+        ckey = f"{key}.com" if "com" in bdef else f"{key}.at"
+        if "com" in bdef and isinstance(craw, Mapping):
+            if set(craw) != {"at"}:
+                problems.add(ckey, f"expected {{ at = [x, y] }} (the centre of mass at the drawn pose), got {craw!r}")
+                continue
+            craw, ckey = craw["at"], f"{ckey}.at"
+        if craw is None:
+            problems.add(key, "missing the centre of mass: `at = [x, y]` at the drawn pose (or the name of a "
+                         "joint of the link, com = \"B\")")
+            continue
+        if isinstance(craw, str) and "com" in bdef:
+            if craw not in lmap[bname].joints:
+                problems.add(ckey, f"{craw!r} is not a joint of link {bname!r} ({', '.join(lmap[bname].joints)}); "
+                             "give the drawn position com = { at = [x, y] }")
+                continue
+            com: Any = craw
+        else:
+            if (not isinstance(craw, (list, tuple)) or len(craw) != 2
+                    or any(isinstance(c, bool) for c in craw)):
+                problems.add(ckey, f"expected the centre of mass at the drawn pose as a pair of numbers [x, y], "
+                             f"got {craw!r}")
+                continue
+            xy = [length(c, ckey) for c in craw]
+            if None in xy:
+                continue
+            if f"G_{bname}" in taken:
+                problems.add(key, f"the centre-of-mass point G_{bname} would collide with a joint or link of "
+                             "that name; rename it")
+                continue
+            com = (float(xy[0]), float(xy[1]))
+        props = {k: bdef[k] for k in ("mass", "inertia", "bar") if k in bdef}
+        out.append((bname, props, com))
+    return out
 
 
 def _split_points(links: list[Link], joints: list, source: str | None):
@@ -572,10 +658,52 @@ def _generate(d: Diagram) -> dict[str, Any]:
     spec["points"] = points
     if d.modes:
         spec["modes"] = dict(d.modes)
+    if "gravity" in d.raw:
+        spec["gravity"] = d.raw["gravity"]
+    if d.bodies:
+        spec["bodies"] = _body_specs(d, top, theta_of, where)
+    if "loads" in d.raw:
+        spec["loads"] = d.raw["loads"]
     for key in ("joints", "links", "input"):
         if key in d.raw:
             spec[key] = d.raw[key]
     return spec
+
+
+def _body_specs(d: Diagram, top: Topology, theta_of, where: str) -> dict[str, dict[str, Any]]:
+    """The vector-model ``[bodies]`` of a diagram's bodies: angle, joints and guide from the links.
+
+    A body's joints are the revolute joints its link lists; a prismatic joint on which the
+    link slides (the other link being the guide) makes it a guided body (``guide = "r_<joint>"``,
+    on the guide's body or the frame); one the link guides adds nothing (the slider's body
+    carries the contact).
+    """
+    jmap, lmap = top.joint_map, top.link_map
+    out: dict[str, dict[str, Any]] = {}
+    for lname, props, com in d.bodies:
+        entry: dict[str, Any] = dict(props)
+        entry["com"] = com
+        th = theta_of(lname)
+        if th is not None:
+            entry["angle"] = th
+        joints, guides = [], []
+        for j in lmap[lname].joints:
+            if isinstance(jmap[j], PrismaticJoint):
+                g = top.guide(j)
+                if g != lname:
+                    guides.append((j, g))
+            else:
+                joints.append(j)
+        entry["joints"] = joints
+        if len(guides) > 1:
+            raise TopologyError(f"{where}bodies.{lname}: the link slides on {len(guides)} guides "
+                                f"({', '.join(j for j, _ in guides)}); a body slides on one guide at most")
+        if guides:
+            j, g = guides[0]
+            entry["guide"] = f"r_{j}"
+            entry["guide_body"] = "frame" if g == GROUND else g
+        out[lname] = entry
+    return out
 
 
 def _cancel(walk: list[tuple[int, str]]) -> list[tuple[int, str]]:
