@@ -19,6 +19,11 @@ Generated names (one documented rule)
   from the origin to a ground joint. Every fixed length is a parameter with the vector's name.
 * ``r_<joint>``: the sliding vector of a prismatic joint (length ``s_<joint>``).
 * every joint is a point with its own name (columns ``B_x``, ``B_y``, ...).
+* ``G_<link>``: the centre of mass of a body drawn with ``at = [x, y]`` (``[bodies]`` entries
+  are named after their links), a tracer point carried by the link. The generated body has
+  ``angle = "theta_<link>"`` (none for a link that only translates), ``joints`` the revolute
+  joints the link lists, and ``guide = "r_<joint>"`` for the prismatic joint it slides on
+  (``guide_body`` the guide link, or ``"frame"``). ``gravity`` and ``[[loads]]`` pass through.
 
 The loops are a minimum cycle basis of the link–joint graph (the shortest independent loops,
 which give the smallest solve blocks) and the guesses are the drawn pose, so the drawing fixes
@@ -36,6 +41,7 @@ from typing import Any
 
 import numpy as np
 
+from .diagrambodies import body_specs, parse_bodies
 from .errors import ModelError, TopologyError
 from .model import Mechanism, _check_name, _name_and_units, _Problems, build_mechanism
 from .topology import GROUND, Link, PrismaticJoint, RevoluteJoint, Topology, check_inputs, jacobian_rank
@@ -46,8 +52,6 @@ __all__ = ["Diagram", "parse_diagram", "diagram_to_spec", "diagram_data", "from_
 
 _TOP_KEYS = {"name", "description", "units", "joints", "links", "input", "parameters", "modes",
              "schema", "version", "gravity", "bodies", "loads"}
-#: keys of a body in a diagram model (``angle``, ``joints`` and ``guide`` come from the diagram)
-_DBODY_KEYS = {"mass", "inertia", "bar", "com", "at"}
 _JOINT_KEYS = {"at", "type", "axis", "guide"}
 _INPUT_KEYS = {"joint", "link", "speed", "accel", "jerk"}
 _TYPES = {"r": "R", "revolute": "R", "pin": "R", "p": "P", "prismatic": "P", "slider": "P"}
@@ -228,7 +232,7 @@ def parse_diagram(data: Mapping[str, Any], *, source: str | None = None) -> Diag
         problems.add("modes", "expected a table of alias = \"signature\"")
         modes = {}
     description = data.get("description")
-    body_raw = _parse_bodies(data.get("bodies"), links, joints, length, problems)
+    body_raw = parse_bodies(data.get("bodies"), links, joints, length, problems)
     problems.raise_if_any()
     links, joints, points = _split_points(links, joints, source)
     bodies = []
@@ -240,80 +244,6 @@ def parse_diagram(data: Mapping[str, Any], *, source: str | None = None) -> Diag
     top = Topology(tuple(links), tuple(joints), where=source or "")
     return Diagram(name.strip(), length_unit, angle_unit, top, tuple(inputs), rates, dict(overrides),
                    description, dict(modes), source, dict(data), points, tuple(bodies))
-
-
-def _parse_bodies(bspec, links: list[Link], joints: list, length, problems: _Problems) -> list:
-    """The ``[bodies]`` of a diagram: ``(link, mass properties, com)`` with ``com`` a drawn
-    position ``(x, y)`` or the name of a point of the link; problems collected.
-
-    A body is named after the link it is (``crank = { mass = ..., inertia = ...,
-    com = { at = [x, y] } }``); its angle, joints and guide come from the diagram.
-    """
-    if bspec is None:
-        return []
-    if not isinstance(bspec, Mapping):
-        problems.add("bodies", f"expected a table of bodies named after links: crank = {{ mass = \"0.3kg\", "
-                     f"inertia = ..., at = [x, y] }}, got {bspec!r}")
-        return []
-    lmap = {lk.name: lk for lk in links}
-    jnames = {j.name for j in joints}
-    taken = jnames | set(lmap)
-    out = []
-    for bname, bdef in bspec.items():
-        key = f"bodies.{bname}"
-        if bname == GROUND:
-            problems.add(key, "the ground is the fixed link: list only moving links")
-            continue
-        if bname not in lmap:
-            problems.add(key, f"{bname!r} is not a link of [links]: a body of a diagram model is named after "
-                         f"its link (the moving links are {', '.join(n for n in lmap if n != GROUND) or 'none'})")
-            continue
-        if not isinstance(bdef, Mapping):
-            problems.add(key, f"expected a table like {{ mass = \"0.3kg\", inertia = ..., at = [x, y] }}, got {bdef!r}")
-            continue
-        extra = set(bdef) - _DBODY_KEYS
-        if extra:
-            hint = ("; a diagram gives the angle, joints and guide of a link's body" if
-                    extra & {"angle", "joints", "guide", "guide_body"} else "")
-            problems.add(key, f"unknown key(s) {sorted(extra)} (allowed: {', '.join(sorted(_DBODY_KEYS))}){hint}")
-            continue
-        if "com" in bdef and "at" in bdef:
-            problems.add(key, "give the centre of mass once: `at = [x, y]` or `com = { at = [x, y] }`")
-            continue
-        craw = bdef.get("com", bdef.get("at"))
-        ckey = f"{key}.com" if "com" in bdef else f"{key}.at"
-        if "com" in bdef and isinstance(craw, Mapping):
-            if set(craw) != {"at"}:
-                problems.add(ckey, f"expected {{ at = [x, y] }} (the centre of mass at the drawn pose), got {craw!r}")
-                continue
-            craw, ckey = craw["at"], f"{ckey}.at"
-        if craw is None:
-            problems.add(key, "missing the centre of mass: `at = [x, y]` at the drawn pose (or the name of a "
-                         "joint of the link, com = \"B\")")
-            continue
-        if isinstance(craw, str) and "com" in bdef:
-            if craw not in lmap[bname].joints:
-                problems.add(ckey, f"{craw!r} is not a joint of link {bname!r} ({', '.join(lmap[bname].joints)}); "
-                             "give the drawn position com = { at = [x, y] }")
-                continue
-            com: Any = craw
-        else:
-            if (not isinstance(craw, (list, tuple)) or len(craw) != 2
-                    or any(isinstance(c, bool) for c in craw)):
-                problems.add(ckey, f"expected the centre of mass at the drawn pose as a pair of numbers [x, y], "
-                             f"got {craw!r}")
-                continue
-            xy = [length(c, ckey) for c in craw]
-            if None in xy:
-                continue
-            if f"G_{bname}" in taken:
-                problems.add(key, f"the centre-of-mass point G_{bname} would collide with a joint or link of "
-                             "that name; rename it")
-                continue
-            com = (float(xy[0]), float(xy[1]))
-        props = {k: bdef[k] for k in ("mass", "inertia", "bar") if k in bdef}
-        out.append((bname, props, com))
-    return out
 
 
 def _split_points(links: list[Link], joints: list, source: str | None):
@@ -661,49 +591,13 @@ def _generate(d: Diagram) -> dict[str, Any]:
     if "gravity" in d.raw:
         spec["gravity"] = d.raw["gravity"]
     if d.bodies:
-        spec["bodies"] = _body_specs(d, top, theta_of, where)
+        spec["bodies"] = body_specs(d.bodies, top, theta_of, where)
     if "loads" in d.raw:
         spec["loads"] = d.raw["loads"]
     for key in ("joints", "links", "input"):
         if key in d.raw:
             spec[key] = d.raw[key]
     return spec
-
-
-def _body_specs(d: Diagram, top: Topology, theta_of, where: str) -> dict[str, dict[str, Any]]:
-    """The vector-model ``[bodies]`` of a diagram's bodies: angle, joints and guide from the links.
-
-    A body's joints are the revolute joints its link lists; a prismatic joint on which the
-    link slides (the other link being the guide) makes it a guided body (``guide = "r_<joint>"``,
-    on the guide's body or the frame); one the link guides adds nothing (the slider's body
-    carries the contact).
-    """
-    jmap, lmap = top.joint_map, top.link_map
-    out: dict[str, dict[str, Any]] = {}
-    for lname, props, com in d.bodies:
-        entry: dict[str, Any] = dict(props)
-        entry["com"] = com
-        th = theta_of(lname)
-        if th is not None:
-            entry["angle"] = th
-        joints, guides = [], []
-        for j in lmap[lname].joints:
-            if isinstance(jmap[j], PrismaticJoint):
-                g = top.guide(j)
-                if g != lname:
-                    guides.append((j, g))
-            else:
-                joints.append(j)
-        entry["joints"] = joints
-        if len(guides) > 1:
-            raise TopologyError(f"{where}bodies.{lname}: the link slides on {len(guides)} guides "
-                                f"({', '.join(j for j, _ in guides)}); a body slides on one guide at most")
-        if guides:
-            j, g = guides[0]
-            entry["guide"] = f"r_{j}"
-            entry["guide_body"] = "frame" if g == GROUND else g
-        out[lname] = entry
-    return out
 
 
 def _cancel(walk: list[tuple[int, str]]) -> list[tuple[int, str]]:
@@ -790,7 +684,10 @@ def diagram_to_spec(data: Mapping[str, Any], *, source: str | None = None) -> di
         The TOML layout: ``name``, ``units``, ``[joints]`` (``at``, ``type`` R/P, ``axis``,
         ``guide``), ``[links]`` (lists of joints; the fixed link is ``ground``), ``[input]``
         (``joint`` or ``link``, a name or a list of names, optional ``speed``/``accel``/
-        ``jerk`` of the first), optional ``[parameters]`` overriding generated lengths.
+        ``jerk`` of the first), optional ``[parameters]`` overriding generated lengths,
+        optional ``gravity``, ``[bodies]`` (named after links: ``mass``, ``inertia`` or
+        ``bar``, and ``at = [x, y]``, ``com = { at = [x, y] }`` or ``com = "<joint>"``) and
+        ``[[loads]]``.
     source : str, optional
         The file, named in error messages.
 
