@@ -19,6 +19,11 @@ Generated names (one documented rule)
   from the origin to a ground joint. Every fixed length is a parameter with the vector's name.
 * ``r_<joint>``: the sliding vector of a prismatic joint (length ``s_<joint>``).
 * every joint is a point with its own name (columns ``B_x``, ``B_y``, ...).
+* ``G_<link>``: the centre of mass of a body drawn with ``at = [x, y]`` (``[bodies]`` entries
+  are named after their links), a tracer point carried by the link. The generated body has
+  ``angle = "theta_<link>"`` (none for a link that only translates), ``joints`` the revolute
+  joints the link lists, and ``guide = "r_<joint>"`` for the prismatic joint it slides on
+  (``guide_body`` the guide link, or ``"frame"``). ``gravity`` and ``[[loads]]`` pass through.
 
 The loops are a minimum cycle basis of the link–joint graph (the shortest independent loops,
 which give the smallest solve blocks) and the guesses are the drawn pose, so the drawing fixes
@@ -36,6 +41,7 @@ from typing import Any
 
 import numpy as np
 
+from .diagrambodies import body_specs, parse_bodies
 from .errors import ModelError, TopologyError
 from .model import Mechanism, _check_name, _name_and_units, _Problems, build_mechanism
 from .topology import GROUND, Link, PrismaticJoint, RevoluteJoint, Topology, check_inputs, jacobian_rank
@@ -45,7 +51,7 @@ __all__ = ["Diagram", "parse_diagram", "diagram_to_spec", "diagram_data", "from_
            "topology_of", "to_vector_model"]
 
 _TOP_KEYS = {"name", "description", "units", "joints", "links", "input", "parameters", "modes",
-             "schema", "version"}
+             "schema", "version", "gravity", "bodies", "loads"}
 _JOINT_KEYS = {"at", "type", "axis", "guide"}
 _INPUT_KEYS = {"joint", "link", "speed", "accel", "jerk"}
 _TYPES = {"r": "R", "revolute": "R", "pin": "R", "p": "P", "prismatic": "P", "slider": "P"}
@@ -73,6 +79,9 @@ class Diagram:
     raw: Mapping[str, Any] = field(default_factory=dict, repr=False)
     #: points carried by one link only (``(name, (x, y), link)``, declaration order): tracer points
     points: tuple[tuple[str, tuple[float, float], str], ...] = ()
+    #: bodies ``(link, mass properties, com point name)``; a com drawn with ``at`` is the tracer
+    #: point ``G_<link>`` of :attr:`points`
+    bodies: tuple[tuple[str, dict, str], ...] = ()
 
 
 # =============================================================================
@@ -223,11 +232,18 @@ def parse_diagram(data: Mapping[str, Any], *, source: str | None = None) -> Diag
         problems.add("modes", "expected a table of alias = \"signature\"")
         modes = {}
     description = data.get("description")
+    body_raw = parse_bodies(data.get("bodies"), links, joints, length, problems)
     problems.raise_if_any()
     links, joints, points = _split_points(links, joints, source)
+    bodies = []
+    for lname, props, com in body_raw:
+        if isinstance(com, tuple):
+            points = points + ((f"G_{lname}", com, lname),)
+            com = f"G_{lname}"
+        bodies.append((lname, props, com))
     top = Topology(tuple(links), tuple(joints), where=source or "")
     return Diagram(name.strip(), length_unit, angle_unit, top, tuple(inputs), rates, dict(overrides),
-                   description, dict(modes), source, dict(data), points)
+                   description, dict(modes), source, dict(data), points, tuple(bodies))
 
 
 def _split_points(links: list[Link], joints: list, source: str | None):
@@ -572,6 +588,12 @@ def _generate(d: Diagram) -> dict[str, Any]:
     spec["points"] = points
     if d.modes:
         spec["modes"] = dict(d.modes)
+    if "gravity" in d.raw:
+        spec["gravity"] = d.raw["gravity"]
+    if d.bodies:
+        spec["bodies"] = body_specs(d.bodies, top, theta_of, where)
+    if "loads" in d.raw:
+        spec["loads"] = d.raw["loads"]
     for key in ("joints", "links", "input"):
         if key in d.raw:
             spec[key] = d.raw[key]
@@ -662,7 +684,10 @@ def diagram_to_spec(data: Mapping[str, Any], *, source: str | None = None) -> di
         The TOML layout: ``name``, ``units``, ``[joints]`` (``at``, ``type`` R/P, ``axis``,
         ``guide``), ``[links]`` (lists of joints; the fixed link is ``ground``), ``[input]``
         (``joint`` or ``link``, a name or a list of names, optional ``speed``/``accel``/
-        ``jerk`` of the first), optional ``[parameters]`` overriding generated lengths.
+        ``jerk`` of the first), optional ``[parameters]`` overriding generated lengths,
+        optional ``gravity``, ``[bodies]`` (named after links: ``mass``, ``inertia`` or
+        ``bar``, and ``at = [x, y]``, ``com = { at = [x, y] }`` or ``com = "<joint>"``) and
+        ``[[loads]]``.
     source : str, optional
         The file, named in error messages.
 

@@ -241,7 +241,8 @@ def _fmt_value(v: Any) -> str:
 def dumps(mech_or_spec: Mechanism | Mapping[str, Any]) -> str:
     """The vector-loop model file (TOML text) of a mechanism or a model ``dict``.
 
-    ``loads(dumps(m))`` gives a mechanism with the same derivation as ``m``.
+    ``loads(dumps(m))`` gives a mechanism with the same derivation as ``m``, and the same
+    ``gravity``, ``[bodies]`` and ``[[loads]]`` (so the same force analysis).
     """
     spec = mech_or_spec.spec if isinstance(mech_or_spec, Mechanism) else mech_or_spec
     out = []
@@ -250,6 +251,8 @@ def dumps(mech_or_spec: Mechanism | Mapping[str, Any]) -> str:
             out.append(f"{key} = {_fmt_value(spec[key])}")
     if "units" in spec:
         out.append(f"units = {_fmt_value(spec['units'])}")
+    if "gravity" in spec:
+        out.append(f"gravity = {_fmt_value(spec['gravity'])}")
     for section in ("parameters", "variables", "vectors"):
         if spec.get(section):
             out.append("")
@@ -261,10 +264,15 @@ def dumps(mech_or_spec: Mechanism | Mapping[str, Any]) -> str:
         out.append("[[loops]]")
         for k, v in (loop.items() if isinstance(loop, Mapping) else {"equation": loop}.items()):
             out.append(f"{_fmt_key(k)} = {_fmt_value(v)}")
-    for section in ("points", "modes"):
+    for section in ("points", "modes", "bodies"):
         if spec.get(section):
             out.append("")
             out.append(f"[{section}]")
             for k, v in spec[section].items():
                 out.append(f"{_fmt_key(k)} = {_fmt_value(v)}")
+    for load in spec.get("loads", []) or []:
+        out.append("")
+        out.append("[[loads]]")
+        for k, v in load.items():
+            out.append(f"{_fmt_key(k)} = {_fmt_value(v)}")
     return "\n".join(out) + "\n"
