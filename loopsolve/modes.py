@@ -48,7 +48,8 @@ from .errors import AssemblyError, ModelError
 from .newton import Newton, NewtonStatus, newton
 from .units import Kind
 
-__all__ = ["Mode", "assembly_modes", "select_mode", "format_modes", "modes_to_json", "all_solutions"]
+__all__ = ["Mode", "assembly_modes", "select_mode", "format_modes", "modes_to_json", "all_solutions",
+           "branch_solutions"]
 
 TWO_PI = 2.0 * math.pi
 
@@ -308,6 +309,40 @@ def _block_roots(ck, z, block) -> list[np.ndarray]:
     return _multistart_roots(ck, z, block)
 
 
+def _feeds(ck) -> list[bool]:
+    """For each block in solve order: whether a later block's equations involve its unknowns."""
+    n = len(ck.unknowns)
+    eq_block, col_block = {}, {}
+    for bi, b in enumerate(ck.blocks):
+        eq_block.update({e: bi for e in b.eqs})
+        col_block.update({c: bi for c in b.unknowns})
+    out = [False] * len(ck.blocks)
+    for k in ck.module.JAC_NZ:
+        i, j = divmod(int(k), n)
+        bi, bj = eq_block.get(i), col_block.get(j)
+        if bi is not None and bj is not None and bi != bj:
+            out[bj] = True
+    return out
+
+
+def branch_solutions(ck, z0, *, feeds=None) -> list[np.ndarray]:
+    """Solutions ``z`` enough to tell where the mechanism assembles: linear in the blocks.
+
+    Like :func:`all_solutions`, but a block whose unknowns enter no later block and whose roots
+    come in closed form (a dyad: two roots that meet at its limit) contributes one root only,
+    so an N-loop fan gives a handful of solutions instead of 2^N. Empty when some block has no
+    real root.
+
+    Examples
+    --------
+    >>> ck = ls.fourbar(4, 3, 3.5, 5).compile()
+    >>> len(branch_solutions(ck, np.array([0.5, 0.0, 1.0]))), len(branch_solutions(ck, np.array([0.0, 0.0, 1.0])))
+    (1, 0)
+    """
+    feeds = _feeds(ck) if feeds is None else feeds
+    return _solutions(ck, z0, [not f for f in feeds])
+
+
 def all_solutions(ck, z0) -> list[np.ndarray]:
     """Every real solution ``z`` (all variables) with the inputs of ``z0``, in solve order.
 
@@ -321,12 +356,23 @@ def all_solutions(ck, z0) -> list[np.ndarray]:
     >>> sorted(round(float(z[2]), 3) for z in all_solutions(ck, z0))
     [-223.607, 223.607]
     """
+    return _solutions(ck, z0, [False] * len(ck.blocks))
+
+
+def _solutions(ck, z0, one_root: list[bool]) -> list[np.ndarray]:
     sols = [np.array(z0, dtype=float)]
-    for b in ck.blocks:
+    for b, one in zip(ck.blocks, one_root):
         zi = ck.unknown_idx[np.array(b.unknowns)]
         nxt = []
         for z in sols:
-            for r in _block_roots(ck, z, b):
+            roots = None
+            if one:
+                roots = _dyad_roots(ck, z, b)
+                if roots is not None:
+                    roots = [np.array(r, dtype=float) for r in roots[:1]]
+            if roots is None:
+                roots = _block_roots(ck, z, b)
+            for r in roots:
                 zz = z.copy()
                 for k, i in enumerate(zi):
                     zz[i] = _wrap_near(float(r[k]), float(z0[i])) if ck.kinds[int(i)] is Kind.ANGLE else float(r[k])

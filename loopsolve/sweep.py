@@ -520,12 +520,13 @@ def _announce_stop(ck, events, through_limits: bool) -> None:
 # ============================================================================= reachable ranges
 
 
-def _assemblable_at(ck, x) -> list:
-    from .modes import all_solutions
+def _assemblable_at(ck, x, feeds=None) -> list:
+    """Solutions at input ``x`` enough to find the reachable ranges (one per branch that matters)."""
+    from .modes import branch_solutions
 
     z0 = initial_z(ck, warn=False)
     z0[ck.input_idx[0]] = x
-    return all_solutions(ck, z0)
+    return branch_solutions(ck, z0, feeds=feeds)
 
 
 def _limit_towards(ck, kern, z, x_to) -> float | None:
@@ -624,7 +625,10 @@ def reachable_ranges(ck, *, samples: int | None = None) -> list[tuple[float, flo
     else:
         m = samples or 200
         xs = [g0 - 4 * ck.scale + 8 * ck.scale * i / (m - 1) for i in range(m)]
-    sols = [_assemblable_at(ck, x) for x in xs]
+    from .modes import _feeds
+
+    feeds = _feeds(ck)
+    sols = [_assemblable_at(ck, x, feeds) for x in xs]
     if not any(sols):
         return []
     step = xs[1] - xs[0]
