@@ -71,6 +71,7 @@ def closed_form(x):
 def loopsolve_sweep(mech, ck, start, stop, step, method, derivatives=2):
     def run():
         sw = ls.sweep(mech, start, stop, step, speed=OMEGA, accel=0.0, compiled=ck, method=method, progress=False,
+                      max_rows=2_000_000,
                       derivatives=derivatives)
         z, z1, z2 = sw.z, sw.z1, sw.z2
         return z[:, 0], z[:, 1], z[:, 2], z1[:, 1], z1[:, 2], z2[:, 1], z2[:, 2]

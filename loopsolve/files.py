@@ -123,9 +123,17 @@ def check_target(path: str | os.PathLike, inputs: Iterable[str | os.PathLike] = 
     parent = target.parent
     if not parent.is_dir():
         raise OutputError(f"cannot write {name!r}: the directory {os.fspath(parent)!r} does not exist")
-    if target.exists() and not target.is_file():
+    if target.exists() and not target.is_file() and not _is_char_device(target):
         raise OutputError(f"cannot write {name!r}: it is not a regular file (use -o - for standard output)")
     return target
+
+
+def _is_char_device(p: Path) -> bool:
+    """A character device such as /dev/null: written in place (there is nothing to replace atomically)."""
+    try:
+        return stat.S_ISCHR(os.stat(p).st_mode)
+    except OSError:
+        return False
 
 
 @contextlib.contextmanager
@@ -148,6 +156,14 @@ def atomic_output(path: str | os.PathLike, inputs: Iterable[str | os.PathLike] =
     """
     target = check_target(path, inputs)
     name = os.fspath(path)
+    if _is_char_device(target):  # -o /dev/null: write straight to the device
+        try:
+            yield target
+        except OutputError:
+            raise
+        except OSError as exc:
+            raise OutputError(f"cannot write {name!r}: {_reason(exc)}") from None
+        return
     try:
         fd, tmp = tempfile.mkstemp(dir=target.parent, prefix=f".{target.name[:40]}.", suffix=".part" + target.suffix)
     except OSError as exc:

@@ -300,9 +300,10 @@ def _make_grid(x0, x1, h, kind, through_limits, deg=None, max_rows=MAX_ROWS) -> 
     m = 2 * math.pi / abs(h) if full_turn else 0.0
     total = count + m + 1
     if not (total <= max_rows):  # also inf and nan (a step below the range's resolution)
-        rows = f"{total:.3g}" if math.isfinite(total) else "too many"
+        rows = (f"{math.floor(total + 1e-9):,}" if total < 1e15 else f"{total:.3g}") if math.isfinite(total) \
+            else "too many"
         raise ModelError(f"the sweep would have {rows} rows (from the range and --step), more than the limit of "
-                         f"{max_rows:g}: use a larger --step or a smaller range, or raise the limit with "
+                         f"{max_rows:,}: use a larger --step or a smaller range, or raise the limit with "
                          "--max-rows (max_rows=)")
     n = max(int(math.floor(count + 1e-9)), 0)
     g = Grid(x0, h, 0, n, x0, x0, deg)

@@ -526,3 +526,18 @@ def test_vectors_of_a_diagram_with_control_characters_round_trips():
     text = to_vector_model(diagram)
     assert not any(c in text for c in "\x1b\r\x00\x7f")
     assert tomllib.loads(text)["name"] == diagram["name"]
+
+
+def test_a_character_device_is_written_in_place(capsys):
+    """``-o /dev/null`` (timing a command) works and leaves the device a device; /dev/full is one line, exit 2."""
+    import stat
+
+    from loopsolve.cli import main
+
+    model = str(ls.models_dir() / "thesis_crank_rocker.toml")
+    assert main(["sweep", model, "--from", "0", "--to", "90", "--step", "30", "-q", "-o", "/dev/null"]) == 0
+    assert stat.S_ISCHR(os.stat("/dev/null").st_mode)
+    capsys.readouterr()
+    assert main(["solve", model, "--at", "30", "-o", "/dev/full"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and err.count("cannot write") == 1 and "/dev/full" in err
