@@ -226,14 +226,9 @@ def grid_values(ck, start, stop, step):
     d0 = math.degrees(x0) if d0 is None else d0
     dh = math.copysign(abs(hd), x1 - x0) if x1 != x0 else abs(hd)
     v = d0 + dh * k
-    x = np.radians(v)
-    for _ in range(4):
-        d = np.degrees(x)
-        off = d != v
-        if not off.any():
-            break
-        x[off] = np.nextafter(x[off], np.where(d[off] < v[off], np.inf, -np.inf))
-    return x, v
+    from .sweep import exact_radians  # the single sweep's grid rule, so rows agree to the bit
+
+    return exact_radians(v), v
 
 
 def _single(mech, names, row, start, stop, step, speed, accel, jerk, mode, derivatives, ch, j, xs_disp):

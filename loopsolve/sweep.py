@@ -49,6 +49,29 @@ def grid(start: float, stop: float, step: float) -> np.ndarray:
 
 
 
+def exact_radians(v: np.ndarray) -> np.ndarray:
+    """Radians of the degree values ``v``, nudged by ulps so that converting back gives ``v`` exactly.
+
+    A grid row is then shown as the decimal the user asked for (``27.4``, not ``27.400000000000002``).
+
+    Examples
+    --------
+    >>> from loopsolve.sweep import exact_radians
+    >>> v = np.array([27.4, 25.7, 67.9])
+    >>> bool(np.all(np.degrees(exact_radians(v)) == v))
+    True
+    """
+    v = np.asarray(v, dtype=float)
+    x = np.radians(v)
+    for _ in range(4):
+        d = np.degrees(x)
+        off = d != v
+        if not off.any():
+            break
+        x[off] = np.nextafter(x[off], np.where(d[off] < v[off], np.inf, -np.inf))
+    return x
+
+
 class Grid:
     """Output grid values ``start + k·step`` for k in [kmin, kmax], and the input bounds.
 
@@ -77,15 +100,7 @@ class Grid:
         ks = np.asarray(ks)
         if self.deg is None:
             return self.start + self.step * ks
-        v = self.deg[0] + self.deg[1] * ks
-        x = np.radians(v)
-        for _ in range(4):
-            d = np.degrees(x)
-            off = d != v
-            if not off.any():
-                break
-            x[off] = np.nextafter(x[off], np.where(d[off] < v[off], np.inf, -np.inf))
-        return x
+        return exact_radians(self.deg[0] + self.deg[1] * ks)
 
     def crossed(self, xa: float, xb: float) -> range:
         """Grid indices strictly after ``xa`` up to ``xb`` inclusive, in the order from xa to xb."""
