@@ -39,6 +39,7 @@ from types import ModuleType
 import numpy as np
 
 from . import __version__
+from .files import read_capped
 from .model import Mechanism
 from .topology import Block
 from .units import Kind
@@ -303,18 +304,11 @@ def _read_entry(path: Path, key: str) -> str | None:
         _check_owner_mode(st, f"the cache entry {path}")
         if st.st_size > MAX_ENTRY_SIZE:
             raise _Untrusted(f"the cache entry {path} is too large ({st.st_size} bytes)")
-        chunks, total = [], 0
-        while True:
-            chunk = os.read(fd, min(1 << 20, MAX_ENTRY_SIZE + 1 - total))
-            if not chunk:
-                break
-            chunks.append(chunk)
-            total += len(chunk)
-            if total > MAX_ENTRY_SIZE:
-                raise _Untrusted(f"the cache entry {path} is too large")
+        data = read_capped(fd, MAX_ENTRY_SIZE)
+        if data is None:
+            raise _Untrusted(f"the cache entry {path} is too large")
     finally:
         os.close(fd)
-    data = b"".join(chunks)
     head, sep, body = data.partition(b"\n")
     expected_head = _HEADER.format(key=key, digest=hashlib.sha256(body).hexdigest()).encode("ascii")
     if not sep or head + sep != expected_head:

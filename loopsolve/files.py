@@ -44,6 +44,30 @@ def _reason(exc: OSError) -> str:
     return exc.strerror or str(exc)
 
 
+def read_capped(fd: int, limit: int) -> bytes | None:
+    """Read an open file descriptor to its end, or ``None`` as soon as it holds more than ``limit`` bytes.
+
+    The cap applies to the read itself (a file that grows after its ``fstat`` is still bounded).
+
+    Examples
+    --------
+    >>> import os
+    >>> from loopsolve.files import read_capped
+    >>> fd = os.open(ls.models_dir() / "thesis_crank_rocker.toml", os.O_RDONLY)
+    >>> read_capped(fd, 10) is None, os.close(fd)
+    (True, None)
+    """
+    chunks, total = [], 0
+    while True:
+        chunk = os.read(fd, min(1 << 16, limit + 1 - total))
+        if not chunk:
+            return b"".join(chunks)
+        chunks.append(chunk)
+        total += len(chunk)
+        if total > limit:
+            return None
+
+
 def read_regular(path: str | os.PathLike, limit: int, *, what: str = "file") -> bytes:
     """The bytes of the regular file ``path``, at most ``limit`` of them.
 
@@ -74,16 +98,10 @@ def read_regular(path: str | os.PathLike, limit: int, *, what: str = "file") -> 
         st = os.fstat(fd)
         if not stat.S_ISREG(st.st_mode):
             raise ValueError(f"{name}: not a regular file ({_kind(st.st_mode)})")
-        chunks, total = [], 0
-        while True:
-            chunk = os.read(fd, min(1 << 16, limit + 1 - total))
-            if not chunk:
-                break
-            chunks.append(chunk)
-            total += len(chunk)
-            if total > limit:
-                raise ValueError(f"{name}: more than {limit} bytes is too large for a {what}")
-        return b"".join(chunks)
+        data = read_capped(fd, limit)
+        if data is None:
+            raise ValueError(f"{name}: more than {limit} bytes is too large for a {what}")
+        return data
     finally:
         os.close(fd)
 
