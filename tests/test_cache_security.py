@@ -185,36 +185,10 @@ def test_non_ascii_name_under_an_ascii_locale(tmp_path, env_extra):
     assert "theta4" in (tmp_path / "out.csv").read_text(encoding="utf-8")
 
 
-@pytest.fixture
-def tiny_fs(tmp_path):
-    """A 64 KiB tmpfs (root only); skipped with the reason where mounting is not permitted."""
-    mnt = tmp_path / "tiny"
-    mnt.mkdir()
-    proc = subprocess.run(["mount", "-t", "tmpfs", "-o", "size=64k", "tmpfs", str(mnt)], capture_output=True,
-                          text=True)
-    if proc.returncode != 0:
-        pytest.skip(f"cannot mount a small tmpfs to simulate a full disk: {proc.stderr.strip() or 'not root'}")
-    try:
-        yield mnt
-    finally:
-        subprocess.run(["umount", str(mnt)], check=False)
-
-
-def fill(directory):
-    fd = os.open(directory / "filler", os.O_WRONLY | os.O_CREAT, 0o600)
-    try:
-        while True:
-            os.write(fd, b"\0" * 1024)
-    except OSError:
-        pass
-    finally:
-        os.close(fd)
-
-
-def test_full_disk_cache_write_leaves_no_temp_file(tiny_fs, monkeypatch):
+def test_full_disk_cache_write_leaves_no_temp_file(full_fs, monkeypatch):
+    tiny_fs = full_fs
     cache = tiny_fs / "cache"
     cache.mkdir(mode=0o700)
-    fill(tiny_fs)
     monkeypatch.setenv("LOOPSOLVE_CACHE_DIR", str(cache))
     monkeypatch.setattr(compiled, "_MEMO", {})
     assert ls.load(THESIS).solve(90)["theta4"] == pytest.approx(EXPECTED, abs=1e-9)

@@ -132,38 +132,13 @@ def test_every_writer_writes_atomically(capsys, model, tmp_path, template):
     assert sorted(p.name for p in tmp_path.iterdir()) == sorted(["m.toml", target.name])
 
 
-@pytest.fixture
-def tiny_fs(tmp_path):
-    """A 64 KiB tmpfs (needs root); skipped with the reason where mounting is not permitted."""
-    mnt = tmp_path / "tiny"
-    mnt.mkdir()
-    proc = subprocess.run(["mount", "-t", "tmpfs", "-o", "size=64k", "tmpfs", str(mnt)], capture_output=True,
-                          text=True)
-    if proc.returncode != 0:
-        pytest.skip(f"cannot mount a small tmpfs to simulate a full disk: {proc.stderr.strip() or 'not root'}")
-    try:
-        yield mnt
-    finally:
-        subprocess.run(["umount", "-l", str(mnt)], check=False)
-
-
-def _fill(directory):
-    fd = os.open(directory / "filler", os.O_WRONLY | os.O_CREAT, 0o600)
-    try:
-        while True:
-            os.write(fd, b"\0" * 1024)
-    except OSError:
-        pass
-    finally:
-        os.close(fd)
-
-
-def test_full_disk_keeps_the_old_output_and_the_model(capsys, tiny_fs):
+def test_full_disk_keeps_the_old_output_and_the_model(capsys, tiny_fs, filler):
+    """The model and the old output are written first; then the disk is filled."""
     model = tiny_fs / "m.toml"
     model.write_bytes(THESIS.read_bytes())
     old = tiny_fs / "old.csv"
     old.write_text("theta2 [deg]\n1.0\n", encoding="utf-8")
-    _fill(tiny_fs)
+    filler(tiny_fs)
     status, out, err = call(capsys, "sweep", model, "--from", "0", "--to", "360", "--step", "1", "-q", "--format",
                             "csv", "-o", old)
     assert status == 2, err

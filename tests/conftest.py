@@ -1,0 +1,46 @@
+"""Fixtures shared by the output and cache tests: a tiny file system that can be filled up."""
+
+import os
+import subprocess
+
+import pytest
+
+
+@pytest.fixture
+def tiny_fs(tmp_path):
+    """A 64 KiB tmpfs (needs root); skipped with the reason where mounting is not permitted."""
+    mnt = tmp_path / "tiny"
+    mnt.mkdir()
+    proc = subprocess.run(["mount", "-t", "tmpfs", "-o", "size=64k", "tmpfs", str(mnt)], capture_output=True,
+                          text=True)
+    if proc.returncode != 0:
+        pytest.skip(f"cannot mount a small tmpfs to simulate a full disk: {proc.stderr.strip() or 'not root'}")
+    try:
+        yield mnt
+    finally:
+        subprocess.run(["umount", "-l", str(mnt)], check=False)
+
+
+def fill_disk(directory) -> None:
+    """Write zeros to ``directory/filler`` until the file system is full."""
+    fd = os.open(directory / "filler", os.O_WRONLY | os.O_CREAT, 0o600)
+    try:
+        while True:
+            os.write(fd, b"\0" * 1024)
+    except OSError:
+        pass
+    finally:
+        os.close(fd)
+
+
+@pytest.fixture
+def filler():
+    """:func:`fill_disk`, for tests that write their files before the disk fills."""
+    return fill_disk
+
+
+@pytest.fixture
+def full_fs(tiny_fs):
+    """The tiny tmpfs, already full."""
+    fill_disk(tiny_fs)
+    return tiny_fs
