@@ -2,8 +2,15 @@
 
 ``python3 tools/mutation_summary.py`` prints, per mutated module, how many mutants were tested,
 killed (incl. timeouts), survived, had no covering test or are not yet checked, and the survival
-rate over the tested ones; then the names of the survivors. ``--names --every N`` prints every
-Nth mutant name of each module (a reproducible sample for ``mutmut run NAME...``).
+rate over the tested ones; then the survivors, each with its verdict from the triage files
+``tools/mutation_triage/<module>.txt`` (``NAME<TAB>killed: tests/...::test`` for a survivor that a
+test written for it now kills, ``NAME<TAB>harmless: why`` for one that cannot change what a user
+sees) or ``UNTRIAGED``. ``--names --every N`` prints every Nth mutant name of each module (a
+reproducible sample for ``mutmut run NAME...``); ``--untriaged`` prints only the untriaged
+survivors' names (for ``mutmut show``).
+
+Mutant names number the mutations inside one function, so a triage line holds for the source it
+was written against: after a function changes, re-run and re-triage its survivors.
 """
 
 from __future__ import annotations
@@ -23,6 +30,20 @@ def load(root: Path = Path("mutants")) -> dict[str, dict[str, int | None]]:
     for meta in sorted(root.rglob("*.py.meta")):
         module = str(meta.relative_to(root))[: -len(".py.meta")].replace("/", ".")
         out[module] = json.loads(meta.read_text())["exit_code_by_key"]
+    return out
+
+
+TRIAGE = Path(__file__).with_name("mutation_triage")
+
+
+def triage(folder: Path = TRIAGE) -> dict[str, str]:
+    """Verdicts of the triage files: mutant name -> ``killed: ...`` or ``harmless: ...``."""
+    out = {}
+    for f in sorted(folder.glob("*.txt")) if folder.is_dir() else ():
+        for line in f.read_text(encoding="utf-8").splitlines():
+            name, sep, verdict = line.partition("\t")
+            if sep and name.strip() and not name.startswith("#"):
+                out[name.strip()] = verdict.strip()
     return out
 
 
@@ -53,6 +74,7 @@ def main(argv=None) -> int:
     ap.add_argument("--names", action="store_true", help="print a sample of mutant names instead")
     ap.add_argument("--every", type=int, default=1)
     ap.add_argument("--generate", action="store_true", help="only (re)generate the mutants, run no test")
+    ap.add_argument("--untriaged", action="store_true", help="print only the untriaged survivors' names")
     args = ap.parse_args(argv)
     if args.generate:
         return generate()
@@ -62,8 +84,10 @@ def main(argv=None) -> int:
             for name in sorted(codes, key=_natural)[:: args.every]:
                 print(name)
         return 0
-    print(f"{'module':28s} {'mutants':>7s} {'tested':>6s} {'killed':>6s} {'survived':>8s} "
-          f"{'no test':>7s} {'unchecked':>9s} {'survival':>8s}")
+    verdicts = triage()
+    if not args.untriaged:
+        print(f"{'module':24s} {'mutants':>7s} {'tested':>6s} {'killed':>6s} {'survived':>8s} "
+              f"{'no test':>7s} {'unchecked':>9s} {'survival':>8s} {'triaged':>7s} {'after':>6s}")
     survivors = []
     for module, codes in data.items():
         c = Counter()
@@ -73,14 +97,27 @@ def main(argv=None) -> int:
             c[key] += 1
             if key == "survived":
                 survivors.append(name)
+                c["triaged"] += name in verdicts
+                c["now killed"] += verdicts.get(name, "").startswith("killed")
         tested = c["killed"] + c["survived"]
         rate = f"{100 * c['survived'] / tested:7.1f}%" if tested else "      -"
-        print(f"{module:28s} {len(codes):7d} {tested:6d} {c['killed']:6d} {c['survived']:8d} "
-              f"{c['no test']:7d} {c['unchecked']:9d} {rate}")
-    if survivors:
-        print("\nsurvivors (`mutmut show NAME` prints the diff):")
+        # "after": survival once the tests written for survivors are counted (harmless ones stay)
+        after = f"{100 * (c['survived'] - c['now killed']) / tested:5.1f}%" if tested else "     -"
+        if not args.untriaged:
+            print(f"{module:24s} {len(codes):7d} {tested:6d} {c['killed']:6d} {c['survived']:8d} "
+                  f"{c['no test']:7d} {c['unchecked']:9d} {rate} {c['triaged']:7d} {after}")
+    if args.untriaged:
         for name in survivors:
-            print("  " + name)
+            if name not in verdicts:
+                print(name)
+        return 0
+    if survivors:
+        kinds = Counter(verdicts.get(n, "UNTRIAGED").split(":")[0] for n in survivors)
+        print(f"\nsurvivors: {len(survivors)} ({kinds['killed']} killed by tests written for them since the "
+              f"run, {kinds['harmless']} harmless, {kinds['UNTRIAGED']} untriaged); "
+              "`mutmut show NAME` prints the diff")
+        for name in survivors:
+            print(f"  {name}  {verdicts.get(name, 'UNTRIAGED')}")
     return 0
 
 
