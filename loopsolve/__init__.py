@@ -27,7 +27,9 @@ from .errors import (  # noqa: E402
     TopologyError,
 )
 from .factories import fourbar, inverted_slider_crank, slider_crank  # noqa: E402
-from .model import Mechanism, MechanismBuilder, build_mechanism  # noqa: E402
+from .builder import MechanismBuilder  # noqa: E402
+from .model import Mechanism  # noqa: E402
+from .spec import build_mechanism  # noqa: E402
 from .modelfile import dumps, load, loads, models_dir  # noqa: E402
 from .results import Event, EventKind, State, Sweep  # noqa: E402
 

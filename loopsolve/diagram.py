@@ -2,7 +2,7 @@
 
 :func:`diagram_to_spec` turns the kinematic-diagram layout of a model file (``[joints]``,
 ``[links]``, ``[input]``; see the design notes) into the vector-loop layout that
-:func:`loopsolve.model.build_mechanism` validates, so a diagram model goes down exactly the same
+:func:`loopsolve.spec.build_mechanism` validates, so a diagram model goes down exactly the same
 pipeline as a hand-written one, and :func:`loopsolve.dumps` writes the generated model back as a
 vector-loop file (the round trip).
 
@@ -43,7 +43,8 @@ import numpy as np
 
 from .diagrambodies import body_specs, parse_bodies
 from .errors import ModelError, TopologyError
-from .model import Mechanism, _check_name, _name_and_units, _Problems, build_mechanism
+from .model import Mechanism
+from .spec import _check_name, _name_and_units, _Problems, build_mechanism
 from .topology import GROUND, Link, PrismaticJoint, RevoluteJoint, Topology, check_inputs, jacobian_rank
 from .units import Kind, angle_factor, parse_quantity
 
@@ -694,7 +695,7 @@ def diagram_to_spec(data: Mapping[str, Any], *, source: str | None = None) -> di
     Returns
     -------
     dict
-        Ready for :func:`loopsolve.model.build_mechanism`; it keeps the diagram under
+        Ready for :func:`loopsolve.spec.build_mechanism`; it keeps the diagram under
         ``joints``/``links``/``input`` (ignored by the vector-loop layout).
 
     Raises

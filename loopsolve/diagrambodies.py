@@ -13,7 +13,7 @@ from collections.abc import Mapping
 from typing import Any, Callable
 
 from .errors import TopologyError
-from .model import _Problems
+from .spec import _Problems
 from .topology import GROUND, Link, PrismaticJoint, Topology
 
 __all__ = ["parse_bodies", "body_specs"]
@@ -47,7 +47,7 @@ def parse_bodies(bspec, links: list[Link], joints: list, length: Callable, probl
 
     Examples
     --------
-    >>> from loopsolve.model import _Problems
+    >>> from loopsolve.spec import _Problems
     >>> from loopsolve.topology import Link
     >>> links = [Link("ground", ("O2", "O4")), Link("crank", ("O2", "B"))]
     >>> ls.diagrambodies.parse_bodies({"crank": {"mass": 1, "at": [0, 5]}}, links, [],

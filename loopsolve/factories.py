@@ -9,7 +9,8 @@ from __future__ import annotations
 import math
 
 from .errors import ModelError
-from .model import Mechanism, MechanismBuilder
+from .builder import MechanismBuilder
+from .model import Mechanism
 
 __all__ = ["fourbar", "slider_crank", "inverted_slider_crank"]
 

@@ -16,7 +16,8 @@ from pathlib import Path
 from typing import Any
 
 from .errors import ModelError, ModelFileError
-from .model import Mechanism, build_mechanism
+from .model import Mechanism
+from .spec import build_mechanism
 
 __all__ = ["load", "loads", "dumps", "models_dir"]
 

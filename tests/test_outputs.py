@@ -386,7 +386,7 @@ def test_latex_snippet_comment_has_no_control_characters():
     mech = ls.fourbar(r1=60, r2=25, r3=70, r4=45)
     spec = dict(mech.spec)
     spec["name"] = "four\r\nbar\x1b"
-    from loopsolve.model import build_mechanism
+    from loopsolve.spec import build_mechanism
 
     m = build_mechanism(spec)  # Python-built names may hold them (model files refuse them at load)
     tex = m.to_latex(snippet=True)
