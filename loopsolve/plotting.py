@@ -21,8 +21,8 @@ from pathlib import Path
 import numpy as np
 
 from .errors import LoopsolveError, MissingDependencyError, ModelError
-from .geometry import (LINK_COLORS, Frame, Style, arrow_label_sides, drawing_style, hull_order, label_placements,
-                       mode_label, plot_vars, polygon_area, pose_frames, unwrapped)
+from .drawstyle import Style, arrow_label_sides, drawing_style, label_placements
+from .geometry import LINK_COLORS, Frame, hull_order, mode_label, plot_vars, polygon_area, pose_frames, unwrapped
 
 __all__ = ["plot_sweep", "draw", "animate", "check_output", "tex_name", "FIGURE_FORMATS", "ANIMATION_FORMATS"]
 

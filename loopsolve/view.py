@@ -38,8 +38,9 @@ from pathlib import Path
 import numpy as np
 
 from .errors import ModelError
-from .geometry import (LINK_COLORS, drawing_style, hull_order, mode_label, plot_vars, polygon_area, pose_frames,
-                       unit_vector, unwrapped)
+from .drawstyle import drawing_style
+from .geometry import (LINK_COLORS, hull_order, mode_label, plot_vars, polygon_area, pose_frames, unit_vector,
+                       unwrapped)
 
 __all__ = ["to_html", "write_html", "page_data", "check_output", "Page", "MAX_INLINE_ROWS"]
 

@@ -23,7 +23,7 @@ import numpy as np
 import pytest
 
 import loopsolve as ls
-from loopsolve import cli, geometry, plotting
+from loopsolve import cli, drawstyle, geometry, plotting
 from loopsolve.errors import MissingDependencyError, ModelError
 from loopsolve.results import Event, EventKind, Sweep
 
@@ -494,9 +494,9 @@ def test_vector_names_beside_their_arrows_clear_of_the_links(model):
     """A vector's name sits off the arrow's side that is clear of bars and outside plates."""
     mech = ls.load(ls.models_dir() / f"{model}.toml")
     frames, _ = geometry.pose_frames([mech.solve()], vectors=True)
-    style = geometry.drawing_style(frames)
+    style = drawstyle.drawing_style(frames)
     f = frames[0]
-    sides = geometry.arrow_label_sides(f, style)
+    sides = drawstyle.arrow_label_sides(f, style)
     plates = [np.asarray(xy, float)[geometry.hull_order(np.asarray(xy, float))] for _, xy, _ in f.links
               if len(xy) >= 3]
     bars = [(np.asarray(xy[0], float), np.asarray(xy[1], float)) for _, xy, _ in f.links if len(xy) == 2]
@@ -508,8 +508,8 @@ def test_vector_names_beside_their_arrows_clear_of_the_links(model):
             t = np.clip((label - a) @ (b - a) / ((b - a) @ (b - a)), 0, 1)
             assert np.linalg.norm(label - a - t * (b - a)) > 0.5 * style.size, (name, a, b)
         other = mid - n * 0.9 * style.size  # a chord across a plate has the plate on both sides
-        if any(geometry._inside(label, poly) for poly in plates):
-            assert any(geometry._inside(other, poly) for poly in plates), name
+        if any(drawstyle._inside(label, poly) for poly in plates):
+            assert any(drawstyle._inside(other, poly) for poly in plates), name
 
 
 # ------------------------------------------------------------------- frame cap (issue 9)
