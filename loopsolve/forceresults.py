@@ -97,10 +97,15 @@ class ForceSweep:
         events = list(sweep.events)
         sing = np.flatnonzero(self.singular)
         xs = sweep[ck.inputs[0]] if sing.size else None
+        nonfinite = np.asarray(data.get("nonfinite", np.zeros(len(self.singular), dtype=bool)))
         for i in sing[:20]:
-            events.append(Event(EventKind.SINGULAR, float(xs[i]), "the Newton–Euler system is singular here "
-                                "(a dead centre for the forces): the joint forces and the driving torque are "
-                                "undetermined (NaN)"))
+            if nonfinite[i]:
+                why = ("a load, mass property or rate is not a finite number here (NaN or infinite: check the "
+                       "[[loads]] expressions' domain): the joint forces and the driving torque are undefined (NaN)")
+            else:
+                why = ("the Newton–Euler system is singular here (a dead centre for the forces): the joint "
+                       "forces and the driving torque are undetermined (NaN)")
+            events.append(Event(EventKind.SINGULAR, float(xs[i]), why))
         put(self, "events", tuple(events))
         put(self, "_cache", {})
 

@@ -223,8 +223,10 @@ def inverse_dynamics(dm: DynamicsModel, z, xd, xdd, *, rates=None) -> dict:
     ``xd``, ``xdd`` are in internal units (rad/s, rad/s² or length unit/s, /s²). Returns SI arrays:
     ``drive`` (N·m or N), ``pins`` {name: (N, 2)}, ``guides`` {name: (N, 3)} (force x, y and couple),
     ``shaking_force`` (N, 2), ``shaking_moment``, ``kinetic_energy``, ``potential_energy``,
-    ``power_residual`` (W) and ``power_scale`` (W), ``singular`` (bool), ``cond`` (the Hadamard ratio
-    of the matrix, 1 = well conditioned, 0 = singular), ``z1``, ``z2``,
+    ``power_residual`` (W) and ``power_scale`` (W), ``singular`` (bool: no forces here),
+    ``nonfinite`` (bool: singular because a load, mass property or rate is not a finite number
+    there, not a dead centre), ``cond`` (the Hadamard ratio of the matrix, 1 = well conditioned,
+    0 = singular), ``z1``, ``z2``,
     ``residual`` (N, bodies, 3) the Newton–Euler residuals of the solution, ``force_scale``.
     ``rates`` = ``(z1, z2)``, the ``(N, nvar)`` velocities and accelerations of this motion when
     already known (a sweep's), skips solving for them.
@@ -288,6 +290,7 @@ def inverse_dynamics(dm: DynamicsModel, z, xd, xdd, *, rates=None) -> dict:
     u = np.empty((n, lay.n_unknowns))
     residual = np.empty((n, ne))
     ratio = np.empty(n)
+    nonfinite = np.zeros(n, dtype=bool)
     eye = np.eye(ne)
     for lo in range(0, n, _CHUNK):  # chunks that stay in cache
         hi = min(n, lo + _CHUNK)
@@ -298,6 +301,7 @@ def inverse_dynamics(dm: DynamicsModel, z, xd, xdd, *, rates=None) -> dict:
         finite = np.all(np.isfinite(Mt), axis=(0, 1)) & np.all(np.isfinite(b_), axis=1)
         if not finite.all():
             Mt[:, :, ~finite] = eye[:, :, None]
+            nonfinite[lo:hi] = ~finite
         uc, had = _solve_stacked(Mt, np.ascontiguousarray(np.where(finite[:, None], b_, 0.0).T))
         had[~finite] = 0.0
         bad = ~(had > SINGULAR_RATIO)
@@ -312,7 +316,7 @@ def inverse_dynamics(dm: DynamicsModel, z, xd, xdd, *, rates=None) -> dict:
     residual = residual.reshape(n, nb, 3)
     cond = ratio
 
-    out: dict = {"singular": singular, "cond": cond, "z1": z1, "z2": z2, "layout": lay}
+    out: dict = {"singular": singular, "nonfinite": nonfinite, "cond": cond, "z1": z1, "z2": z2, "layout": lay}
     pins, guides = {}, {}
     col = 0
     sf = np.zeros((n, 2))

@@ -563,3 +563,27 @@ class TestLatex:
         assert r"M(\theta_{2})\,\ddot{\theta}_{2} + \tfrac{1}{2} M'(\theta_{2})\,\dot{\theta}_{2}^2 &= Q + T" in tex
         assert r"{\theta_{3}}'" in tex  # kinematic coefficients, not rates
         assert "Equation of motion" not in ls.load(ls.models_dir() / "thesis_crank_rocker.toml").to_latex()
+
+
+def test_a_load_outside_its_domain_is_named_not_called_a_dead_centre():
+    """A torque sqrt(θ − 1) is NaN for θ < 1 rad: those rows are flagged with an event that blames the load.
+
+    The crank (mass 2 kg at e = 0.05 m, no inertia of its own) is nowhere near a dead centre, so the
+    event must not say so; elsewhere T = m e² α + m g e cos θ − sqrt(θ − 1).
+    """
+    b = ls.MechanismBuilder("crank", length_unit="m", angle_unit="rad")
+    b.parameter("e", 0.05).parameter("d", 0.1)
+    b.variable("theta", input=True, guess=0.3).variable("phi", guess=0.3).variable("L", guess=0.05)
+    b.vector("r", length="e", angle="theta").vector("s", length="L", angle="phi").vector("a", length="d", angle=0)
+    b.loop("r = s").point("O", "0")
+    b.body("crank", mass=2.0, inertia=0.0, com="r", angle="theta", joints=["O"])
+    mech = b.load(body="crank", torque="sqrt(theta - 1)").gravity(0, -9.81).build()
+    with np.errstate(invalid="ignore"):
+        f = ls.forces(mech, 0, 2, 0.5, speed=2.0, accel=1.5)
+    th = np.asarray(f.sweep["theta"], dtype=float)
+    events = {round(ev.input, 9): ev.message for ev in f.events if ev.kind.value == "singular"}
+    assert sorted(events) == [0.0, 0.5]
+    assert all("not a finite number" in m and "loads" in m and "dead centre" not in m for m in events.values())
+    ok = th >= 1
+    want = 2.0 * 0.05**2 * 1.5 + 2.0 * 9.81 * 0.05 * np.cos(th[ok]) - np.sqrt(th[ok] - 1)
+    np.testing.assert_allclose(f.drive[ok], want, rtol=1e-11)
