@@ -358,7 +358,8 @@ def _fourbars(mech: Mechanism, ck, top, z, conv, classic) -> list:
         here = [(lo, hi) for lo, hi in out_rng if _full([(lo, hi)]) or (y0 - lo) % _TWO_PI <= hi - lo + 1e-12]
         reach.setdefault(y, (cand["loop"], [(lo + _TWO_PI * math.floor((y0 - lo) / _TWO_PI),
                                              hi + _TWO_PI * math.floor((y0 - lo) / _TWO_PI)) for lo, hi in here]))
-        phis = [(sx * (lo - x0) + phi0, sx * (hi - x0) + phi0) for lo, hi in rng]
+        # phi = phi0 + sx (x - x0): an input turning against its vector (sx = -1) reverses the interval
+        phis = [tuple(sorted((sx * (lo - x0) + phi0, sx * (hi - x0) + phi0))) for lo, hi in rng]
         mu = _transmission(g, a, b, c, phis)
         shown = _shown(rng)
         entry = {
