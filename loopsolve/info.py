@@ -199,9 +199,11 @@ def _transmission(g, a, b, c, phis: list) -> tuple[float, float]:
 
     def mu(cos_phi):
         bd2 = g * g + a * a - 2 * g * a * cos_phi
-        for ell in (b + c, b - c):  # at a limit of the input the diagonal is exactly b + c or |b - c|
+        # at a limit of the input the diagonal is exactly b + c or |b - c|: mu is exactly 180 deg or 0
+        # ((b² + c² − (b ± c)²) / (2 b c) need not round to ∓1)
+        for ell, at_limit in ((b + c, math.pi), (b - c, 0.0)):
             if abs(bd2 - ell * ell) <= 1e-9 * (b + c) ** 2:
-                bd2 = ell * ell
+                return at_limit
         return math.acos(min(1.0, max(-1.0, (b * b + c * c - bd2) / (2 * b * c))))
 
     return (mu(cmax), mu(cmin))

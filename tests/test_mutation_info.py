@@ -164,6 +164,43 @@ def test_transmission_angle_of_a_crank_turning_against_its_variable(tmp_path, ca
     assert lo == 0.0 and hi == pytest.approx(MU_MAX, abs=1e-9)
 
 
+# Grashof double rockers (the coupler shortest: 5.01 + 7.45 < 6.2 + 7.13, 2.09 + 9.93 < 8.74 + 3.99):
+# the input stops where coupler and output are folded (mu = 0) and stretched (mu = 180 deg).
+@pytest.mark.parametrize("lengths, tilt, theta2", [
+    ((6.2, 7.13, 5.01, 7.45), -50.0, -128.89893953210877),
+    ((9.93, 8.74, 2.09, 3.99), 0.0, 25.0),
+])
+def test_transmission_angle_exact_at_the_limits(lengths, tilt, theta2, capsys):
+    """loopsolve.info.x__transmission__mutmut_61 (the folded limit |b - c| not recognised: mu came
+    out 1.2e-06 deg on the first model) and a real bug it led to: on the second model the
+    unmutated code printed "1.20742e-06 to 180" (b^2 + c^2 - (b - c)^2 over 2 b c rounded below 1)."""
+    from loopsolve import classic
+
+    g, a, b, c = lengths
+    t3, t4 = classic.fourbar_position(g, a, b, c, math.radians(theta2 - tilt), mode=+1)  # guesses only
+    mech = ls.build_mechanism({
+        "name": "double rocker", "units": {"length": "mm", "angle": "deg"},
+        "parameters": {"r1": g, "r2": a, "r3": b, "r4": c},
+        "variables": {"theta2": {"input": True, "guess": theta2}, "theta3": {"guess": math.degrees(t3) + tilt},
+                      "theta4": {"guess": math.degrees(t4) + tilt}},
+        "vectors": {"r1": {"length": "r1", "angle": tilt}, "r2": {"length": "r2", "angle": "theta2"},
+                    "r3": {"length": "r3", "angle": "theta3"}, "r4": {"length": "r4", "angle": "theta4"}},
+        "loops": [{"equation": "r2 + r3 = r1 + r4"}]})
+    d = mech.info()
+    (fb,) = d["fourbars"]
+    assert (fb["grashof"], fb["input_motion"]) == ("double rocker", "rocks")
+    outer, inner = _law(g, a, b + c), _law(g, a, abs(b - c))
+    expected = []
+    for lo, hi in ((-outer, -inner), (inner, outer)):
+        shift = 360 * math.floor((lo + tilt + 180) / 360)
+        expected.append([lo + tilt - shift, hi + tilt - shift])
+    np.testing.assert_allclose(fb["input_range"], sorted(expected), atol=1e-9)
+    assert fb["transmission_angle_range"] == [0.0, 180.0]
+    from loopsolve.info import format_info
+
+    assert "    transmission angle (deg): 0 to 180" in format_info(d).splitlines()
+
+
 def test_start_pose_at_a_limit_still_has_a_rank(tmp_path):
     """loopsolve.info.x__rank_mobility__mutmut_37: drawn at the crank's limit (coupler and rocker
     folded) the unknowns' Jacobian is singular; the rank of [Phi_q | Phi_x] still leaves 1."""
