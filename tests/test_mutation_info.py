@@ -335,6 +335,37 @@ def test_watt2_text(tmp_path, capsys):
     assert "    input theta_crank turns fully: range (deg) [-180, 180]" in lines
 
 
+def test_second_fourbar_drawn_straight_cannot_move(capsys):
+    """loopsolve.info.x__fourbars__mutmut_289: a second four-bar whose frame is as long as its
+    other three links together (75 = 20 + 30 + 25) only closes stretched out straight: its input,
+    the first loop's rocker, cannot move (the mutant said "rocks")."""
+    from loopsolve.info import format_info
+
+    fb1 = {"r1": {"length": "r1", "angle": 0}, "r2": {"length": "r2", "angle": "theta2"},
+           "r3": {"length": "r3", "angle": "theta3"}, "r4": {"length": "r4", "angle": "theta4"}}
+    base = {"r1": 60, "r2": 25, "r3": 70, "r4": 45}
+    pose = ls.build_mechanism({"name": "fourbar", "units": {"length": "mm", "angle": "deg"}, "parameters": base,
+                               "variables": {"theta2": {"input": True, "guess": 60}, "theta3": {"guess": 20},
+                                             "theta4": {"guess": 80}},
+                               "vectors": fb1, "loops": [{"equation": "r2 + r3 = r1 + r4"}]}).solve(60)
+    line = pose["theta4"] + 100  # the arm O4C (100 deg on from O4B), coupler2 and O4O6 all along it
+    mech = ls.build_mechanism({
+        "name": "locked", "units": {"length": "mm", "angle": "deg"},
+        "parameters": dict(base, a2=20, b2=30, c2=25, g2=75, frame2=line),
+        "variables": {"theta2": {"input": True, "guess": 60}, "theta3": {"guess": pose["theta3"]},
+                      "theta4": {"guess": pose["theta4"]}, "theta5": {"guess": line},
+                      "theta6": {"guess": line + 180}},
+        "vectors": dict(fb1, r7={"length": "a2", "angle": "theta4 + 100"}, r5={"length": "b2", "angle": "theta5"},
+                        r6={"length": "c2", "angle": "theta6"}, r8={"length": "g2", "angle": "frame2"}),
+        "loops": [{"equation": "r2 + r3 = r1 + r4"}, {"equation": "r7 + r5 = r8 + r6"}]})
+    d = mech.info()
+    fb1, fb2 = d["fourbars"]
+    assert (fb1["input_motion"], fb1["input_range"]) == ("turns fully", [[-180.0, 180.0]])
+    assert (fb2["input"], fb2["driven_by"], fb2["input_motion"], fb2["input_range"]) == \
+        ("theta4", "loop1", "cannot move", [])
+    assert "    input theta4 cannot move, driven by loop1: range (deg) none" in format_info(d).splitlines()
+
+
 def test_watt1_has_one_fourbar():
     """loopsolve.info.x__diagram_candidates__mutmut_26: the Watt I's second loop (crank, coupler,
     link6, link5) does not contain the frame: it is no four-bar on the ground."""
