@@ -245,12 +245,17 @@ def test_info_without_guesses_does_not_warn():
 # crank-rocker whose rocker swings close to the frame line (22 deg at its folded limit); the
 # ternary rocker's arm O4C is the crank of loop 2 (O4 C D O6, 70/20/60/45).
 
-WATT2 = {"O2": (10.0, 20.0), "A": (-7.320508, 10.0), "B": (49.384394, 22.188275), "O4": (66.381557, 40.521209),
-         "C": (83.18631, 29.676843), "D": (140.136717, 48.562053), "O6": (127.003336, 5.521209)}
+WATT2 = {  # the rocker 27 deg from the frame line O4 -> O2 (5 deg past its folded limit)
+    "near": {"O2": (10.0, 20.0), "A": (-7.320508, 10.0), "B": (49.384394, 22.188275), "O4": (66.381557, 40.521209),
+             "C": (83.18631, 29.676843), "D": (140.136717, 48.562053), "O6": (127.003336, 5.521209)},
+    # the same linkage drawn with the crank 80 deg further on: the rocker at 85 deg
+    "far": {"O2": (10.0, 20.0), "A": (16.840403, 1.206148), "B": (72.82424, 16.365633), "O4": (66.381557, 40.521209),
+            "C": (84.517428, 48.952709), "D": (144.485208, 46.986666), "O6": (127.003336, 5.521209)},
+}
 
 
-def _watt2_file(tmp_path):
-    joints = "\n".join(f"{k} = {{ at = [{x!r}, {y!r}] }}" for k, (x, y) in WATT2.items())
+def _watt2_file(tmp_path, pose):
+    joints = "\n".join(f"{k} = {{ at = [{x!r}, {y!r}] }}" for k, (x, y) in WATT2[pose].items())
     return _write(tmp_path, "watt2_shifted", f"""
 name = "Shifted Watt II"
 units = {{ length = "mm", angle = "deg" }}
@@ -271,21 +276,21 @@ joint = "O2"
 """)
 
 
-def _dist(p, q):
-    return math.dist(WATT2[p], WATT2[q])
+def _watt2_by_hand(pose):
+    J = WATT2[pose]
 
+    def _dist(p, q):
+        return math.dist(J[p], J[q])
 
-def _dir(p, q):
-    """Direction [deg] of the drawn line p -> q."""
-    return math.degrees(math.atan2(WATT2[q][1] - WATT2[p][1], WATT2[q][0] - WATT2[p][0]))
+    def _dir(p, q):
+        """Direction [deg] of the drawn line p -> q."""
+        return math.degrees(math.atan2(J[q][1] - J[p][1], J[q][0] - J[p][0]))
 
-
-def _watt2_by_hand():
     g1, a1, b1, c1 = _dist("O2", "O4"), _dist("O2", "A"), _dist("A", "B"), _dist("O4", "B")
     g2, a2, b2, c2 = _dist("O4", "O6"), _dist("O4", "C"), _dist("C", "D"), _dist("O6", "D")
     # the rocker O4B swings between the folded (B-O2 = b1 - a1) and stretched (a1 + b1) positions,
     # on the drawn side of O4 -> O2 (counterclockwise from it: B is left of the line O4 -> O2)
-    ob, oo = np.subtract(WATT2["B"], WATT2["O4"]), np.subtract(WATT2["O2"], WATT2["O4"])
+    ob, oo = np.subtract(J["B"], J["O4"]), np.subtract(J["O2"], J["O4"])
     assert oo[0] * ob[1] - oo[1] * ob[0] > 0
     frame = _dir("O4", "O2")
     lo, hi = frame + _law(g1, c1, b1 - a1), frame + _law(g1, c1, a1 + b1)
@@ -300,15 +305,17 @@ def _watt2_by_hand():
             "mu1": (_law(b1, c1, g1 - a1), _law(b1, c1, g1 + a1)), "mu2": (mu2.min(), mu2.max())}
 
 
-def test_watt2_off_the_origin(tmp_path, capsys):
+@pytest.mark.parametrize("pose", ["near", "far"])
+def test_watt2_off_the_origin(tmp_path, capsys, pose):
     """loopsolve.info.x__fourbars__mutmut_69 (two four-bars sorted by their dicts: TypeError),
     x__fourbars__mutmut_89 (the crank length measured from the origin, not from its pivot O2),
     x__fourbars__mutmut_159 / x__fourbars__mutmut_269 (driven_by), x__fourbars__mutmut_169 (the
     second loop's range intersected with None), x__fourbars__mutmut_179 (the first loop's output
     range offset divided by psi0), x__fourbars__mutmut_199 (the rocker's mirrored swing, 44 deg away,
-    counted as reachable), x__fourbars__mutmut_319 (the joints' output_pin key)."""
-    d = _info_json(capsys, _watt2_file(tmp_path))
-    want = _watt2_by_hand()
+    counted as reachable: "near"), x__fourbars__mutmut_209 (the swing's start moved by other whole
+    turns than its end: "far"), x__fourbars__mutmut_319 (the joints' output_pin key)."""
+    d = _info_json(capsys, _watt2_file(tmp_path, pose))
+    want = _watt2_by_hand(pose)
     fb1, fb2 = d["fourbars"]
     assert fb1["links"] == {"ground": "ground", "input": "crank", "coupler": "coupler", "output": "rocker"}
     assert fb2["links"] == {"ground": "ground", "input": "rocker", "coupler": "coupler2", "output": "output"}
@@ -329,8 +336,8 @@ def test_watt2_off_the_origin(tmp_path, capsys):
 
 def test_watt2_text(tmp_path, capsys):
     """loopsolve.info.x_format_info__mutmut_153: the second loop's line must say what drives it."""
-    lines = _info_text(capsys, _watt2_file(tmp_path))
-    lo, hi = _watt2_by_hand()["swing"]
+    lines = _info_text(capsys, _watt2_file(tmp_path, "near"))
+    lo, hi = _watt2_by_hand("near")["swing"]
     assert f"    input theta_rocker rocks, driven by loop1: range (deg) [{lo:.6g}, {hi:.6g}]" in lines
     assert "    input theta_crank turns fully: range (deg) [-180, 180]" in lines
 
