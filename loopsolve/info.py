@@ -199,9 +199,11 @@ def _transmission(g, a, b, c, phis: list) -> tuple[float, float]:
 
     def mu(cos_phi):
         bd2 = g * g + a * a - 2 * g * a * cos_phi
-        for ell in (b + c, b - c):  # at a limit of the input the diagonal is exactly b + c or |b - c|
+        # at a limit of the input the diagonal is exactly b + c or |b - c|: mu is exactly 180 deg or 0
+        # ((b² + c² − (b ± c)²) / (2 b c) need not round to ∓1)
+        for ell, at_limit in ((b + c, math.pi), (b - c, 0.0)):
             if abs(bd2 - ell * ell) <= 1e-9 * (b + c) ** 2:
-                bd2 = ell * ell
+                return at_limit
         return math.acos(min(1.0, max(-1.0, (b * b + c * c - bd2) / (2 * b * c))))
 
     return (mu(cmax), mu(cmin))
@@ -358,7 +360,8 @@ def _fourbars(mech: Mechanism, ck, top, z, conv, classic) -> list:
         here = [(lo, hi) for lo, hi in out_rng if _full([(lo, hi)]) or (y0 - lo) % _TWO_PI <= hi - lo + 1e-12]
         reach.setdefault(y, (cand["loop"], [(lo + _TWO_PI * math.floor((y0 - lo) / _TWO_PI),
                                              hi + _TWO_PI * math.floor((y0 - lo) / _TWO_PI)) for lo, hi in here]))
-        phis = [(sx * (lo - x0) + phi0, sx * (hi - x0) + phi0) for lo, hi in rng]
+        # phi = phi0 + sx (x - x0): an input turning against its vector (sx = -1) reverses the interval
+        phis = [tuple(sorted((sx * (lo - x0) + phi0, sx * (hi - x0) + phi0))) for lo, hi in rng]
         mu = _transmission(g, a, b, c, phis)
         shown = _shown(rng)
         entry = {
