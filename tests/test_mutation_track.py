@@ -1,0 +1,145 @@
+"""Tests that kill surviving mutants of the tracker (kernel, continuation, sweep, batch).
+
+Every expected value is written here independently: four-bar and slider-crank positions by the
+law of cosines / the sine rule, block determinants of the loop Jacobians by hand, link lengths
+from the drawn joint coordinates of a model file. The triage of every survivor (killed here or
+harmless, with the reason) is in tools/mutation_triage/{kernel,continuation,sweep,batch}.txt.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+import loopsolve as ls
+from loopsolve import batch
+from loopsolve.sweep import grid
+
+MODELS = ls.models_dir()
+
+
+def fourbar_pose(r1, r2, r3, r4, t2, sign):
+    """(theta3, theta4) [rad] of the four-bar O2 A B O4 (O4 = (r1, 0)) by the law of cosines."""
+    ax, ay = r2 * math.cos(t2), r2 * math.sin(t2)
+    d = math.hypot(r1 - ax, ay)
+    phi = math.atan2(-ay, r1 - ax)  # direction A -> O4
+    beta = math.acos((r3 * r3 + d * d - r4 * r4) / (2 * r3 * d))  # angle at A between AO4 and AB
+    t3 = phi + sign * beta
+    bx, by = ax + r3 * math.cos(t3), ay + r3 * math.sin(t3)
+    return t3, math.atan2(by, bx - r1)
+
+
+# ----------------------------------------------------------------------------- batch.block_dets_v
+
+
+def test_block_dets_of_a_fourbar_by_hand():
+    """|det Φ_q| = r3·r4·|sin(θ3 − θ4)| and regularity 2·r3·r4·|sin(θ3 − θ4)| / (r3² + r4²), for both
+    modes at once (the modes have opposite signs), and the stacked call equals the one-point calls.
+
+    Kills loopsolve.batch.x_block_dets_v__mutmut_5 (angle columns scaled by 2) and
+    loopsolve.batch.x_block_dets_v__mutmut_45 (the 2x2 determinant with a division).
+    """
+    r1, r2, r3, r4 = 60.0, 25.0, 70.0, 45.0
+    ck = ls.fourbar(r1, r2, r3, r4).compile()
+    cols, want_d, want_h = [], [], []
+    for t2 in (0.3, 1.2, 2.5, 4.0):
+        for sign in (1, -1):
+            t3, t4 = fourbar_pose(r1, r2, r3, r4, t2, sign)
+            cols.append([t2, t3, t4])
+            s = abs(math.sin(t3 - t4))
+            want_d.append(r3 * r4 * s)
+            want_h.append(2 * r3 * r4 * s / (r3 * r3 + r4 * r4))
+    Z = np.array(cols).T
+    dets, reg = batch.block_dets_v(ck, ck.module.jac_v(Z, ck.p))
+    assert dets.shape == (1, len(cols))
+    assert np.allclose(np.abs(dets[0]), want_d, rtol=1e-12)
+    assert np.allclose(reg[0], want_h, rtol=1e-12)
+    assert np.all(np.sign(dets[0, ::2]) == -np.sign(dets[0, 1::2]))  # the two modes
+    for i in range(len(cols)):
+        d1, h1 = batch.block_dets_v(ck, ck.module.jac_v(Z[:, i:i + 1], ck.p))
+        assert d1[0, 0] == pytest.approx(dets[0, i], rel=1e-14) and h1[0, 0] == pytest.approx(reg[0, i], rel=1e-14)
+
+
+def test_block_dets_of_a_slider_crank_by_hand():
+    """Example 1 (r2 = 5, r3 = 8, no offset): two 1x1 blocks, θ3 from the y equation (det r3·cos θ3,
+    regularity r3·|cos θ3| / scale) and r1 from the x equation (det 1 x the length scale, regularity 1).
+
+    Kills loopsolve.batch.x_block_dets_v__mutmut_35 (1x1 regularity: np.minimum with one argument)
+    and loopsolve.batch.x_block_dets_v__mutmut_5 too.
+    """
+    mech = ls.load(MODELS / "example1_slider_crank.toml")
+    ck = mech.compile()
+    r2, r3 = 5.0, 8.0
+    scale = float(ck.scale)
+    cols, c3 = [], []
+    for t2 in (0.2, 0.785, 2.0, 3.5, 5.5):
+        t3 = math.asin(-r2 * math.sin(t2) / r3)  # the rod on the slider's side (cos θ3 > 0)
+        cols.append([t2, t3, r2 * math.cos(t2) + r3 * math.cos(t3)])
+        c3.append(r3 * math.cos(t3))
+    order = [ck.index(v) for v in ("theta2", "theta3", "r1")]
+    Z = np.zeros((3, len(cols)))
+    Z[order] = np.array(cols).T
+    dets, reg = batch.block_dets_v(ck, ck.module.jac_v(Z, ck.p))
+    blocks = [tuple(ck.unknowns[c] for c in b.unknowns) for b in ck.blocks]
+    i3, i1 = blocks.index(("theta3",)), blocks.index(("r1",))
+    assert np.allclose(np.abs(dets[i3]), c3, rtol=1e-12)
+    assert np.allclose(reg[i3], np.minimum(np.array(c3) / scale, 1.0), rtol=1e-12)
+    assert np.allclose(np.abs(dets[i1]), scale, rtol=1e-14)
+    assert np.allclose(reg[i1], 1.0, rtol=1e-14)
+
+
+# ----------------------------------------------------------------------------- a 4x4 block (batched path)
+
+STEPHENSON = MODELS / "stephenson3_sixbar.toml"
+
+
+def stephenson_lengths():
+    """Pairs of joints on one link and their distance, from the drawn joint coordinates of the file."""
+    import tomllib
+
+    doc = tomllib.loads(STEPHENSON.read_text())
+    at = {k: v["at"] for k, v in doc["joints"].items()}
+    pairs = [(a, b) for link, js in doc["links"].items() if link != "ground"
+             for i, a in enumerate(js) for b in js[i + 1:]]
+    return [(a, b, math.dist(at[a], at[b])) for a, b in pairs]
+
+
+def test_batched_sweep_of_a_coupled_4x4_block():
+    """The Stephenson III driven by link 6 couples both loops into one 4x4 block: the batched sweep
+    runs its block-sign check on it, keeps every link its drawn length and equals the tracked sweep.
+
+    Kills loopsolve.batch.x__sign_dets_v__mutmut_27 (no 3x3+ matrix) and
+    loopsolve.batch.x__sign_dets_v__mutmut_37 (float index into the Jacobian).
+    """
+    mech = ls.load(STEPHENSON)
+    assert [len(b.unknowns) for b in mech.compile("theta_link6").blocks] == [4]
+    bt = mech.sweep(-128, -120, 0.02, input="theta_link6", method="batched", progress=False)
+    tr = mech.sweep(-128, -120, 0.02, input="theta_link6", method="tracked", progress=False)
+    assert bt.method == "batched" and len(bt) == len(tr) == 401 and not bt.events
+    assert np.allclose(bt["theta_link6"], -128 + 0.02 * np.arange(401), atol=1e-9)
+    assert bt.modes == tr.modes and len(set(bt.modes)) == 1
+    for a, b, ell in stephenson_lengths():
+        d = np.hypot(bt[f"{a}_x"] - bt[f"{b}_x"], bt[f"{a}_y"] - bt[f"{b}_y"])
+        assert np.allclose(d, ell, rtol=0, atol=1e-5), (a, b)  # the file's coordinates have 6 decimals
+    assert np.max(np.abs(bt.z - tr.z)) < 1e-12
+
+
+def test_block_dets_of_a_4x4_block_are_per_point():
+    """Stacked regularities equal the single-point ones (each point's own Hadamard ratio
+    |det M| / (‖M‖²_F / k)^(k/2), 0 < h ≤ 1), whatever the other points.
+
+    Kills loopsolve.batch.x_block_dets_v__mutmut_75 (Frobenius norm summed over all points).
+    """
+    mech = ls.load(STEPHENSON)
+    ck = mech.compile("theta_link6")
+    sw = mech.sweep(-128, -120, 4, input="theta_link6", method="tracked", progress=False)
+    Z = np.ascontiguousarray(sw.z.T)
+    dets, reg = batch.block_dets_v(ck, ck.module.jac_v(Z, ck.p))
+    assert dets.shape == reg.shape == (1, 3)
+    for i in range(3):
+        M = np.asarray(ck.jac(Z[:, i]), dtype=float)  # all angles: no column scaling
+        want = abs(np.linalg.det(M)) / (np.sum(M * M) / 4) ** 2
+        assert abs(dets[0, i]) == pytest.approx(abs(np.linalg.det(M)), rel=1e-10)
+        assert 0 < reg[0, i] <= 1 and reg[0, i] == pytest.approx(want, rel=1e-10)
