@@ -143,3 +143,112 @@ def test_block_dets_of_a_4x4_block_are_per_point():
         want = abs(np.linalg.det(M)) / (np.sum(M * M) / 4) ** 2
         assert abs(dets[0, i]) == pytest.approx(abs(np.linalg.det(M)), rel=1e-10)
         assert 0 < reg[0, i] <= 1 and reg[0, i] == pytest.approx(want, rel=1e-10)
+
+
+# ----------------------------------------------------------------------------- starting on a limit
+
+
+def toggle_angles(r1, r2, r3, r4):
+    """Crank angles [deg] in (0, 180) where B is r3 + r4 or |r3 - r4| from O4 (law of cosines)."""
+    out = []
+    for d in (r3 + r4, abs(r3 - r4)):
+        c = (r1 * r1 + r2 * r2 - d * d) / (2 * r1 * r2)
+        if -1 < c < 1:
+            out.append(math.degrees(math.acos(c)))
+    return sorted(out)
+
+
+@pytest.mark.parametrize("method", ["tracked", "batched"])
+def test_a_sweep_from_a_limit_warns_nothing_and_turns_at_the_far_one(method):
+    """Double rocker (60, 50, 20, 45): toggles at acos(0.9125) = 24.15° and acos(0.3125) = 71.79°.
+    Starting on the first, the sweep (batched or tracked) issues no numpy warning: the start node's
+    tangent is normal to the input axis, and its slope dq/dx is infinite by design.
+
+    Kills loopsolve.batch.x_solve_rows__mutmut_109 (divide-by-zero warning at the start fold).
+    """
+    import warnings
+
+    lo, hi = toggle_angles(60, 50, 20, 45)
+    assert lo == pytest.approx(math.degrees(math.acos(0.9125)), abs=1e-12)
+    start = math.ceil(lo * 1e9) / 1e9
+    mech = ls.load(MODELS / "double_rocker.toml")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        sw = mech.sweep(start, 75, 0.5, through_limits=True, method=method, progress=False)
+    assert sw.method == method
+    assert [e.kind.value for e in sw.events] == ["limit", "limit", "mode-change"]
+    assert [e.input for e in sw.events] == pytest.approx([lo, hi, hi], abs=1e-9)
+    assert sw["theta2"][0] == pytest.approx(start + 0.5, abs=1e-12)
+
+
+# ----------------------------------------------------------------------------- wrong-mode detection
+
+
+def test_batched_points_sent_to_the_other_mode_are_caught(monkeypatch):
+    """The thesis four-bar in metres (0.06, 0.025, 0.07, 0.045): every 5th vectorized point is
+    replaced by the other mode's pose at the same input (a valid root, law of cosines); the block
+    sign check must reject it, so every row is the tracked mode's pose by the law of cosines.
+
+    Kills loopsolve.batch.x__sign_dets_v__mutmut_17 (2x2 determinant sign with a division, which
+    accepts many crossed poses when the link lengths are below 1).
+    """
+    r = (0.06, 0.025, 0.07, 0.045)
+    mech = ls.fourbar(*r)
+    real = batch._newton_v
+
+    def other_mode(t2, t3):
+        poses = [fourbar_pose(*r, t2, s) for s in (1, -1)]
+        return max(poses, key=lambda p: abs(math.remainder(p[0] - t3, 2 * math.pi)))
+
+    def sabotaged(ck, Z):
+        out = real(ck, Z)
+        for i in range(0, Z.shape[1], 5):
+            Z[1, i], Z[2, i] = other_mode(Z[0, i], Z[1, i])
+        return out
+
+    monkeypatch.setattr(batch, "_newton_v", sabotaged)
+    sw = mech.sweep(0, 360, 0.5, method="batched", progress=False)
+    assert sw.method == "batched" and len(sw) == 721 and set(sw.modes) == {sw.mode}
+    t2 = np.radians(sw["theta2"])
+    z = np.radians(np.column_stack([sw["theta3"], sw["theta4"]]))
+    err = {s: np.array([np.abs(np.remainder(np.array(fourbar_pose(*r, x, s)) - q + math.pi, 2 * math.pi) - math.pi)
+                        .max() for x, q in zip(t2, z)]) for s in (1, -1)}
+    assert min(err[1].max(), err[-1].max()) < 1e-10
+
+
+def test_batched_slider_crank_points_sent_to_the_other_mode_are_caught(monkeypatch):
+    """Slider-crank r2 = 5, r3 = 8 declared with r1 before theta3 (so the θ3 block is the second
+    unknown's): every 5th vectorized point is replaced by the mirrored rod θ3' = π − θ3,
+    r1' = r2·cos θ2 − r3·cos θ3 (a valid root of the other mode); every row must still be the start
+    mode's pose by the sine rule: sin θ3 = −r2·sin θ2 / r3 with cos θ3 > 0, r1 = r2·cos θ2 + r3·cos θ3.
+
+    Kills loopsolve.batch.x__sign_dets_v__mutmut_7 (1x1 block sign read from the wrong Jacobian entry).
+    """
+    r2, r3 = 5.0, 8.0
+    b = ls.MechanismBuilder("slider-crank, r1 first")
+    b.parameter("r2", r2).parameter("r3", r3)
+    b.variable("theta2", input=True, guess=45)
+    b.variable("r1", guess=10.7).variable("theta3", guess=-26)
+    b.vector("r1", length="r1", angle=0).vector("r2", length="r2", angle="theta2")
+    b.vector("r3", length="r3", angle="theta3")
+    b.loop("r2 + r3 = r1")
+    mech = b.build()
+    ck = mech.compile()
+    i2, i1, i3 = (ck.index(v) for v in ("theta2", "r1", "theta3"))
+    real = batch._newton_v
+
+    def sabotaged(ck_, Z):
+        out = real(ck_, Z)
+        idx = np.arange(0, Z.shape[1], 5)
+        t3 = Z[i3, idx]
+        Z[i3, idx] = math.pi - t3
+        Z[i1, idx] = r2 * np.cos(Z[i2, idx]) - r3 * np.cos(t3)
+        return out
+
+    monkeypatch.setattr(batch, "_newton_v", sabotaged)
+    sw = mech.sweep(0, 360, 0.5, method="batched", progress=False)
+    assert sw.method == "batched" and len(sw) == 721 and set(sw.modes) == {sw.mode}
+    t2 = np.radians(sw["theta2"])
+    t3 = np.arcsin(-r2 * np.sin(t2) / r3)
+    assert np.max(np.abs(np.remainder(np.radians(sw["theta3"]) - t3 + math.pi, 2 * math.pi) - math.pi)) < 1e-10
+    assert np.max(np.abs(sw["r1"] - (r2 * np.cos(t2) + r3 * np.cos(t3)))) < 1e-9
