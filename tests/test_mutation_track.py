@@ -252,3 +252,70 @@ def test_batched_slider_crank_points_sent_to_the_other_mode_are_caught(monkeypat
     t3 = np.arcsin(-r2 * np.sin(t2) / r3)
     assert np.max(np.abs(np.remainder(np.radians(sw["theta3"]) - t3 + math.pi, 2 * math.pi) - math.pi)) < 1e-10
     assert np.max(np.abs(sw["r1"] - (r2 * np.cos(t2) + r3 * np.cos(t3)))) < 1e-9
+
+
+# ----------------------------------------------------------------------------- sweep: grid, errors, ranges
+
+
+@pytest.mark.parametrize("step", [0, 0.0, math.inf, -math.inf, math.nan])
+def test_grid_refuses_a_zero_or_non_finite_step(step):
+    """``grid`` (public) raises the ModelError naming --step, not a ZeroDivisionError or a NaN grid.
+
+    Kills loopsolve.sweep.x_grid__mutmut_1 (``or`` -> ``and``: nothing is refused).
+    """
+    with pytest.raises(ls.ModelError, match="--step must be a nonzero number"):
+        grid(0.0, 10.0, step)
+    assert grid(10.0, 0.0, -4.0).tolist() == [10.0, 6.0, 2.0]  # the sign of the step is the range's
+
+
+def test_stalled_newton_error_keeps_the_partial_solution():
+    """Watt II six-bar with r5 = 40: the second loop only closes on the first loop's crossed mode, the
+    guesses pick the open one. The ConvergenceError carries ``result``, the partial solution: the
+    input at 60°, the first loop closed in the open mode (law of cosines), the second loop open.
+
+    Kills loopsolve.sweep.x_assembly_failure__mutmut_22 and loopsolve.sweep.x_assembly_failure__mutmut_32
+    (``result`` dropped).
+    """
+    from test_modes import watt_sixbar
+
+    mech = watt_sixbar().with_parameters(r5=40)
+    with pytest.raises(ls.ConvergenceError) as exc:
+        mech.solve(60)
+    err = exc.value
+    assert err.input_value == pytest.approx(60, abs=1e-12)
+    z = np.asarray(err.result, dtype=float)
+    ck = mech.compile()
+    assert z.shape == (len(ck.variables),)
+    assert z[ck.index("theta2")] == pytest.approx(math.radians(60), abs=1e-15)
+    poses = [fourbar_pose(60, 25, 70, 45, math.radians(60), s) for s in (1, -1)]
+    got = (z[ck.index("theta3")], z[ck.index("theta4")])
+    assert min(max(abs(math.remainder(g - p, 2 * math.pi)) for g, p in zip(got, pose)) for pose in poses) < 1e-9
+    # the second loop r4c + r5 = r7 + r6 (r7 = (50, 55)) does not close at the partial solution
+    t4, t5, t6 = (z[ck.index(v)] for v in ("theta4", "theta5", "theta6"))
+    gap = (25 * np.exp(1j * (t4 + math.radians(160))) + 40 * np.exp(1j * t5)) - (50 + 55j + 55 * np.exp(1j * t6))
+    assert abs(gap) > 1e-3
+
+
+def test_reachable_ranges_of_a_slider_far_from_its_guess():
+    """Slider-crank r2 = 2, r3 = 3 whose slider is measured from a point 40 to the right of the crank
+    pivot (C = 40 + s), guessed at s = -10 (length scale 10). |C| lies in [r3 - r2, r3 + r2], so
+    s ∈ [-45, -41] ∪ [-39, -35]: both within 4 length scales of the guess, both found.
+
+    Kills loopsolve.sweep.x_reachable_ranges__mutmut_10 (samples centred on 0 instead of the guess).
+    """
+    from loopsolve.sweep import nearest_assemblable, reachable_ranges
+
+    b = ls.MechanismBuilder("far slider")
+    b.parameter("r2", 2).parameter("r3", 3)
+    b.variable("s", input=True, guess=-10)
+    b.variable("theta2", guess=30).variable("theta3", guess=-20)
+    b.vector("r2", length="r2", angle="theta2").vector("r3", length="r3", angle="theta3")
+    b.vector("d", x=40, y=0).vector("s", length="s", angle=0)
+    b.loop("r2 + r3 = d + s")
+    mech = b.build()
+    ck = mech.compile()
+    assert ck.scale == 10
+    want = [(-45.0, -41.0), (-39.0, -35.0)]
+    got = reachable_ranges(ck)
+    assert len(got) == 2 and all(p == pytest.approx(q, abs=1e-9) for p, q in zip(got, want))
+    assert nearest_assemblable(ck, -40.0) == pytest.approx((-41.0, -39.0), abs=1e-9)
