@@ -319,3 +319,17 @@ def test_reachable_ranges_of_a_slider_far_from_its_guess():
     got = reachable_ranges(ck)
     assert len(got) == 2 and all(p == pytest.approx(q, abs=1e-9) for p, q in zip(got, want))
     assert nearest_assemblable(ck, -40.0) == pytest.approx((-41.0, -39.0), abs=1e-9)
+
+
+def test_batched_rows_report_one_newton_iteration():
+    """The batched path solves a row by one vectorized Newton step from its warm start, and says so
+    (``n_iter`` 1), also when every row takes that path at once (a sweep from the double rocker's
+    limit at acos(0.9125) = 24.15° up to 70°, short of the far limit at 71.79°, no row on a node).
+
+    Kills loopsolve.batch.x_solve_rows__mutmut_289 (n_iter 2 when all rows are vectorized).
+    """
+    lo, hi = toggle_angles(60, 50, 20, 45)
+    start = math.ceil(lo * 1e9) / 1e9
+    sw = ls.load(MODELS / "double_rocker.toml").sweep(start, 70, 4, method="batched", progress=False)
+    assert len(sw) == 11 and sw["theta2"][-1] == pytest.approx(start + 44, abs=1e-12) and start + 44 < hi
+    assert sw.n_iter.tolist() == [1] * 11 and [s.n_iter for s in sw.states] == [1] * 11
