@@ -333,3 +333,27 @@ def test_batched_rows_report_one_newton_iteration():
     sw = ls.load(MODELS / "double_rocker.toml").sweep(start, 70, 4, method="batched", progress=False)
     assert len(sw) == 11 and sw["theta2"][-1] == pytest.approx(start + 44, abs=1e-12) and start + 44 < hi
     assert sw.n_iter.tolist() == [1] * 11 and [s.n_iter for s in sw.states] == [1] * 11
+
+
+# ----------------------------------------------------------------------------- rows next to a change point
+
+
+def test_tracked_rows_next_to_a_change_point():
+    """Four-bar (4, 2, 3, 3): r1 + r2 = r3 + r4, so at θ2 = 180° every pivot is in line (a change
+    point). A fine tracked grid through it needs the corrector's segment subdivision; every row is
+    one of the two law-of-cosines poses, and the change point is located at 180° to 1e-8.
+
+    Kills loopsolve.continuation.xǁTracerǁsolve_at__mutmut_135 (subdivision crashes: tangent without
+    its orientation row).
+    """
+    r = (4.0, 2.0, 3.0, 3.0)
+    sw = ls.fourbar(*r, theta2=179).sweep(179, 181, 0.01, method="tracked", progress=False)
+    cps = [e.input for e in sw.events if e.kind.value == "singular" and "change point" in e.message]
+    assert cps == [pytest.approx(180, abs=5e-8)]
+    assert len(sw) >= 190
+    t2 = np.radians(sw["theta2"])
+    z = np.radians(np.column_stack([sw["theta3"], sw["theta4"]]))
+    for x, q in zip(t2, z):
+        off = min(np.abs(np.remainder(np.array(fourbar_pose(*r, x, s)) - q + math.pi, 2 * math.pi) - math.pi).max()
+                  for s in (1, -1))
+        assert off < 1e-9
