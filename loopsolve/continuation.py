@@ -455,6 +455,8 @@ class Tracer:
         z[k.ix] = x
         L = math.sqrt(sum((q - p) ** 2 for p, q in zip(ya, yb)))
         z, it, ok, _ = k.newton(z, 10)
+        if not ok:
+            ok = self._at_roundoff(z)
         if ok:
             res = k.residual(z)
             J = k.jac_f(z, k.p)
@@ -640,6 +642,27 @@ class Tracer:
             if b.n_iter <= 3 and dot > self.cos_grow and h < c.max_step:
                 h = min(h * 1.6, c.max_step)
         return path
+
+    def _at_roundoff(self, z) -> bool:
+        """Whether ``z`` is a root to round-off although Newton did not report convergence.
+
+        Next to a singular position (a change point) Φ_q is ill-conditioned and the Newton steps
+        stall at round-off times its condition number, above Newton's stopping threshold: ``z``
+        is a root all the same when its residual is within tolerance and one more step is
+        round-off amplified by the conditioning (the blocks' regularity ≈ 2/cond), and small.
+        """
+        k = self.k
+        f = k.phi_f(z, k.p)
+        if not max((abs(v) for v in f), default=0.0) <= k.tol:
+            return False
+        J = k.jac_f(z, k.p)
+        dx = k.solve(J, [-v for v in f])
+        if dx is None:
+            return False
+        st = max((abs(d) * w for d, w in zip(dx, k.wu)), default=0.0)
+        had = min(k.dets(J)[1], default=1.0)
+        ymax = max((abs(z[i]) * w for i, w in zip(k.iu, k.wu)), default=0.0)
+        return st <= 1e-10 and st * had <= _ROUNDOFF * (1 + ymax)
 
     def _is_fold(self, s: Node, tol: float = 1e-4) -> bool:
         """A fold (limit) rather than a branch point: ∂Φ/∂x is not in the range of the singular Φ_q.

@@ -340,20 +340,54 @@ def test_batched_rows_report_one_newton_iteration():
 
 def test_tracked_rows_next_to_a_change_point():
     """Four-bar (4, 2, 3, 3): r1 + r2 = r3 + r4, so at θ2 = 180° every pivot is in line (a change
-    point). A fine tracked grid through it needs the corrector's segment subdivision; every row is
-    one of the two law-of-cosines poses, and the change point is located at 180° to 1e-8.
+    point). Every output row of a fine grid through it is solved, tracked as batched (only the row
+    on the change point itself is left out, its rates being undefined); every row is one of the
+    two law-of-cosines poses, and the change point is located at 180° to 1e-8.
 
-    Kills loopsolve.continuation.xǁTracerǁsolve_at__mutmut_135 (subdivision crashes: tangent without
-    its orientation row).
+    Regression test: next to the change point the corrector's Newton steps stall at round-off
+    times the condition number, and the tracked path used to drop rows such as 179.94° and 180.06°
+    ("no converged solution ... row left out") that the batched path solved.
     """
     r = (4.0, 2.0, 3.0, 3.0)
-    sw = ls.fourbar(*r, theta2=179).sweep(179, 181, 0.01, method="tracked", progress=False)
-    cps = [e.input for e in sw.events if e.kind.value == "singular" and "change point" in e.message]
-    assert cps == [pytest.approx(180, abs=5e-8)]
-    assert len(sw) >= 190
-    t2 = np.radians(sw["theta2"])
-    z = np.radians(np.column_stack([sw["theta3"], sw["theta4"]]))
-    for x, q in zip(t2, z):
-        off = min(np.abs(np.remainder(np.array(fourbar_pose(*r, x, s)) - q + math.pi, 2 * math.pi) - math.pi).max()
-                  for s in (1, -1))
-        assert off < 1e-9
+    for method in ("tracked", "batched"):
+        sw = ls.fourbar(*r, theta2=179).sweep(179, 181, 0.01, method=method, progress=False)
+        assert [e.kind.value for e in sw.events] == ["singular"] and "change point" in sw.events[0].message
+        assert sw.events[0].input == pytest.approx(180, abs=5e-8)
+        want = [v for v in np.round(179 + 0.01 * np.arange(201), 2) if v != 180]
+        assert np.allclose(sw["theta2"], want, atol=1e-9)
+        t2 = np.radians(sw["theta2"])
+        z = np.radians(np.column_stack([sw["theta3"], sw["theta4"]]))
+        for x, q in zip(t2, z):
+            off = min(np.abs(np.remainder(np.array(fourbar_pose(*r, x, s)) - q + math.pi, 2 * math.pi) - math.pi).max()
+                      for s in (1, -1))
+            assert off < 1e-9
+
+
+def test_corrector_subdivides_a_segment_whose_guess_is_poor():
+    """The tracker's row corrector on a long segment (nodes at 20° and 90° on the crossed branch of
+    the non-Grashof four-bar 4, 3, 3.5, 5): the cubic guess at 37.5° is poor, Newton leaves the mode,
+    and the segment is subdivided until the crossed pose (law of cosines) is found.
+
+    Kills loopsolve.continuation.xǁTracerǁsolve_at__mutmut_135 (subdivision crashes: tangent
+    without its orientation row).
+    """
+    from loopsolve.continuation import Kernel, StepControl, Tracer, first_node
+    from loopsolve.sweep import Grid
+
+    r = (4.0, 3.0, 3.5, 5.0)
+    mech = ls.fourbar(*r)
+    ck = mech.compile()
+    kern = Kernel(ck)
+    za, zb = (mech.solve(x, mode="crossed").z for x in (20, 90))
+    a, b = first_node(kern, za, 1.0), first_node(kern, zb, 1.0)
+    side = [s for s in (1, -1)
+            if max(abs(math.remainder(p - q, 2 * math.pi)) for p, q in zip(fourbar_pose(*r, za[0], s), za[1:])) < 1e-9]
+    assert len(side) == 1
+    x0, x1 = math.radians(20), math.radians(90)
+    tr = Tracer(kern, Grid(x0, x1 - x0, 0, 1, x0, x1), StepControl(), land=False, through_limits=False, x_start=x0)
+    got = tr.solve_at(a, b, math.radians(37.5), a.sig)
+    assert got is not None
+    z, res, _ = got
+    want = fourbar_pose(*r, math.radians(37.5), side[0])
+    assert max(abs(math.remainder(p - q, 2 * math.pi)) for p, q in zip(want, z[1:])) < 1e-12
+    assert res < 1e-12
