@@ -391,3 +391,52 @@ def test_corrector_subdivides_a_segment_whose_guess_is_poor():
     want = fourbar_pose(*r, math.radians(37.5), side[0])
     assert max(abs(math.remainder(p - q, 2 * math.pi)) for p, q in zip(want, z[1:])) < 1e-12
     assert res < 1e-12
+
+
+# ----------------------------------------------------------------------------- dense batched grids
+
+
+@pytest.mark.parametrize("stop", [0.5, 3.0])  # one segment (two chunks of rows), several
+def test_dense_batched_rows_are_each_their_own_pose(stop):
+    """A batched grid of 0.01° over a short range: the coarse pass's ~1° segments each cross far
+    more than 32 output values (the vectorized enumeration); every row is present, in order, and is
+    the four-bar pose at its own input by the law of cosines.
+
+    Kills loopsolve.sweep.x__enumerate_rows__mutmut_137 (no segment index), loopsolve.sweep.
+    x__enumerate_rows__mutmut_167 (rows within ~1 of the node copy the node) and loopsolve.sweep.
+    x__enumerate_rows__mutmut_197 (the rows of a second chunk dropped).
+    """
+    r = (60.0, 25.0, 70.0, 45.0)
+    sw = ls.fourbar(*r, theta2=0).sweep(0, stop, 0.01, method="batched", progress=False)
+    n = int(round(stop / 0.01)) + 1
+    assert sw.method == "batched" and len(sw) == n and not sw.events
+    assert np.allclose(sw["theta2"], 0.01 * np.arange(n), atol=1e-12)
+    t2 = np.radians(sw["theta2"])
+    z = np.radians(np.column_stack([sw["theta3"], sw["theta4"]]))
+    off = {s: max(np.abs(np.remainder(np.array(fourbar_pose(*r, x, s)) - q + math.pi, 2 * math.pi) - math.pi).max()
+                  for x, q in zip(t2, z)) for s in (1, -1)}
+    assert min(off.values()) < 1e-10
+
+
+def test_progress_bar_on_a_terminal(monkeypatch):
+    """Long sweeps show a progress bar on stderr when it is a terminal (progress=None), not otherwise.
+
+    Kills loopsolve.sweep.x__progress__mutmut_2 (the terminal test replaced by None).
+    """
+    import io
+    import sys
+
+    from loopsolve.sweep import _progress
+
+    pytest.importorskip("tqdm")
+
+    class Terminal(io.StringIO):
+        def isatty(self):
+            return True
+
+    monkeypatch.setattr(sys, "stderr", Terminal())
+    bar = _progress(1000, None)
+    assert bar is not None
+    bar.close()
+    monkeypatch.setattr(sys, "stderr", io.StringIO())
+    assert _progress(1000, None) is None
