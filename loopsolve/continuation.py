@@ -541,6 +541,17 @@ class Tracer:
             end = at_bound
             # the input leaves the range inside an arclength step: stop on the bound
             xa, xb = a.z[k.ix], b.z[k.ix]
+            if not natural and len(nodes) == 1 and a.kind == "fold" and any(
+                    (xb - xa) * out > 0 and (xa - bound) * out >= -k.x_tol
+                    for bound, out in ((self.g.lo, -1.0), (self.g.hi, 1.0))):
+                # the sweep starts on a limit position at an end of its range and the mechanism can
+                # only move out of the range from there: nothing to trace (the rest of the range,
+                # if any, lies beyond the limit)
+                if self.g.hi - self.g.lo > k.x_tol and not self.through:
+                    events.append(Event(EventKind.LIMIT, self._display(xa),
+                                        "limit position (toggle/fold): the input cannot go further on mode "
+                                        f"{self._label(a.sig)}; the rows stop here"))
+                break
             if not natural:
                 for bound, out in ((self.g.lo, -1.0), (self.g.hi, 1.0)):
                     if (xb - xa) * out > 0 and ((xa - bound) * (xb - bound) < 0 or (xb == bound and xa != bound)):

@@ -440,3 +440,34 @@ def test_progress_bar_on_a_terminal(monkeypatch):
     bar.close()
     monkeypatch.setattr(sys, "stderr", io.StringIO())
     assert _progress(1000, None) is None
+
+
+# ----------------------------------------------------------------------------- a start on a limit, heading out
+
+
+def test_a_sweep_from_a_limit_out_of_the_assemblable_range_stops_there():
+    """Non-Grashof four-bar (4, 3, 3.5, 5): the crank rocks between ±acos((4² + 3² − 1.5²)/(2·4·3))
+    = ±18.5733°. A sweep that starts on a limit and heads away from the assemblable range has no
+    row; it reports that limit and warns about it, instead of wandering outside its range to a
+    singular position there (322.96° / 37.04° before). A zero-width range on the double rocker's
+    limit acos(0.9125) gives its limit only (no far limit at 71.79°, no warning).
+
+    Regression test for the tracer leaving a range whose start is a limit position on its end.
+    """
+    import warnings
+
+    t = math.degrees(math.acos((16 + 9 - 1.5 ** 2) / 24))
+    mech = ls.fourbar(4, 3, 3.5, 5, theta2=180)
+    for start, stop in ((360 - t, 350), (t, 0)):
+        with pytest.warns(ls.LoopsolveWarning, match=f"limit position .* {start:.10g}"):
+            sw = mech.sweep(start, stop, 10, progress=False)
+        assert len(sw) == 0 and {e.kind.value for e in sw.events} == {"limit"}
+        assert [e.input for e in sw.events] == pytest.approx([start] * len(sw.events), abs=1e-9)
+    lo = math.degrees(math.acos(0.9125))
+    dr = ls.load(MODELS / "double_rocker.toml")
+    for through in (False, True):
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")
+            sw = dr.sweep(lo, lo, 1, through_limits=through, progress=False)
+        assert len(sw) == 0 and [e.kind.value for e in sw.events] == ["limit"]
+        assert sw.events[0].input == pytest.approx(lo, abs=1e-9)
