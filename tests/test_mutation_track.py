@@ -110,8 +110,11 @@ def test_batched_sweep_of_a_coupled_4x4_block():
     """The Stephenson III driven by link 6 couples both loops into one 4x4 block: the batched sweep
     runs its block-sign check on it, keeps every link its drawn length and equals the tracked sweep.
 
-    Kills loopsolve.batch.x__sign_dets_v__mutmut_27 (no 3x3+ matrix) and
-    loopsolve.batch.x__sign_dets_v__mutmut_37 (float index into the Jacobian).
+    Its rates (the stacked block solve of a 4x4 block) match central differences of the positions.
+
+    Kills loopsolve.batch.x__sign_dets_v__mutmut_27 (no 3x3+ matrix), loopsolve.batch.x__sign_dets_v__mutmut_37
+    (float index into the Jacobian), loopsolve.batch.x_block_solve_v__mutmut_67, _77 and _87 (the 3x3+
+    block solve broken).
     """
     mech = ls.load(STEPHENSON)
     assert [len(b.unknowns) for b in mech.compile("theta_link6").blocks] == [4]
@@ -124,6 +127,13 @@ def test_batched_sweep_of_a_coupled_4x4_block():
         d = np.hypot(bt[f"{a}_x"] - bt[f"{b}_x"], bt[f"{a}_y"] - bt[f"{b}_y"])
         assert np.allclose(d, ell, rtol=0, atol=1e-5), (a, b)  # the file's coordinates have 6 decimals
     assert np.max(np.abs(bt.z - tr.z)) < 1e-12
+    # velocities (unit input speed: dq/dx) against central differences of the positions (0.02° apart)
+    h = math.radians(0.02)
+    for name in ("theta_crank", "theta_coupler", "theta_rocker", "theta_link5"):
+        q = np.unwrap(np.radians(bt[name]))
+        fd = (q[2:] - q[:-2]) / (2 * h)
+        v = bt[f"{name}_vel"][1:-1] / bt["theta_link6_vel"][1:-1]
+        assert np.all(np.isfinite(v)) and np.allclose(v, fd, rtol=1e-4, atol=1e-6), name
 
 
 def test_block_dets_of_a_4x4_block_are_per_point():
@@ -471,3 +481,52 @@ def test_a_sweep_from_a_limit_out_of_the_assemblable_range_stops_there():
             sw = dr.sweep(lo, lo, 1, through_limits=through, progress=False)
         assert len(sw) == 0 and [e.kind.value for e in sw.events] == ["limit"]
         assert sw.events[0].input == pytest.approx(lo, abs=1e-9)
+
+
+def test_rates_at_a_singular_row_warn_nothing():
+    """Four-bar (4, 2, 4, 2) at θ2 = θ3 = θ4 = 0 (all pivots in line): Φ_q = [[0, 0], [4, -2]] is
+    singular. rates_v gives an infinite condition number and NaN rates for it, silently; the regular
+    row beside it (90°, 0°, 90°: a parallelogram) gets finite rates.
+
+    Kills loopsolve.batch.x__cond_v__mutmut_59 (divide-by-zero warning at a singular row).
+    """
+    import warnings
+
+    ck = ls.fourbar(4, 2, 4, 2).compile()
+    Z = np.array([[0.0, math.pi / 2], [0.0, 0.0], [0.0, math.pi / 2]])
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        Z1, _, _, cond = batch.rates_v(ck, Z, (1.0, 0.0, 0.0))
+    assert np.isinf(cond[0]) and np.isnan(Z1[1, 0]) and np.isfinite(cond[1]) and np.all(np.isfinite(Z1[:, 1]))
+    assert Z1[2, 1] == pytest.approx(1.0, abs=1e-12)  # a parallelogram: the rocker turns with the crank
+
+
+def test_max_rows_counts_a_full_turn_through_limits_once_more():
+    """A full turn by 1° with --through-limits may visit every grid angle on both modes: 360 + 360 + 1
+    = 721 rows counted up front. max_rows=721 is accepted, 720 refused naming 721 rows.
+
+    Kills loopsolve.sweep.x__make_grid__mutmut_31 (one and a half turns counted).
+    """
+    mech = ls.fourbar(60, 25, 70, 45)
+    sw = mech.sweep(0, 360, 1, through_limits=True, max_rows=721, progress=False)
+    assert len(sw) == 361
+    with pytest.raises(ls.ModelError, match=r"would have 721 rows .* limit of 720"):
+        mech.sweep(0, 360, 1, through_limits=True, max_rows=720, progress=False)
+
+
+def test_an_empty_sweep_has_empty_columns():
+    """A sweep without rows (from the limit at 341.43° of the 4, 3, 3.5, 5 four-bar outwards) still
+    has every column, each of length 0.
+
+    Kills loopsolve.batch.x_rates_v__mutmut_10 (no (nvar, 0) arrays for zero rows).
+    """
+    import warnings
+
+    t = math.degrees(math.acos((16 + 9 - 1.5 ** 2) / 24))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", ls.LoopsolveWarning)
+        sw = ls.fourbar(4, 3, 3.5, 5, theta2=180).sweep(360 - t, 350, 10, method="batched", progress=False)
+    assert len(sw) == 0
+    for name in ("theta2", "theta3_vel", "theta4_acc", "theta4_jerk"):
+        assert np.asarray(sw[name]).shape == (0,)
+    assert sw.z.shape == (0, 3) and sw.z1.shape == (0, 3)
