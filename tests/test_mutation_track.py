@@ -530,3 +530,40 @@ def test_an_empty_sweep_has_empty_columns():
     for name in ("theta2", "theta3_vel", "theta4_acc", "theta4_jerk"):
         assert np.asarray(sw[name]).shape == (0,)
     assert sw.z.shape == (0, 3) and sw.z1.shape == (0, 3)
+
+
+def test_auto_method_counts_the_full_turn_grid_points():
+    """With --through-limits a full turn by h visits the grid angles k·h for |k| <= floor(360/h) on
+    both sides of the start: 2·floor(360/h) + 1 output points. 'auto' batches from 720 points on:
+    h = 1.001 gives 2·359 + 1 = 719 (tracked), h = 1 gives 721 (batched).
+
+    Kills loopsolve.sweep.x__make_grid__mutmut_121 (one grid point too many below the start).
+    """
+    mech = ls.fourbar(60, 25, 70, 45)
+    assert mech.sweep(0, 360, 1.001, through_limits=True, progress=False).method == "tracked"
+    assert mech.sweep(0, 360, 1, through_limits=True, progress=False).method == "batched"
+
+
+@pytest.mark.parametrize("method", ["tracked", "batched"])
+def test_limit_rows_sit_where_the_input_turns(method):
+    """Double rocker through its limits from acos(0.9125) = 24.15°: with limit rows (as the plot
+    command draws them), the far limit acos(0.3125) = 71.79° is a row with NaN rates placed exactly
+    where the input turns back: the rows before it increase, the rows after it decrease.
+
+    Kills loopsolve.sweep.x_sweep__mutmut_238 (limit rows placed one path segment late).
+    """
+    lo, hi = toggle_angles(60, 50, 20, 45)
+    start = math.ceil(lo * 1e9) / 1e9
+    sw = ls.load(MODELS / "double_rocker.toml").sweep(start, 75, 0.5, through_limits=True, method=method,
+                                                       limit_rows=True, progress=False)
+    x = np.asarray(sw["theta2"])
+    i = int(np.argmax(x))
+    assert x[i] == pytest.approx(hi, abs=1e-9) and np.isnan(sw["theta4_vel"][i])
+    assert np.all(np.diff(x[:i + 1]) > 0) and np.all(np.diff(x[i:]) < 0)
+    # a dense grid next to the far limit: rows also on the last internal step before it
+    sw = ls.load(MODELS / "double_rocker.toml").sweep(71.7, 72, 0.0001, through_limits=True, method=method,
+                                                       limit_rows=True, progress=False)
+    x = np.asarray(sw["theta2"])
+    i = int(np.argmax(x))
+    assert x[i] == pytest.approx(hi, abs=1e-9) and np.isnan(sw["theta4_vel"][i])
+    assert np.all(np.diff(x[:i + 1]) > 0) and np.all(np.diff(x[i:]) < 0)
