@@ -567,3 +567,20 @@ def test_limit_rows_sit_where_the_input_turns(method):
     i = int(np.argmax(x))
     assert x[i] == pytest.approx(hi, abs=1e-9) and np.isnan(sw["theta4_vel"][i])
     assert np.all(np.diff(x[:i + 1]) > 0) and np.all(np.diff(x[i:]) < 0)
+
+
+def test_reachable_ranges_ending_exactly_at_half_a_turn():
+    """Slider-crank r2 = 5, r3 = 2, offset e = 2: the rod reaches the crank pin only where
+    |r2·sin θ2 − e| <= r3, i.e. 0 <= sin θ2 <= 0.8: θ2 in [0°, asin 0.8] and [180° − asin 0.8, 180°].
+    The second range ends on a limit exactly at 180°, where the samples wrap, but it does not go
+    through ±180°: the two ranges stay apart.
+
+    Kills loopsolve.sweep.x_reachable_ranges__mutmut_170 (ranges merged across ±π).
+    """
+    from loopsolve.sweep import reachable_ranges
+
+    mech = ls.slider_crank(5, 2, offset=2, theta2=20)
+    got = [tuple(math.degrees(v) for v in r) for r in reachable_ranges(mech.compile())]
+    a = math.degrees(math.asin(0.8))
+    assert len(got) == 2
+    assert got[0] == pytest.approx((0.0, a), abs=1e-9) and got[1] == pytest.approx((180 - a, 180.0), abs=1e-9)
