@@ -584,3 +584,21 @@ def test_reachable_ranges_ending_exactly_at_half_a_turn():
     a = math.degrees(math.asin(0.8))
     assert len(got) == 2
     assert got[0] == pytest.approx((0.0, a), abs=1e-9) and got[1] == pytest.approx((180 - a, 180.0), abs=1e-9)
+
+
+def test_limit_row_of_a_two_input_sweep_that_cannot_leave_its_start():
+    """Five-bar with arms of 25 (cranks 20, ground 40) and crank b held at 90°: crank a assembles
+    where 1600·cos θa + 800·sin θa >= −100 (|AB| <= 50), up to atan(1/2) + acos(−100/√(1600² + 800²))
+    = 119.77°. Started there towards 130° (as the plot command does, with limit rows) the sweep has
+    only its limit row: crank a at the limit, crank b still at its held 90°, NaN rates.
+
+    Regression test for a start on a limit heading out of the range (the path is the limit alone).
+    """
+    mech = ls.load(MODELS / "fivebar_two_inputs.toml").with_parameters(r_arm_a=25, r_arm_b=25)
+    hi = math.degrees(math.atan2(800, 1600) + math.acos(-100 / math.hypot(1600, 800)))
+    with pytest.warns(ls.LoopsolveWarning, match="limit position"):
+        sw = mech.sweep(hi, 130, 1, limit_rows=True, progress=False)
+    assert len(sw) == 1
+    assert sw["theta_crank_a"][0] == pytest.approx(hi, abs=1e-9) and sw["theta_crank_b"][0] == 90
+    assert np.isnan(sw["theta_arm_a_vel"][0])
+    assert {e.kind.value for e in sw.events} == {"limit"}
