@@ -602,3 +602,24 @@ def test_limit_row_of_a_two_input_sweep_that_cannot_leave_its_start():
     assert sw["theta_crank_a"][0] == pytest.approx(hi, abs=1e-9) and sw["theta_crank_b"][0] == 90
     assert np.isnan(sw["theta_arm_a_vel"][0])
     assert {e.kind.value for e in sw.events} == {"limit"}
+
+
+def test_a_sweep_that_cannot_take_a_step_returns_its_start():
+    """With a step control no step can satisfy (tangent turn limited to 1e-6 rad, steps not below
+    1e-3), the four-bar sweep from 30° keeps its start row (the law-of-cosines pose), reports where
+    tracking stopped and warns, instead of failing.
+
+    Kills loopsolve.continuation.xǁTracerǁtrace__mutmut_144 (no path returned after the failure).
+    """
+    from loopsolve.sweep import StepControl
+
+    r = (60.0, 25.0, 70.0, 45.0)
+    with pytest.warns(ls.LoopsolveWarning, match="stops at a singular position at theta2 = 30"):
+        sw = ls.fourbar(*r, theta2=30).sweep(30, 90, 10, control=StepControl(max_turn=1e-6, min_step=1e-3),
+                                             method="tracked", progress=False)
+    assert len(sw) == 1 and sw["theta2"][0] == 30
+    assert [e.kind.value for e in sw.events] == ["singular"] and "the rows stop here" in sw.events[0].message
+    assert sw.events[0].input == pytest.approx(30, abs=1e-12)
+    q = np.radians([sw["theta3"][0], sw["theta4"][0]])
+    assert min(np.abs(np.remainder(np.array(fourbar_pose(*r, math.radians(30), s)) - q + math.pi, 2 * math.pi)
+                      - math.pi).max() for s in (1, -1)) < 1e-10
