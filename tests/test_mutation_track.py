@@ -623,3 +623,4 @@ def test_a_sweep_that_cannot_take_a_step_returns_its_start():
     q = np.radians([sw["theta3"][0], sw["theta4"][0]])
     assert min(np.abs(np.remainder(np.array(fourbar_pose(*r, math.radians(30), s)) - q + math.pi, 2 * math.pi)
                       - math.pi).max() for s in (1, -1)) < 1e-10
+
