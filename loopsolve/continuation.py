@@ -455,6 +455,8 @@ class Tracer:
         z[k.ix] = x
         L = math.sqrt(sum((q - p) ** 2 for p, q in zip(ya, yb)))
         z, it, ok, _ = k.newton(z, 10)
+        if not ok:
+            ok = self._at_roundoff(z)
         if ok:
             res = k.residual(z)
             J = k.jac_f(z, k.p)
@@ -539,6 +541,17 @@ class Tracer:
             end = at_bound
             # the input leaves the range inside an arclength step: stop on the bound
             xa, xb = a.z[k.ix], b.z[k.ix]
+            if not natural and len(nodes) == 1 and a.kind == "fold" and any(
+                    (xb - xa) * out > 0 and (xa - bound) * out >= -k.x_tol
+                    for bound, out in ((self.g.lo, -1.0), (self.g.hi, 1.0))):
+                # the sweep starts on a limit position at an end of its range and the mechanism can
+                # only move out of the range from there: nothing to trace (the rest of the range,
+                # if any, lies beyond the limit)
+                if self.g.hi - self.g.lo > k.x_tol and not self.through:
+                    events.append(Event(EventKind.LIMIT, self._display(xa),
+                                        "limit position (toggle/fold): the input cannot go further on mode "
+                                        f"{self._label(a.sig)}; the rows stop here"))
+                break
             if not natural:
                 for bound, out in ((self.g.lo, -1.0), (self.g.hi, 1.0)):
                     if (xb - xa) * out > 0 and ((xa - bound) * (xb - bound) < 0 or (xb == bound and xa != bound)):
@@ -640,6 +653,27 @@ class Tracer:
             if b.n_iter <= 3 and dot > self.cos_grow and h < c.max_step:
                 h = min(h * 1.6, c.max_step)
         return path
+
+    def _at_roundoff(self, z) -> bool:
+        """Whether ``z`` is a root to round-off although Newton did not report convergence.
+
+        Next to a singular position (a change point) Φ_q is ill-conditioned and the Newton steps
+        stall at round-off times its condition number, above Newton's stopping threshold: ``z``
+        is a root all the same when its residual is within tolerance and one more step is
+        round-off amplified by the conditioning (the blocks' regularity ≈ 2/cond), and small.
+        """
+        k = self.k
+        f = k.phi_f(z, k.p)
+        if not max((abs(v) for v in f), default=0.0) <= k.tol:
+            return False
+        J = k.jac_f(z, k.p)
+        dx = k.solve(J, [-v for v in f])
+        if dx is None:
+            return False
+        st = max((abs(d) * w for d, w in zip(dx, k.wu)), default=0.0)
+        had = min(k.dets(J)[1], default=1.0)
+        ymax = max((abs(z[i]) * w for i, w in zip(k.iu, k.wu)), default=0.0)
+        return st <= 1e-10 and st * had <= _ROUNDOFF * (1 + ymax)
 
     def _is_fold(self, s: Node, tol: float = 1e-4) -> bool:
         """A fold (limit) rather than a branch point: ∂Φ/∂x is not in the range of the singular Φ_q.
