@@ -1,0 +1,305 @@
+"""Tests for mutants of loopsolve.export and loopsolve.solve that survived ``tools/mutation.sh``
+(issue 13) and change what a user sees: the numbers in the heading of a state table, the
+section headings, the input column and the mode column of a sweep table, the event lines, the
+empty CSV cells of undefined rates, the JSON layout, the message of overflowing rates and the
+error at a limit position. Every expected number is computed here by hand (closed forms of the
+slider-crank and the four-bar, law of cosines); the triage of the other survivors is in
+``tools/mutation_triage/{export,solve,newton}.txt``.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import json
+import math
+import re
+
+import pytest
+
+import loopsolve as ls
+from loopsolve import export
+from loopsolve.cli import main
+
+MODELS = ls.models_dir()
+EXAMPLE1 = MODELS / "example1_slider_crank.toml"  # r2 = 5 in, r3 = 8 in, no offset, 10 rad/s
+THESIS = MODELS / "thesis_crank_rocker.toml"  # 60, 25, 70, 45 mm, open, 10 rpm
+DOUBLE_ROCKER = MODELS / "double_rocker.toml"  # 60, 50, 20, 45 mm, open = "-", crossed = "+"
+
+
+def _cells(line: str) -> list[str]:
+    """The cells of one line of a text table (columns are separated by at least two spaces)."""
+    return re.split(r"\s{2,}", line.strip())
+
+
+def _section(text: str, first_header: str) -> tuple[list[str], list[list[str]]]:
+    """Header cells and row cells of the table section whose header starts with ``first_header``."""
+    lines = text.splitlines()
+    i = next(k for k, ln in enumerate(lines) if ln.startswith(first_header + " "))
+    rows = []
+    for ln in lines[i + 2:]:
+        if not ln.strip():
+            break
+        rows.append(_cells(ln))
+    return _cells(lines[i]), rows
+
+
+def _slider(t2_deg, omega=10.0, r2=5.0, r3=8.0):
+    """Slider-crank without offset: r1, dr1/dt [in, in/s] and theta3 [deg] at the crank angle."""
+    t = math.radians(t2_deg)
+    s, c = math.sin(t), math.cos(t)
+    root = math.sqrt(r3 * r3 - r2 * r2 * s * s)
+    r1 = r2 * c + root
+    r1_vel = omega * (-r2 * s - r2 * r2 * s * c / root)
+    theta3 = math.degrees(math.atan2(-r2 * s, root))
+    return r1, r1_vel, theta3
+
+
+def _theta4(t2_deg, branch, r1, r2, r3, r4):
+    """theta4 [deg, (-180, 180]] of a four-bar (r2 + r3 = r1 + r4) by the law of cosines.
+
+    ``branch`` +1 is the open assembly (the rocker turned clockwise from the pivot-to-crank-pin
+    line), -1 the crossed one."""
+    t = math.radians(t2_deg)
+    bx, by = r2 * math.cos(t), r2 * math.sin(t)
+    d = math.hypot(bx - r1, by)
+    gamma = math.acos((r4 * r4 + d * d - r3 * r3) / (2 * r4 * d))
+    return math.degrees(math.remainder(math.atan2(by, bx - r1) - branch * gamma, 2 * math.pi))
+
+
+def _same_angle(a, b, tol):
+    return abs(math.remainder(a - b, 360.0)) <= tol
+
+
+# ----------------------------------------------------------------------------- state tables
+
+
+def test_state_table_heading_and_sections_by_hand(capsys):
+    """The heading states the input as given (fixed notation, 9 decimals) and every section is headed
+    by its own words; the length and point rows are the slider-crank's closed form.
+
+    Kills loopsolve.export.x_fixed__mutmut_11 (every input printed as 9),
+    x_state_table__mutmut_7 (input printed as nan), x_state_table__mutmut_67 ("length" heading
+    garbled) and x_state_table__mutmut_97 ("point" heading garbled)."""
+    at = 12.345678901
+    assert main(["solve", str(EXAMPLE1), "--at", str(at)]) == 0
+    out = capsys.readouterr().out
+    assert out.splitlines()[0].startswith(
+        "Example 1 slider-crank: theta2 = 12.345678901 deg, input speed 10 rad/s, accel 0 rad/s^2  (mode ")
+    r1, r1_vel, theta3 = _slider(at)
+    head, rows = _section(out, "angle")
+    assert head == ["angle", "position [deg]", "velocity [rad/s]", "acceleration [rad/s^2]", "jerk [rad/s^3]"]
+    assert rows[0][:3] == ["theta2 (input)", "12.3457", "10"]
+    assert rows[1][0] == "theta3" and float(rows[1][1]) == pytest.approx(theta3, rel=1e-5)
+    head, rows = _section(out, "length")
+    assert head == ["length", "position [in]", "velocity [in/s]", "acceleration [in/s^2]", "jerk [in/s^3]"]
+    assert [r[0] for r in rows] == ["r1"]
+    assert float(rows[0][1]) == pytest.approx(r1, rel=1e-5)
+    assert float(rows[0][2]) == pytest.approx(r1_vel, rel=1e-5)
+    head, rows = _section(out, "point")
+    assert head == ["point", "x [in]", "y [in]", "v_x [in/s]", "v_y [in/s]", "a_x [in/s^2]", "a_y [in/s^2]",
+                    "j_x [in/s^3]", "j_y [in/s^3]"]
+    assert [r[0] for r in rows] == ["B", "C"]
+    t = math.radians(at)
+    assert float(rows[0][1]) == pytest.approx(5 * math.cos(t), rel=1e-5)
+    assert float(rows[0][2]) == pytest.approx(5 * math.sin(t), rel=1e-5)
+    assert float(rows[1][1]) == pytest.approx(r1, rel=1e-5) and rows[1][2] == "0"
+    assert float(rows[1][3]) == pytest.approx(r1_vel, rel=1e-5)
+
+
+def test_state_heading_of_minus_zero_and_large_inputs():
+    """An input of -0 is 0 in the heading, a large one is written out in fixed notation.
+
+    Kills loopsolve.export.x_fixed__mutmut_21 (-0.0 - 0.0 printed "-0")."""
+    mech = ls.load(EXAMPLE1)
+    for at, shown in ((-0.0, "0"), (720.5, "720.5"), (-1234567.25, "-1234567.25")):
+        first = export.to_table(mech.solve(at)).splitlines()[0]
+        assert first.startswith(f"Example 1 slider-crank: theta2 = {shown} deg, input speed 10 rad/s"), first
+
+
+def test_fixed_notation_of_values_that_are_not_numbers():
+    """``fixed`` (public) prints nan for a missing or non-finite value instead of raising or "inf".
+
+    Kills loopsolve.export.x_fixed__mutmut_1 (None raised TypeError, infinities printed inf)."""
+    for v in (None, math.inf, -math.inf, math.nan):
+        assert export.fixed(v) == "nan", v
+    assert export.fixed(2.5e-10) == "0" and export.fixed(-7.0000000004) == "-7"
+
+
+def test_rates_not_computed_are_nan_in_a_table_and_empty_in_csv():
+    """A sweep with derivatives=1 has no accelerations or jerks: the table of one of its states
+    prints nan for them, the CSV leaves the cells empty, the JSON has null; the numbers that are
+    there are the slider-crank's closed form.
+
+    Kills loopsolve.export.x__column__mutmut_3 (a missing value raised TypeError in the table) and
+    x_iter_csv__mutmut_27 (missing values written as XXXX)."""
+    mech = ls.load(EXAMPLE1)
+    sw = mech.sweep(0, 90, 45, derivatives=1, progress=False)
+    r1, r1_vel, theta3 = _slider(45)
+    table = export.to_table(sw.states[1])
+    head, rows = _section(table, "length")
+    assert rows[0][0] == "r1" and rows[0][3:] == ["nan", "nan"]
+    assert float(rows[0][1]) == pytest.approx(r1, rel=1e-5)
+    assert float(rows[0][2]) == pytest.approx(r1_vel, rel=1e-5)
+    head, rows = _section(table, "angle")
+    assert rows[1][0] == "theta3" and rows[1][3:] == ["nan", "nan"]
+
+    lines = list(csv.reader(io.StringIO(export.to_csv(sw))))
+    names = [h.split(" [")[0] for h in lines[0]]
+    assert len(lines) == 4
+    for k, t2 in enumerate((0, 45, 90)):
+        row = dict(zip(names, lines[k + 1]))
+        r1, r1_vel, theta3 = _slider(t2)
+        assert float(row["theta2"]) == t2
+        assert float(row["r1"]) == pytest.approx(r1, abs=1e-12)
+        assert float(row["r1_vel"]) == pytest.approx(r1_vel, abs=1e-9)
+        assert float(row["theta3"]) == pytest.approx(theta3, abs=1e-9)
+        for name in ("r1_acc", "r1_jerk", "theta3_acc", "theta3_jerk", "C_x_acc", "C_x_jerk"):
+            assert row[name] == "", name
+        assert float(row["B_x_acc"]) == pytest.approx(-5 * 100 * math.cos(math.radians(t2)), abs=1e-9)
+    doc = json.loads(export.to_json(sw))
+    assert [r["r1_acc"] for r in doc["rows"]] == [None, None, None]
+
+
+# ----------------------------------------------------------------------------- sweep tables
+
+
+def test_sweep_table_of_one_mode_prints_the_inputs_as_given():
+    """One mode: the heading names it, there is no mode column, the input column is the grid in
+    fixed notation (100.0625, not 100.062) and theta4 is the law of cosines' open branch.
+
+    Kills loopsolve.export.x_sweep_table__mutmut_16 (a mode column for one mode),
+    x_sweep_table__mutmut_26 (inputs printed with 6 digits) and x_sweep_table__mutmut_46 (the
+    heading's mode printed as None)."""
+    sw = ls.load(THESIS).sweep(100.0625, 100.25, 0.0625, progress=False)
+    lines = export.to_table(sw).splitlines()
+    assert lines[0] == "Crank-rocker four-bar: sweep of theta2 (4 rows, mode - (open))"
+    head = _cells(lines[1])
+    assert head == ["theta2 [deg]", "theta3 [deg]", "theta3_vel [rad/s]", "theta3_acc [rad/s^2]", "theta4 [deg]",
+                    "theta4_vel [rad/s]", "theta4_acc [rad/s^2]"]
+    rows = [_cells(ln) for ln in lines[3:]]
+    assert [r[0] for r in rows] == ["100.0625", "100.125", "100.1875", "100.25"]
+    for r in rows:
+        assert len(r) == len(head)
+        assert _same_angle(float(r[4]), _theta4(float(r[0]), +1, 60, 25, 70, 45), 1e-3)
+
+
+def test_sweep_table_through_limits_states_modes_and_events():
+    """Through the double rocker's toggle at theta2 = acos(5/16) (coupler and rocker in line,
+    |O4 B| = 20 + 45): every row carries its mode's label, each row's theta4 is its branch's
+    law-of-cosines value, and the events are printed with their messages.
+
+    Kills loopsolve.export.x_sweep_table__mutmut_36 (no mode column: TypeError) and
+    x_sweep_table__mutmut_56 (event messages printed as None)."""
+    sw = ls.load(DOUBLE_ROCKER).sweep(60, 180, 10, through_limits=True, progress=False)
+    lines = export.to_table(sw).splitlines()
+    assert lines[0] == "Double rocker: sweep of theta2 (4 rows, mode - (open))"
+    head = _cells(lines[1])
+    assert head[0] == "theta2 [deg]" and head[4] == "theta4 [deg]" and head[-1] == "mode"
+    rows = [_cells(ln) for ln in lines[3:7]]
+    assert [r[0] for r in rows] == ["60", "70", "70", "60"]
+    assert [r[-1] for r in rows] == ["- (open)", "- (open)", "+ (crossed)", "+ (crossed)"]
+    for r in rows:
+        branch = +1 if r[-1] == "- (open)" else -1
+        assert _same_angle(float(r[4]), _theta4(float(r[0]), branch, 60, 50, 20, 45), 1e-3), r
+    toggle = math.degrees(math.acos((50 ** 2 + 60 ** 2 - 65 ** 2) / (2 * 50 * 60)))
+    events = lines[7:]
+    assert len(events) == 2
+    m = re.fullmatch(r"limit at theta2 = (\S+): (.*)", events[0])
+    assert m and float(m.group(1)) == pytest.approx(toggle, abs=1e-7)
+    assert "limit position" in m.group(2) and m.group(2).endswith("on mode - (open)")
+    m = re.fullmatch(r"mode-change at theta2 = (\S+): (.*)", events[1])
+    assert m and float(m.group(1)) == pytest.approx(toggle, abs=1e-7)
+    assert "onto mode + (crossed)" in m.group(2)
+
+
+# ----------------------------------------------------------------------------- JSON layout
+
+
+def test_json_layout_with_and_without_indent():
+    """The JSON of a sweep: by default one key or row per line (no trailing blanks), with
+    ``indent`` the given indentation, with ``indent=None`` exactly what json.dumps writes of the
+    same document on one line; the values are the four-bar's law of cosines.
+
+    Kills loopsolve.export.x_to_json__mutmut_5 (indent ignored: always one line) and
+    x_iter_json__mutmut_26 (", " and "," swapped: trailing blanks with an indent, "," without)."""
+    sw = ls.load(THESIS).sweep(0, 300, 100, progress=False)
+    text = export.to_json(sw)
+    doc = json.loads(text)
+    assert list(doc) == ["mechanism", "input", "units", "mode", "rows", "events"]
+    assert doc["mechanism"] == "Crank-rocker four-bar" and doc["input"] == "theta2" and doc["mode"] == "-"
+    assert [r["theta2"] for r in doc["rows"]] == [0, 100, 200, 300]
+    for r in doc["rows"]:
+        assert _same_angle(r["theta4"], _theta4(r["theta2"], +1, 60, 25, 70, 45), 1e-9)
+        assert r["theta2_vel"] == pytest.approx(2 * math.pi * 10 / 60, rel=1e-12)
+    lines = text.splitlines()
+    assert all(ln == ln.rstrip() for ln in lines)
+    assert lines[:3] == ["{", ' "mechanism": "Crank-rocker four-bar",', ' "input": "theta2",']
+    assert sum(ln.startswith('  {"theta2": ') for ln in lines) == 4
+    assert lines[-1] == "}" and lines[-2] == ' "events": []'
+    wide = export.to_json(sw, indent=4)
+    assert json.loads(wide) == doc
+    assert sum(ln.startswith(8 * " " + '{"theta2": ') for ln in wide.splitlines()) == 4
+    compact = export.to_json(sw, indent=None)
+    assert compact == json.dumps(doc)
+
+
+# ----------------------------------------------------------------------------- solve
+
+
+def test_overflowing_rates_name_the_file_and_the_speed(tmp_path, capsys):
+    """Rates that overflow floating point are a ModelError naming the model file, the speed and
+    the option to change (CLI: one line, exit 2).
+
+    Kills loopsolve.solve.x_solve_rates__mutmut_148 (the message was None)."""
+    path = tmp_path / "huge.toml"
+    text = THESIS.read_text(encoding="utf-8")
+    for name, value in (("r1", 60), ("r2", 25), ("r3", 70), ("r4", 45)):
+        text = text.replace(f"{name} = {value}\n", f"{name} = {value}e9\n")
+    path.write_text(text, encoding="utf-8")
+    # the rocker's jerk is of order speed^3 = 1e300 rad/s^3, the point C's 45e9 times that: inf
+    mech = ls.load(path)
+    with pytest.raises(ls.ModelError) as info:
+        mech.solve(30, speed=1e100)
+    msg = str(info.value)
+    assert str(path) in msg or "huge.toml" in msg
+    assert "speed 1e+100" in msg and "--speed" in msg
+    assert main(["solve", str(path), "--at", "30", "--speed", "1e100"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "huge.toml" in err[0] and "speed 1e+100" in err[0]
+
+
+INCLINED = """
+name = "inclined short-rod slider-crank"
+units = { length = "mm", angle = "deg" }
+[parameters]
+r2 = 30
+r3 = 25
+e = 10
+[variables]
+theta2 = { input = true, guess = 0 }
+theta3 = { guess = -60 }
+s = { guess = 26 }
+[vectors]
+r2 = { length = "r2", angle = "theta2" }
+r3 = { length = "r3", angle = "theta3" }
+rs = { length = "s", angle = 30 }
+re = { length = "e", angle = 120 }
+[[loops]]
+equation = "r2 + r3 = rs + re"
+"""
+
+
+def test_limit_position_from_guesses_where_newton_stalls():
+    """At theta2 = 0 the crank pin is 30 cos(120°) - 10 = -25 from the slide: the rod (25) is normal
+    to it, a limit position. From these guesses Newton stalls; the two modes meet there, so the
+    answer is a singular position with the rod at 120° and the slider at the pin's projection on
+    the slide, s = 30 cos 30° = 15√3, not a crash.
+
+    Kills loopsolve.solve.x__coincide__mutmut_21 (TypeError for a length variable)."""
+    mech = ls.loads(INCLINED, source="inclined.toml")
+    with pytest.raises(ls.SingularPositionError) as info:
+        mech.solve(0)
+    t3 = math.degrees(info.value.result[1])
+    assert _same_angle(t3, 120.0, 1e-6)
+    assert info.value.result[2] == pytest.approx(15 * math.sqrt(3), abs=1e-7)
