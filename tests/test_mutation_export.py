@@ -251,7 +251,8 @@ def test_overflowing_rates_name_the_file_and_the_speed(tmp_path, capsys):
     """Rates that overflow floating point are a ModelError naming the model file, the speed and
     the option to change (CLI: one line, exit 2).
 
-    Kills loopsolve.solve.x_solve_rates__mutmut_148 (the message was None)."""
+    Kills loopsolve.solve.x_solve_rates__mutmut_148 (the message was None) and
+    x_solve_rates__mutmut_158 (the rates' unit given as deg/s)."""
     path = tmp_path / "huge.toml"
     text = THESIS.read_text(encoding="utf-8")
     for name, value in (("r1", 60), ("r2", 25), ("r3", 70), ("r4", 45)):
@@ -264,6 +265,7 @@ def test_overflowing_rates_name_the_file_and_the_speed(tmp_path, capsys):
     msg = str(info.value)
     assert str(path) in msg or "huge.toml" in msg
     assert "speed 1e+100" in msg and "--speed" in msg
+    assert "(rad/s based)" in msg  # the rates of a degree model are per radian, not per degree
     assert main(["solve", str(path), "--at", "30", "--speed", "1e100"]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "huge.toml" in err[0] and "speed 1e+100" in err[0]
@@ -303,3 +305,48 @@ def test_limit_position_from_guesses_where_newton_stalls():
     t3 = math.degrees(info.value.result[1])
     assert _same_angle(t3, 120.0, 1e-6)
     assert info.value.result[2] == pytest.approx(15 * math.sqrt(3), abs=1e-7)
+
+
+@pytest.mark.parametrize("factor", [1e-6, 1e6, 1e8])
+def test_a_regular_pose_of_a_large_slider_crank_is_not_singular(factor):
+    """Example 1's slider-crank with every length `factor` times larger (the same mechanism in a
+    unit that many times smaller) solves at 30° to the closed form scaled by `factor`, like its sweep.
+
+    Real bug found while writing the overflow test: the singularity test of solve_rates compared
+    the slider's column of Φ_q (1) with the crank's and rod's (of the order of the links), so from
+    about 1e6 units a regular pose was a SingularPositionError while the sweep solved it."""
+    text = EXAMPLE1.read_text(encoding="utf-8")
+    text = text.replace("r2 = 5\n", f"r2 = {5 * factor!r}\n").replace("r3 = 8\n", f"r3 = {8 * factor!r}\n")
+    text = text.replace("r1 = { guess = 10.7 }", f"r1 = {{ guess = {10.7 * factor!r} }}")
+    mech = ls.loads(text, source="scaled.toml")
+    r1, r1_vel, theta3 = _slider(30)
+    s = mech.solve(30)
+    assert s["r1"] == pytest.approx(r1 * factor, rel=1e-12)
+    assert s["r1_vel"] == pytest.approx(r1_vel * factor, rel=1e-9)
+    assert s["theta3"] == pytest.approx(theta3, abs=1e-9)
+    sw = mech.sweep(0, 60, 30, progress=False)
+    assert sw["r1"][1] == pytest.approx(s["r1"], rel=1e-12) and not sw.events
+
+
+def test_a_few_ulps_beyond_the_limit_of_a_large_model_is_at_the_limit():
+    """Example 1's slider-crank a million times larger, driven by its slider r1: the limit is r1 =
+    r2 + r3 = 13e6 (crank and rod in line). An input 4 ulps (7.5e-9, 6e-16 relative) beyond it is
+    the limit position within floating point (singular, rod along the slide); 2e-7 beyond it is an
+    input outside the range (AssemblyError naming 13e6).
+
+    Kills loopsolve.solve.x_solve__mutmut_89 (the relative tolerance 1e-15·|x| turned into 1e-15/|x|)."""
+    text = EXAMPLE1.read_text(encoding="utf-8")
+    text = text.replace("r2 = 5\n", "r2 = 5e6\n").replace("r3 = 8\n", "r3 = 8e6\n")
+    text = text.replace("r1 = { guess = 10.7 }", "r1 = { guess = 10.7e6 }")
+    mech = ls.loads(text, source="large.toml")
+    x = 13e6
+    for _ in range(4):
+        x = math.nextafter(x, math.inf)
+    with pytest.raises(ls.SingularPositionError) as info:
+        mech.solve(x, input="r1")
+    t2, t3 = (math.degrees(v) for v in info.value.result[:2])  # theta2, theta3 (r1 is the input)
+    assert _same_angle(t2, 0.0, 1e-3) and _same_angle(t3, 0.0, 1e-3)
+    with pytest.raises(ls.AssemblyError) as info:
+        mech.solve(13e6 + 2e-7, input="r1")
+    assert not isinstance(info.value, ls.SingularPositionError)
+    assert info.value.nearest == pytest.approx((13e6,), abs=1e-6)
