@@ -350,3 +350,24 @@ def test_a_few_ulps_beyond_the_limit_of_a_large_model_is_at_the_limit():
         mech.solve(13e6 + 2e-7, input="r1")
     assert not isinstance(info.value, ls.SingularPositionError)
     assert info.value.nearest == pytest.approx((13e6,), abs=1e-6)
+
+
+def test_errors_of_a_radian_model_give_the_input_in_radians():
+    """The double rocker in radians: at its toggle theta2 = acos(5/16) (|O4 B| = 20 + 45) the
+    singular-position error states the input in rad, with the coupler and rocker in line
+    (theta4 towards B from O4, theta3 opposite).
+
+    Kills loopsolve.solve.x__input_unit__mutmut_7 (every angle input labelled deg)."""
+    text = DOUBLE_ROCKER.read_text(encoding="utf-8").replace('angle = "deg"', 'angle = "rad"')
+    text = text.replace("guess = 60,", "guess = 1.0472,").replace("guess = -2.5", "guess = -0.0436")
+    text = text.replace("guess = 109.5", "guess = 1.911")
+    mech = ls.loads(text, source="double_rocker_rad.toml")
+    toggle = math.acos((50 ** 2 + 60 ** 2 - 65 ** 2) / (2 * 50 * 60))
+    with pytest.raises(ls.SingularPositionError) as info:
+        mech.solve(toggle)
+    msg = str(info.value)
+    assert f"singular position at theta2 = {toggle:g} rad (" in msg and " deg" not in msg
+    theta4 = math.atan2(50 * math.sin(toggle), 50 * math.cos(toggle) - 60)
+    t3, t4 = info.value.result[1:]
+    assert abs(math.remainder(t4 - theta4, 2 * math.pi)) < 1e-6
+    assert abs(math.remainder(t3 - theta4 - math.pi, 2 * math.pi)) < 1e-6
