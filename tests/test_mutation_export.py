@@ -371,3 +371,23 @@ def test_errors_of_a_radian_model_give_the_input_in_radians():
     t3, t4 = info.value.result[1:]
     assert abs(math.remainder(t4 - theta4, 2 * math.pi)) < 1e-6
     assert abs(math.remainder(t3 - theta4 - math.pi, 2 * math.pi)) < 1e-6
+
+
+def test_the_guesses_mode_holds_in_the_other_range_of_a_double_rocker():
+    """The double rocker assembles for theta2 in [24.15°, 71.79°] and in [-71.79°, -24.15°]. Its
+    guesses describe the open mode at theta2 = 60° (theta4 = 109.5°); solved in the other range
+    (-60°, 300°, 310°, -40°) it keeps that mode: theta4 is the law of cosines' open branch there,
+    though Newton from the raw guesses lands on the crossed one. Guesses of the crossed mode
+    (theta3 = -99.6°, theta4 = 148.4° at 60°) keep the crossed mode there.
+
+    Kills loopsolve.solve.x__guessed_mode__mutmut_34 and x__guessed_mode__mutmut_1 (the guessed mode
+    dropped; test_mutation_survivors' four-bar test does not kill them)."""
+    text = DOUBLE_ROCKER.read_text(encoding="utf-8")
+    open_ = ls.loads(text, source="double_rocker.toml")
+    crossed = ls.loads(text.replace("guess = -2.5", "guess = -99.6").replace("guess = 109.5", "guess = 148.4"),
+                       source="double_rocker_crossed.toml")
+    for mech, branch, mode in ((open_, +1, "-"), (crossed, -1, "+")):
+        for at in (-60.0, 300.0, 310.0, -40.0, 60.0):
+            s = mech.solve(at)
+            assert s.mode == mode, (mech.source, at)
+            assert _same_angle(s["theta4"], _theta4(at, branch, 60, 50, 20, 45), 1e-9), (mech.source, at)
