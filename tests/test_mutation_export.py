@@ -15,6 +15,7 @@ import json
 import math
 import re
 
+import numpy as np
 import pytest
 
 import loopsolve as ls
@@ -391,3 +392,54 @@ def test_the_guesses_mode_holds_in_the_other_range_of_a_double_rocker():
             s = mech.solve(at)
             assert s.mode == mode, (mech.source, at)
             assert _same_angle(s["theta4"], _theta4(at, branch, 60, 50, 20, 45), 1e-9), (mech.source, at)
+
+
+# ----------------------------------------------------------------------------- newton
+
+
+def _sqrt2():
+    return (lambda x: np.array([x[0] ** 2 - 2.0]), lambda x: np.array([[2.0 * x[0]]]))
+
+
+def test_newton_from_a_nan_start_reports_not_finite():
+    """A NaN guess: newton says NOT_FINITE after 0 iterations and a solve is a ConvergenceError
+    naming the input value, not a bare TypeError.
+
+    Kills loopsolve.newton.x__newton__mutmut_22 (the result built without its iteration count)."""
+    from loopsolve.newton import NewtonStatus, newton
+
+    r = newton(*_sqrt2(), np.array([math.nan]))
+    assert r.status is NewtonStatus.NOT_FINITE and r.n_iter == 0 and math.isnan(r.residual)
+    mech = ls.load(THESIS)
+    with pytest.raises(ls.ConvergenceError) as info:
+        mech.solve(30, guess={"theta3": math.nan})
+    assert "theta2 = 30 deg" in str(info.value)
+
+
+def test_newton_converging_on_its_last_iteration_reports_its_residual():
+    """x² = 2 from 1 with a tolerance of 1e-11 (atol 1e-12 times scale 10): the iterates are 1.5,
+    1.41667, 1.414216, 1.41421356237469 (residual 4.5e-12 <= 1e-11, reached on iteration 4 with a
+    step of 2e-6, so a polishing step would follow). With max_iter = 4 that is converged, with its
+    residual; a solve whose last allowed iteration converges is a state.
+
+    Kills loopsolve.newton.x__newton__mutmut_162 (the residual of that result was None)."""
+    from loopsolve.newton import Newton, NewtonStatus, newton
+
+    r = newton(*_sqrt2(), np.array([1.0]), scale=10.0, settings=Newton(max_iter=4))
+    assert r.status is NewtonStatus.CONVERGED and r.n_iter == 4
+    x = 1.0
+    for _ in range(4):
+        x = x - (x * x - 2) / (2 * x)
+    assert float(r.x[0]) == pytest.approx(x, rel=1e-15)
+    assert r.residual == pytest.approx(abs(x * x - 2), rel=1e-3, abs=0) and 1e-12 < r.residual <= 1e-11
+
+
+def test_newton_line_search_keeps_arctan_from_diverging():
+    """arctan(x) = 0 from x = 10: the full Newton step goes to 10 - 101·atan(10) = -138.6 and
+    diverges; the backtracking line search (on the 2-norm of f) converges to 0.
+
+    Kills loopsolve.newton.x__norm2__mutmut_16 (the norm 0 for every nonzero f: no line search)."""
+    from loopsolve.newton import NewtonStatus, newton
+
+    r = newton(lambda x: np.arctan(x), lambda x: np.array([[1.0 / (1.0 + x[0] ** 2)]]), np.array([10.0]))
+    assert r.status is NewtonStatus.CONVERGED and abs(float(r.x[0])) < 1e-12
