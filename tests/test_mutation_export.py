@@ -443,3 +443,23 @@ def test_newton_line_search_keeps_arctan_from_diverging():
 
     r = newton(lambda x: np.arctan(x), lambda x: np.array([[1.0 / (1.0 + x[0] ** 2)]]), np.array([10.0]))
     assert r.status is NewtonStatus.CONVERGED and abs(float(r.x[0])) < 1e-12
+
+
+def test_newton_stops_once_the_step_is_at_round_off():
+    """x² = 2 from 1 (tolerance 1e-12): Newton's errors are 8.6e-2, 2.5e-3, 2.1e-6, 1.6e-12 and then
+    round-off. On the 5th iteration the residual is below the tolerance and the step (1.6e-12) below
+    rtol·(1 + x) = 2.4e-12: converged there, without a further polishing iteration. On the 4th
+    the residual 4.5e-12 is still above the tolerance.
+
+    Kills loopsolve.newton.x__newton__mutmut_142 (a polishing iteration always added)."""
+    from loopsolve.newton import NewtonStatus, newton
+
+    x, steps = 1.0, []
+    for _ in range(5):
+        nxt = x - (x * x - 2) / (2 * x)
+        steps.append(abs(nxt - x))
+        x = nxt
+    assert steps[3] > 1e-6 and steps[4] < 1e-12 * (1 + x)  # the 4th step is not at round-off, the 5th is
+    r = newton(*_sqrt2(), np.array([1.0]))
+    assert r.status is NewtonStatus.CONVERGED and r.n_iter == 5
+    assert abs(float(r.x[0]) - math.sqrt(2)) <= 4.5e-16
