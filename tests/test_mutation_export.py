@@ -463,3 +463,15 @@ def test_newton_stops_once_the_step_is_at_round_off():
     r = newton(*_sqrt2(), np.array([1.0]))
     assert r.status is NewtonStatus.CONVERGED and r.n_iter == 5
     assert abs(float(r.x[0]) - math.sqrt(2)) <= 4.5e-16
+
+
+def test_newton_with_a_jacobian_that_is_not_finite_reports_not_finite():
+    """f(x) = x - 1 from 3 with an infinite Jacobian (a derivative blowing up at the start): no
+    step can be taken; newton returns NOT_FINITE at the start point, residual 2, iteration 1.
+
+    Kills loopsolve.newton.x__newton__mutmut_72 (that result built without x: TypeError)."""
+    from loopsolve.newton import NewtonStatus, newton
+
+    r = newton(lambda x: np.array([x[0] - 1.0]), lambda x: np.array([[np.inf]]), np.array([3.0]))
+    assert r.status is NewtonStatus.NOT_FINITE and not r.success
+    assert r.n_iter == 1 and r.residual == 2.0 and float(r.x[0]) == 3.0
