@@ -475,3 +475,61 @@ def test_newton_with_a_jacobian_that_is_not_finite_reports_not_finite():
     r = newton(lambda x: np.array([x[0] - 1.0]), lambda x: np.array([[np.inf]]), np.array([3.0]))
     assert r.status is NewtonStatus.NOT_FINITE and not r.success
     assert r.n_iter == 1 and r.residual == 2.0 and float(r.x[0]) == 3.0
+
+
+# ----------------------------------------------------------------------------- solve: inputs and guesses
+
+
+def _fourbar_rates(t2_deg, omega2, r1=60.0, r2=25.0, r3=70.0, r4=45.0):
+    """theta4 [deg] (open) and the coupler's and rocker's angular velocities [rad/s] of a four-bar
+    (velocity loop: r2 w2 e2' + r3 w3 e3' = r4 w4 e4', solved by Cramer's rule)."""
+    t4 = math.radians(_theta4(t2_deg, +1, r1, r2, r3, r4))
+    t2 = math.radians(t2_deg)
+    cx, cy = r1 + r4 * math.cos(t4), r4 * math.sin(t4)
+    t3 = math.atan2(cy - r2 * math.sin(t2), cx - r2 * math.cos(t2))
+    w3 = omega2 * r2 * math.sin(t4 - t2) / (r3 * math.sin(t3 - t4))
+    w4 = omega2 * r2 * math.sin(t3 - t2) / (r4 * math.sin(t3 - t4))
+    return math.degrees(t4), w3, w4
+
+
+def test_input_rates_with_units_and_their_errors():
+    """--speed "30rpm" on the thesis crank-rocker is pi rad/s, and theta4's rate is the velocity
+    loop's; a speed in a length unit or an input in a length unit is refused naming the option or
+    the input.
+
+    Kills loopsolve.solve.x_input_rates__mutmut_9 (angle and length rate kinds swapped),
+    x_input_rates__mutmut_29 (the option's name dropped from the message) and
+    x_input_value__mutmut_19 (the input's name dropped from the message)."""
+    mech = ls.load(THESIS)
+    s = mech.solve(100, speed="30rpm", accel="2 rad/s^2")
+    t4, w3, w4 = _fourbar_rates(100, math.pi)
+    assert s["theta2_vel"] == pytest.approx(math.pi, rel=1e-15) and s["theta2_acc"] == 2.0
+    assert _same_angle(s["theta4"], t4, 1e-9)
+    assert s["theta3_vel"] == pytest.approx(w3, rel=1e-9) and s["theta4_vel"] == pytest.approx(w4, rel=1e-9)
+    for kw, name in ((dict(speed="10 mm/s"), "--speed"), (dict(accel="3 deg"), "--accel"),
+                     (dict(jerk="1 rpm"), "--jerk")):
+        with pytest.raises(ls.units.UnitError) as info:
+            mech.solve(100, **kw)
+        assert str(info.value).startswith(name + ":"), str(info.value)
+    with pytest.raises(ls.units.UnitError) as info:
+        mech.solve("10 mm")
+    assert str(info.value).startswith("input theta2:") and "'10 mm'" in str(info.value)
+
+
+def test_an_input_without_a_guess_solves_without_warning():
+    """The thesis crank-rocker with no guess for theta2 (theta3 and theta4 still guessed) solves at
+    100° to the open theta4 of the law of cosines, and a model whose every variable has a guess
+    solves without any warning.
+
+    Kills loopsolve.solve.x__guessed_mode__mutmut_4 (TypeError for an input without a guess) and
+    x_initial_z__mutmut_23 (the "no guess for ..." warning on every solve)."""
+    import warnings
+
+    text = THESIS.read_text(encoding="utf-8").replace("guess = 90, ", "")
+    assert "guess = 90" not in text
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        s = ls.loads(text, source="no_input_guess.toml").solve(100)
+        assert _same_angle(s["theta4"], _theta4(100, +1, 60, 25, 70, 45), 1e-9)
+        s = ls.load(THESIS).solve(250)
+        assert _same_angle(s["theta4"], _theta4(250, +1, 60, 25, 70, 45), 1e-9)
