@@ -533,3 +533,19 @@ def test_an_input_without_a_guess_solves_without_warning():
         assert _same_angle(s["theta4"], _theta4(100, +1, 60, 25, 70, 45), 1e-9)
         s = ls.load(THESIS).solve(250)
         assert _same_angle(s["theta4"], _theta4(250, +1, 60, 25, 70, 45), 1e-9)
+
+
+def test_driving_the_slider_keeps_the_guesses_mode():
+    """Example 1 driven by its slider (input r1, guessed 10.7 in with theta2 = 45°): at r1 = 12, 6 and 4
+    the crank angle is the law of cosines' (8² = r1² + 5² - 2·5·r1·cos theta2) on the guesses' side
+    (theta2 > 0), also at r1 = 4 where Newton from the raw guesses lands on theta2 < 0.
+
+    Kills loopsolve.solve.x_start_position__mutmut_33 (the guessed mode looked up in the model
+    compiled for its declared input theta2, so r1 = 12 was read as theta2 = 12)."""
+    mech = ls.load(EXAMPLE1)
+    for r1 in (12.0, 6.0, 10.7, 4.0):
+        s = mech.solve(r1, input="r1")
+        assert s["r1"] == pytest.approx(r1, abs=1e-12)
+        t2 = math.degrees(math.acos((r1 * r1 + 25 - 64) / (10 * r1)))
+        assert s["theta2"] == pytest.approx(t2, abs=1e-9)
+        assert s["theta3"] == pytest.approx(-math.degrees(math.asin(5 * math.sin(math.radians(t2)) / 8)), abs=1e-9)
