@@ -299,7 +299,8 @@ def test_limit_position_from_guesses_where_newton_stalls():
     answer is a singular position with the rod at 120° and the slider at the pin's projection on
     the slide, s = 30 cos 30° = 15√3, not a crash.
 
-    Kills loopsolve.solve.x__coincide__mutmut_21 (TypeError for a length variable)."""
+    Kills loopsolve.solve.x__coincide__mutmut_21 (TypeError for a length variable) and
+    x_start_position__mutmut_63/73 (TypeError in that branch)."""
     mech = ls.loads(INCLINED, source="inclined.toml")
     with pytest.raises(ls.SingularPositionError) as info:
         mech.solve(0)
