@@ -175,16 +175,25 @@ def solve_rates(ck: CompiledKinematics, z: np.ndarray, rates: Sequence[float], *
     only linearly and stops a distance e ≈ sqrt(residual) from the singular root, where
     cond(Φ_q) ≈ 1/e is merely ~1e6 and the rates would be huge and meaningless. The position
     uncertainty residual/σ_min is compared with the distance to singularity σ_min/σ_max:
-    ``cond² · residual/σ_max > SINGULAR_RATIO`` means the rates cannot be trusted.
+    ``cond² · residual/σ_max > SINGULAR_RATIO`` means the rates cannot be trusted (σ of Φ_q with
+    the columns of length unknowns times the model's length scale, so that the test does not
+    depend on the unit of length).
     """
     J = ck.jac(z)
     if J.size:
-        sv = np.linalg.svd(J, compute_uv=False) if np.all(np.isfinite(J)) else np.array([np.inf, 0.0])
+        finite = bool(np.all(np.isfinite(J)))
+        sv = np.linalg.svd(J, compute_uv=False) if finite else np.array([np.inf, 0.0])
         cond = float(sv[0] / sv[-1]) if sv[-1] > 0 else math.inf
         # the position is never known better than round-off of the loop sums, even where the
         # residual happens to come out exactly 0 (a closed form landing on a limit position)
         residual = max(float(np.max(np.abs(ck.phi(z)))), _EPS_POSITION * float(ck.scale))
-        indistinct = math.isfinite(cond) and cond * cond * residual / float(sv[0]) > SINGULAR_RATIO
+        # judged with the length unknowns' columns in units of the model's length scale (an angle's
+        # column is a length already): unscaled, a slider's column is 1 beside angle columns of the
+        # order of the links, and a regular pose of large links looked singular (issue 13)
+        col = np.array([1.0 if k is Kind.ANGLE else float(ck.scale) for k in ck.kinds])[ck.unknown_idx]
+        ss = np.linalg.svd(J * col, compute_uv=False) if finite else sv
+        scaled = float(ss[0] / ss[-1]) if ss[-1] > 0 else math.inf
+        indistinct = math.isfinite(scaled) and scaled * scaled * residual / float(ss[0]) > SINGULAR_RATIO
     else:
         cond, indistinct = 1.0, False
     if not math.isfinite(cond) or cond > SINGULAR_COND or indistinct:
