@@ -158,6 +158,12 @@ class Kernel:
         fx = self.jx(z)
         wx = self.wx
         rows = [[J[e * n + c] * cs[c] for c in range(n)] + [fx[e] / wx] for e in range(n)]
+        # σ_min/σ_max does not change with a common factor: divide by the largest entry so that the
+        # squares below cannot overflow (links of 1e90 model units)
+        big = max((abs(v) for r in rows for v in r), default=0.0)
+        if not (0.0 < big < math.inf):
+            return 0.0
+        rows = [[v / big for v in r] for r in rows]
         if n == 2:
             a, b = rows
             g11 = sum(v * v for v in a)

@@ -6,6 +6,7 @@ finite differences written here."""
 from __future__ import annotations
 
 import math
+import warnings
 
 import numpy as np
 import pytest
@@ -358,3 +359,17 @@ def test_mode_alias_checked_also_when_the_code_is_cached():
     ls.loads(model(extra='[modes]\nopen = "-"')).compile()
     with pytest.raises(ModelError, match="modes.wide"):
         ls.loads(model(extra='[modes]\nopen = "-"\nwide = "+-"')).solve(90)
+
+
+@pytest.mark.parametrize("scale", [1e90, 2e99])
+def test_links_near_the_magnitude_cap_never_raise_bare_errors(scale):
+    """Links of 1e90 model units (below the 1e100 cap) overflowed the tracker's squares (kernel.rho):
+    a bare OverflowError. Now the sweep and the solve either answer or raise a LoopsolveError."""
+    mech = ls.slider_crank(scale, 3 * scale, theta2=30)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        for call in (lambda: mech.solve(30), lambda: mech.sweep(0, 360, 30)):
+            try:
+                call()
+            except ls.LoopsolveError:
+                pass
