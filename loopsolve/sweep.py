@@ -21,7 +21,7 @@ from .continuation import (Kernel, Path, RowSolution, StepControl, Tracer, fill_
 from .errors import AssemblyError, ConvergenceError, ModelError, SingularPositionError, SolveError, warn
 from .newton import Newton
 from .results import Event, EventKind, Sweep
-from .solve import display_value, initial_z, input_rates, input_value, start_position
+from .solve import _input_unit, display_value, initial_z, input_rates, input_value, start_position
 from .units import Kind
 
 __all__ = ["StepControl", "sweep", "grid", "reachable_ranges", "default_range", "nearest_assemblable",
@@ -255,12 +255,12 @@ def assembly_failure(ck, x: float, exc: SolveError) -> SolveError:
     modes = _modes_at(ck, x)
     if modes:
         return ConvergenceError(
-            f"{where}: Newton from the guesses stalled at {name} = {disp:g}, but the mechanism assembles there "
+            f"{where}: Newton from the guesses stalled at {name} = {disp:g}{_input_unit(ck)}, but the mechanism assembles there "
             f"in mode(s) {_mode_names(ck.mechanism, modes)}: pass --mode (mode=) or improve the guesses",
             input_value=disp, result=getattr(exc, "result", None))
     near = nearest_assemblable(ck, x)
     return AssemblyError(
-        f"{where}: cannot be assembled at {name} = {disp:g}: the loop equations have no real solution there"
+        f"{where}: cannot be assembled at {name} = {disp:g}{_input_unit(ck)}: the loop equations have no real solution there"
         + _nearest_text(ck, near),
         input_value=disp, residual=getattr(exc, "residual", None), nearest=near, result=getattr(exc, "result", None))
 
