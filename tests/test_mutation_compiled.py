@@ -294,3 +294,20 @@ def test_entry_replaced_by_a_fifo_after_the_first_check_is_named_in_the_warning(
     assert len(msgs) == 1, msgs
     assert f"the cache entry {entry} is not a regular file" in msgs[0]
     assert stat.S_ISFIFO(real_lstat(entry).st_mode)  # left alone
+
+
+def test_vectorized_point_positions_have_the_documented_shape(fresh):
+    """``CompiledKinematics.point_values_v`` returns a (P, 2, N) array for N configurations.
+
+    Kills loopsolve.compiled.xǁCompiledKinematicsǁpoint_values_v__mutmut_23 (a (P·N, 2) array)."""
+    ck = ls.load(PROB2).compile()
+    assert ck.variables == ("theta2", "theta3", "x") and ck.points == ("A", "B")
+    cranks = [10.0, 40.0, 200.0]
+    sols = [slider(480, 1600, 100, c, 0.0, 0.0) for c in cranks]
+    z = [[math.radians(c) for c in cranks], [math.radians(s[0]) for s in sols], [s[1] for s in sols]]
+    pts = ck.point_values_v(0, z)
+    assert pts.shape == (2, 2, 3)
+    for n, (c, s) in enumerate(zip(cranks, sols)):
+        t = math.radians(c)
+        assert list(pts[0, :, n]) == pytest.approx([480 * math.cos(t), 480 * math.sin(t)], abs=1e-9)  # A
+        assert list(pts[1, :, n]) == pytest.approx([s[1], 100.0], abs=1e-9)  # B = r1 + r4
