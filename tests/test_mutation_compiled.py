@@ -311,3 +311,23 @@ def test_vectorized_point_positions_have_the_documented_shape(fresh):
         t = math.radians(c)
         assert list(pts[0, :, n]) == pytest.approx([480 * math.cos(t), 480 * math.sin(t)], abs=1e-9)  # A
         assert list(pts[1, :, n]) == pytest.approx([s[1], 100.0], abs=1e-9)  # B = r1 + r4
+
+
+def test_vectorized_vector_lengths_and_angles(fresh):
+    """``CompiledKinematics.vector_values_v``: (V, 2, N) lengths and angles for N configurations,
+    (V, 2) for one. Kills loopsolve.compiled.xǁCompiledKinematicsǁvector_values_v__mutmut_4
+    (parameters not passed), _14 (reshaped to (2, N)) and _24 (one configuration not reshaped)."""
+    ck = ls.load(PROB2).compile()
+    assert ck.vectors == ("r1", "r2", "r3", "r4")
+    cranks = [10.0, 40.0, 200.0]
+    sols = [slider(480, 1600, 100, c, 0.0, 0.0) for c in cranks]
+    z = [[math.radians(c) for c in cranks], [math.radians(s[0]) for s in sols], [s[1] for s in sols]]
+    vv = ck.vector_values_v(0, z)
+    assert vv.shape == (4, 2, 3)
+    for n, (c, s) in enumerate(zip(cranks, sols)):
+        expected = [[s[1], 0.0], [480, math.radians(c)], [1600, math.radians(s[0])], [100, math.pi / 2]]
+        assert [list(vv[k, :, n]) for k in range(4)] == [pytest.approx(e, abs=1e-9) for e in expected]
+    one = ck.vector_values_v(0, [col[1] for col in z])
+    assert one.shape == (4, 2)
+    assert list(one[0]) == pytest.approx([sols[1][1], 0.0], abs=1e-9)
+    assert list(one[2]) == pytest.approx([1600, math.radians(sols[1][0])], abs=1e-9)
