@@ -331,3 +331,12 @@ def test_vectorized_vector_lengths_and_angles(fresh):
     assert one.shape == (4, 2)
     assert list(one[0]) == pytest.approx([sols[1][1], 0.0], abs=1e-9)
     assert list(one[2]) == pytest.approx([1600, math.radians(sols[1][0])], abs=1e-9)
+
+
+def test_mode_at_an_exact_dead_centre_has_a_zero_sign():
+    """Driven by its slider at x = r2 + r3 = 13, the slider-crank has one configuration (crank and
+    rod along the line of sliding), where det Φ_q = r2 r3 sin(θ3 − θ2) is exactly 0: its mode
+    signature is '0'. Kills loopsolve.compiled.xǁCompiledKinematicsǁsignature__mutmut_21 ('XX0XX')."""
+    (mode,) = ls.slider_crank(5, 8, theta2=-30).modes(13.0, input="x")
+    assert mode.signature == "0"
+    assert [mode.positions[n] for n in ("theta2", "theta3", "x")] == pytest.approx([0.0, 0.0, 13.0], abs=1e-9)
