@@ -7,8 +7,9 @@
 #
 #   tools/mutation.sh                          # every mutant of every configured module (hours)
 #   tools/mutation.sh 'loopsolve.compiled*'    # one module (mutant names are module.function__mutmut_N)
-#   MUTATION_SAMPLE=5 tools/mutation.sh        # a reproducible sample: every 5th mutant of each module
-#   tools/mutation.sh --summary                # only print the survival rate per module
+#   MUTATION_SAMPLE=10 tools/mutation.sh       # a reproducible sample: every 10th mutant of each module
+#   tools/mutation.sh --summary                # only print the survival rate per module and the verdicts
+#                                              # of tools/mutation_triage/<module>.txt on the survivors
 #
 # Jobs run niced with MUTMUT_CHILDREN (default 1) workers.
 set -euo pipefail

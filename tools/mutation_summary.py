@@ -4,8 +4,8 @@
 killed (incl. timeouts), survived, had no covering test or are not yet checked, and the survival
 rate over the tested ones; then the survivors, each with its verdict from the triage files
 ``tools/mutation_triage/<module>.txt`` (``NAME<TAB>killed: tests/...::test`` for a survivor that a
-test written for it now kills, ``NAME<TAB>harmless: why`` for one that cannot change what a user
-sees) or ``UNTRIAGED``. ``--names --every N`` prints every Nth mutant name of each module (a
+test written for it, or one the run's selection leaves out, kills; ``NAME<TAB>harmless: why`` for
+one that cannot change what a user sees; ``NAME<TAB>untriaged: what is known``) or ``UNTRIAGED``. ``--names --every N`` prints every Nth mutant name of each module (a
 reproducible sample for ``mutmut run NAME...``); ``--untriaged`` prints only the untriaged
 survivors' names (for ``mutmut show``).
 
@@ -45,6 +45,12 @@ def triage(folder: Path = TRIAGE) -> dict[str, str]:
             if sep and name.strip() and not name.startswith("#"):
                 out[name.strip()] = verdict.strip()
     return out
+
+
+def _kind(verdict: str) -> str:
+    """``killed``, ``harmless`` or ``untriaged`` (no verdict, or one that says it is open)."""
+    kind = verdict.split(":")[0].strip().lower()
+    return kind if kind in ("killed", "harmless") else "untriaged"
 
 
 def _natural(name: str):
@@ -97,7 +103,7 @@ def main(argv=None) -> int:
             c[key] += 1
             if key == "survived":
                 survivors.append(name)
-                c["triaged"] += name in verdicts
+                c["triaged"] += _kind(verdicts.get(name, "")) != "untriaged"
                 c["now killed"] += verdicts.get(name, "").startswith("killed")
         tested = c["killed"] + c["survived"]
         rate = f"{100 * c['survived'] / tested:7.1f}%" if tested else "      -"
@@ -108,13 +114,13 @@ def main(argv=None) -> int:
                   f"{c['no test']:7d} {c['unchecked']:9d} {rate} {c['triaged']:7d} {after}")
     if args.untriaged:
         for name in survivors:
-            if name not in verdicts:
+            if _kind(verdicts.get(name, "")) == "untriaged":
                 print(name)
         return 0
     if survivors:
-        kinds = Counter(verdicts.get(n, "UNTRIAGED").split(":")[0] for n in survivors)
-        print(f"\nsurvivors: {len(survivors)} ({kinds['killed']} killed by tests written for them since the "
-              f"run, {kinds['harmless']} harmless, {kinds['UNTRIAGED']} untriaged); "
+        kinds = Counter(_kind(verdicts.get(n, "")) for n in survivors)
+        print(f"\nsurvivors: {len(survivors)} ({kinds['killed']} now killed by a test written for them or left "
+              f"out of the run's selection, {kinds['harmless']} harmless, {kinds['untriaged']} untriaged); "
               "`mutmut show NAME` prints the diff")
         for name in survivors:
             print(f"  {name}  {verdicts.get(name, 'UNTRIAGED')}")
