@@ -15,6 +15,7 @@ from __future__ import annotations
 import math
 import re
 from collections.abc import Sequence
+from dataclasses import dataclass
 
 import sympy as sp
 from sympy.printing.latex import LatexPrinter as _SympyLatexPrinter
@@ -489,3 +490,30 @@ def _unit(label: str) -> str:
         return r"^{\circ}"
     label = re.sub(r"\^(\d)", r"^{\1}", label)
     return r"\,\mathrm{%s}" % label
+
+
+# ============================================================================ the document model
+# (built by latex.py and latex_dynamics.py, rendered by latex.py)
+
+
+@dataclass(frozen=True)
+class _Section:
+    title: str
+
+
+@dataclass(frozen=True)
+class _Text:
+    text: str  # LaTeX text mode (inline math with $...$)
+
+
+@dataclass(frozen=True)
+class _Eqs:
+    lines: tuple[str, ...]  # align lines (with &)
+
+
+@dataclass(frozen=True)
+class _Table:
+    header: tuple[str, ...]  # text mode
+    rows: tuple[tuple[str, ...], ...]  # math mode cells
+    align: str
+    equation: bool = False  # kept in snippets (the numeric table asked for with `at`)
