@@ -6,7 +6,8 @@ of a one-degree-of-freedom mechanism in the textbook's form (Uicker, Pennock and
 
     M(x)  = λ² Σ m_i (x′_Gi² + y′_Gi²) + Σ I_i θ′_i²,
     M′(x) = 2λ² Σ m_i (x′_Gi x″_Gi + y′_Gi y″_Gi) + 2 Σ I_i θ′_i θ″_i,
-    Q(x)  = −λ g Σ m_i y′_Gi + λ Σ (F_x x′_P + F_y y′_P) + Σ T θ′ − λ² k (L − L₀) L′ − λ² c L′² ẋ − …,
+    Q(x)  = −λ g Σ m_i y′_Gi + λ Σ (F_x x′_P + F_y y′_P) + Σ T θ′
+            − λ² k (L − L₀) L′ − λ² c L′² ẋ − …,
     M ẍ + ½ M′ ẋ² = Q + T_drive,
 
 with symbols named after the model — ``m_crank``, ``I_crank``, ``g``, the loads' names
@@ -35,7 +36,7 @@ from .dynamics import _converter, _metres, _point_expr
 from .errors import ModelError
 from .model import Mechanism
 from .symbolic import Kinematics, derive
-from .texprint import _escape, symbol_latex
+from .texprint import _escape, _join_terms, symbol_latex
 from .units import Kind
 
 __all__ = ["DynamicsDerivation", "EomTerm", "EomGroup", "derive_dynamics"]
@@ -45,8 +46,8 @@ __all__ = ["DynamicsDerivation", "EomTerm", "EomGroup", "derive_dynamics"]
 class EomTerm:
     """One term of a group: a constant (a product of named symbols) times a kinematic part.
 
-    ``tex(fmt)`` prints the kinematic part, ``fmt(symbol)`` giving the text of a named constant
-    inside it (its symbol, or its value).
+    ``tex(fmt)`` prints the kinematic part, ``fmt(symbol)`` giving ``(negative, text)`` for a named
+    constant inside it (its symbol, or its value).
     """
 
     coef: sp.Expr
@@ -248,6 +249,14 @@ def derive_dynamics(mech: Mechanism, input=None) -> DynamicsDerivation:
     def tx(sym) -> str:
         return names[sym]
 
+    def minus(f, a_tex: str, sym) -> str:  # (a − value of sym), the value's sign kept
+        neg, t = f(sym)
+        return r"\left(%s\right)" % _join_terms([(False, a_tex), (not neg, t)])
+
+    def times(f, sym, b_tex: str) -> tuple[bool, str]:
+        neg, t = f(sym)
+        return neg, t + r"\," + b_tex
+
     def sq(sym) -> str:
         return "{%s}^{2}" % names[sym]
 
@@ -275,7 +284,8 @@ def derive_dynamics(mech: Mechanism, input=None) -> DynamicsDerivation:
                                 r"\left(%s\,%s + %s\,%s\right)" % (tx(a), tx(a2), tx(c), tx(c2))))
         if gx and gy:
             grav_terms.append(EomTerm(m, gsym[0] * xp + gsym[1] * yp, lambda f, a=xp, c=yp:
-                                      r"\left(%s\,%s + %s\,%s\right)" % (f(gsym[0]), tx(a), f(gsym[1]), tx(c))))
+                                      r"\left(%s\right)" % _join_terms([times(f, gsym[0], tx(a)),
+                                                                           times(f, gsym[1], tx(c))])))
         elif gx or gy:
             cp = xp if gx else yp
             grav_terms.append(EomTerm(m, cp, lambda f, a=cp: tx(a)))
@@ -358,7 +368,7 @@ def derive_dynamics(mech: Mechanism, input=None) -> DynamicsDerivation:
                          ld.free, r"\mathrm{%s}" % _escape(mech.units.length),
                          f"free length of the spring {ld.ends[0]}-{ld.ends[1]}")
                 spring_terms.append(EomTerm(kk, (L - L0) * Lp, lambda f, L=L, Lp=Lp, L0=L0:
-                                            r"\left(%s - %s\right) %s" % (tx(L), f(L0), tx(Lp))))
+                                            r"%s %s" % (minus(f, tx(L), L0), tx(Lp))))
             else:
                 cc = new("c" + ("_" + lab if lab else ""), "c" + sub, ld.damping, r"\mathrm{N\,s/m}",
                          f"damping of the damper {ld.ends[0]}-{ld.ends[1]}")
@@ -375,7 +385,7 @@ def derive_dynamics(mech: Mechanism, input=None) -> DynamicsDerivation:
                          r"\theta_{0%s}" % ("," + _label(lab) if lab else ""), ld.free, r"\mathrm{rad}",
                          f"free angle of the torsional spring on {ld.body}")
                 tspring_terms.append(EomTerm(kk, (th - t0) * w, lambda f, th=th, w=w, t0=t0:
-                                             r"\left(%s - %s\right) %s" % (_tex(th), f(t0), _power(w, 1))))
+                                             r"%s %s" % (minus(f, _tex(th), t0), _power(w, 1))))
             else:
                 cc = new("c" + ("_" + lab if lab else ""), "c" + sub, ld.damping, r"\mathrm{N\,m\,s/rad}",
                          f"damping of the torsional damper on {ld.body}")

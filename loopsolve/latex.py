@@ -331,7 +331,7 @@ class _Builder:
         return out
 
     def dynamics(self):
-        """The equation of motion from the bodies and loads (models with ``[bodies]``): :mod:`loopsolve.latex_dynamics`."""
+        """The equation of motion (models with ``[bodies]``): :mod:`loopsolve.latex_dynamics`."""
         from .latex_dynamics import equation_of_motion
 
         self.items += equation_of_motion(self)

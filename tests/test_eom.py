@@ -220,6 +220,10 @@ class TestLatexSection:
                     r"g_{x} = 0.7", r"g_{y} = -9.81", r"L_{\mathrm{B,O4}} &= \sqrt{"):
             assert sym in sec, sym
         assert r"Q(\theta_{2}, \dot{\theta}_{2})" in sec  # dampers: Q depends on the speed
+        # the numbers inside the kinematic parts, with their signs
+        for num in (r"\left(0.7\,x'_{G_{\mathrm{crank}}} - 9.81\,y'_{G_{\mathrm{crank}}}\right)",
+                    r"\left(L_{\mathrm{B,O4}} - 10\right) L'_{\mathrm{B,O4}}", r"\left(\theta_{4} - 10^{\circ}\right)"):
+            assert num in sec, num
         assert "+ -" not in sec and r"+ \left(-" not in sec
 
     def test_at_gives_the_driving_torque_of_newton_euler(self):
