@@ -82,8 +82,9 @@ class _Writer:
             sign = (g.sign < 0) != fneg
             if not ftex:
                 out += [[(neg != sign, t)] for neg, t in terms]
-            elif len(terms) == 1:
-                out.append([(terms[0][0] != sign, r"%s\,%s" % (ftex, terms[0][1]))])
+            elif len(terms) == 1:  # 2 · 0.0016 θ′₃ θ″₃, not "2 0.0016"
+                join = r" \cdot " if ftex[-1:].isdigit() and terms[0][1][:1].isdigit() else r"\,"
+                out.append([(terms[0][0] != sign, ftex + join + terms[0][1])])
             else:
                 first = r"%s\Bigl[%s%s" % (ftex, "- " if terms[0][0] else "", terms[0][1])
                 rest = terms[1:]
@@ -117,8 +118,10 @@ class _Writer:
         if exprs:
             items.append(_Text("Loads given as functions of the motion (SI):"))
             lines = []
-            for s in exprs:
-                lines += _eq_lines(d.latex_names[s], self.p.signed_terms(d.values[s]))
+            for s in exprs:  # six significant digits, as the tables
+                e = d.values[s]
+                e = e.xreplace({f: sp.Float(f, 6) for f in e.atoms(sp.Float)})
+                lines += _eq_lines(d.latex_names[s], self.p.signed_terms(e))
             items.append(_Eqs(tuple(lines)))
 
     def angle_of(self, body):
