@@ -286,7 +286,7 @@ def derive_dynamics(mech: Mechanism, input=None) -> DynamicsDerivation:
             grav_terms.append(EomTerm(m, gsym[0] * xp + gsym[1] * yp, lambda f, a=xp, c=yp:
                                       r"\left(%s\right)" % _join_terms([times(f, gsym[0], tx(a)),
                                                                            times(f, gsym[1], tx(c))])))
-        elif gx or gy:
+        elif (gx or gy) and coefficients[xp if gx else yp] != 0:  # (a term m·0 is left out)
             cp = xp if gx else yp
             grav_terms.append(EomTerm(m, cp, lambda f, a=cp: tx(a)))
         if b.angle is not None:
@@ -347,7 +347,8 @@ def derive_dynamics(mech: Mechanism, input=None) -> DynamicsDerivation:
                     continue
                 F = new(f"F_{lab}_{axis}", r"F_{%s,%s}" % (_label(lab), axis), load_value(v), r"\mathrm{N}",
                         f"force at {ld.at} on {ld.body}, {axis} component")
-                force_terms.append(EomTerm(F, cp, lambda f, cp=cp: tx(cp)))
+                if coefficients[cp] != 0:  # no virtual work along a direction the point cannot move
+                    force_terms.append(EomTerm(F, cp, lambda f, cp=cp: tx(cp)))
         elif ld.kind is LoadKind.TORQUE:
             if ld.body == FRAME:
                 continue

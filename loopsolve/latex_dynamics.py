@@ -82,8 +82,8 @@ class _Writer:
             sign = (g.sign < 0) != fneg
             if not ftex:
                 out += [[(neg != sign, t)] for neg, t in terms]
-            elif len(terms) == 1:  # 2 · 0.0016 θ′₃ θ″₃, not "2 0.0016"
-                join = r" \cdot " if ftex[-1:].isdigit() and terms[0][1][:1].isdigit() else r"\,"
+            elif len(terms) == 1:  # 2 · 0.0016 θ′₃ θ″₃, 9.81λ · 0.6 y′_G
+                join = r" \cdot " if terms[0][1][:1].isdigit() else r"\,"
                 out.append([(terms[0][0] != sign, ftex + join + terms[0][1])])
             else:
                 first = r"%s\Bigl[%s%s" % (ftex, "- " if terms[0][0] else "", terms[0][1])
