@@ -56,17 +56,20 @@ class _Writer:
 
     def factor(self, factor, fmt) -> tuple[bool, str]:
         """The common factor of a group (2λ², gλ, ẋ …) with the named constants as ``fmt`` gives them."""
-        neg, parts = False, []
+        neg, parts, below = False, [], []
         for f in factor:
             for base, exp in sp.Mul(f).as_powers_dict().items():
-                if base in self.d.latex_names and base != self.lam:
+                if exp < 0:  # a length input: 1/λ (M′ is per metre of the SI coordinate)
+                    below.append(self.tex(base**-exp))
+                elif base in self.d.latex_names and base != self.lam:
                     n, t = fmt(base)
                     neg ^= n and exp % 2 == 1
                     parts.append(t if exp == 1 else "{%s}^{%s}" % (t, self.tex(exp)))
                 else:
                     parts.append(self.tex(base**exp))
         nums = [p for p in parts if p[:1].isdigit()]
-        return neg, " ".join(nums + [p for p in parts if p not in nums])
+        top = " ".join(nums + [p for p in parts if p not in nums])
+        return neg, (r"\frac{%s}{%s}" % (top or "1", " ".join(below)) if below else top)
 
     def chunks(self, groups, fmt) -> list[list[tuple[bool, str]]]:
         """The signed terms of a sum of groups, each group bracketed behind its factor (one list per

@@ -238,6 +238,13 @@ class TestLatexSection:
             assert head in sec
         assert r"\mathrm{kg\,m^{2}}" in sec and r"\mathrm{N\,m}" in sec
 
+    def test_length_input_is_per_metre(self):
+        """Driven by the piston (x = r1 in mm): M in kg, the inertias divided by λ², M′ per metre."""
+        sec = _eom_section(to_latex(ls.load(ls.models_dir() / "engine_slider_crank.toml"), input="r1"))
+        assert r"M(r_{1}) &= m_{\mathrm{crank}}" in sec
+        assert r"\frac{1}{\lambda^{2}}\Bigl[I_{\mathrm{crank}}" in sec and r"M'(r_{1}) &= \frac{2}{\lambda}\Bigl[" in sec
+        assert r"Q(r_{1}) &= - g\,m_{\mathrm{rod}}\,y'_{G_{\mathrm{rod}}} + F_{\mathrm{gas},x}\,x'_{C}" in sec
+
     @pytest.mark.parametrize("path", MODELS, ids=[p.stem for p in MODELS])
     def test_pdf_compiles_and_reads_like_the_notes(self, path, tmp_path):
         require("pdflatex", "pdftotext")
