@@ -112,8 +112,12 @@ class _Writer:
         consts = [s for s in d.units if s not in skip]
         numbers = [s for s in consts if not isinstance(d.values[s], sp.Basic)]
         if numbers:
-            items.append(_Text("Gravity, the loads and the unit of length:" if numbers != [self.lam] else
-                               "The unit of length:"))
+            what = [w for w, present in (
+                ("gravity", any(d.meaning[n].startswith("grav") for n in numbers)),
+                ("the loads", any(not d.meaning[n].startswith(("grav", "model length")) for n in numbers)),
+                ("the unit of length", self.lam in numbers)) if present]
+            text = ", ".join(what[:-1]) + (" and " if len(what) > 1 else "") + what[-1]
+            items.append(_Text(text[:1].upper() + text[1:] + ":"))
             items.append(_Table(("Quantity", "Value"), tuple(
                 (r"\text{%s}" % _escape(d.meaning[s][:1].upper() + d.meaning[s][1:]), self.constant(s))
                 for s in numbers), "ll"))
