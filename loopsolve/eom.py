@@ -120,7 +120,14 @@ class DynamicsDerivation:
 
     def subs(self, expr):
         """``expr`` with every named constant and parameter replaced by its value (the loads given
-        as expressions first, then the numbers): a function of the pose, the coefficients and ẋ."""
+        as expressions first, then the numbers): a function of the pose, the coefficients and ẋ.
+
+        Examples
+        --------
+        >>> d = ls.load(ls.models_dir() / "thesis_crank_rocker_dynamics.toml").derive_dynamics()
+        >>> sorted(str(s) for s in d.subs(d.M).free_symbols)
+        ['theta2', 'theta3', 'theta3__p1', 'theta4', 'theta4__p1']
+        """
         expr = sp.sympify(expr)
         exprs = {s: v for s, v in self.values.items() if isinstance(v, sp.Basic)}
         numbers = {s: sp.Float(v) for s, v in self.values.items() if not isinstance(v, sp.Basic)}
