@@ -92,6 +92,15 @@ class DynamicsDerivation:
         symbol → LaTeX for the named constants and coefficients.
     groups : dict
         ``"M"``, ``"dM"``, ``"Q"`` → the :class:`EomGroup` sums the compact forms are made of.
+    mass, inertia : dict
+        body name → its mass symbol (``m_crank``) and inertia symbol (``I_crank``; bodies without
+        an angle or with zero inertia have none).
+    x, xdot, input, input_kind
+        The input's position symbol, its speed symbol (``theta2__d1``), name and kind.
+    length_scale : sympy.Expr
+        λ, the symbol of the model's length unit in metres (the number 1 in a metre model).
+    point_coefficients, spring_lengths : dict
+        point name → its named coefficients (x′, y′, x″, y″); spring/damper ends → (L, L′).
     """
 
     mechanism: Mechanism
