@@ -46,6 +46,13 @@ def derive(mech, input=None):
     return _derive(mech, input=input)
 
 
+def derive_dynamics(mech, input=None):
+    """The equation of motion in symbols: see :func:`loopsolve.eom.derive_dynamics` (imports sympy)."""
+    from .eom import derive_dynamics as _derive_dynamics
+
+    return _derive_dynamics(mech, input=input)
+
+
 def compile_mechanism(mech, input=None, *, cache=True):
     """Compiled kinematics: see :func:`loopsolve.compiled.compile_mechanism`."""
     from .compiled import compile_mechanism as _compile
@@ -110,6 +117,7 @@ __all__ = [
     "build_mechanism",
     "compile_mechanism",
     "derive",
+    "derive_dynamics",
     "dumps",
     "forces",
     "fourbar",

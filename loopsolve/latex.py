@@ -29,50 +29,18 @@ import shutil
 import subprocess
 import tempfile
 from collections.abc import Sequence
-from dataclasses import dataclass
 from pathlib import Path
 
 import sympy as sp
 
 from .errors import LoopsolveError, MissingDependencyError
 from .model import Mechanism
-from .texprint import (_ACCENT, _BUDGET, _GAP, LatexPrinter, _balance_block, _eq_lines, _escape,
-                       _join_terms, _matrix_width, _number, _unit, _width, symbol_latex, vector_latex)
+from .texprint import (_ACCENT, _BUDGET, _GAP, LatexPrinter, _balance_block, _Eqs, _eq_lines, _escape,
+                       _join_terms, _matrix_width, _number, _Section, _Table, _Text, _unit, _width, symbol_latex,
+                       vector_latex)
 from .units import Kind
 
 __all__ = ["LatexPrinter", "symbol_latex", "vector_latex", "velocity_solution", "to_latex", "write_pdf"]
-
-# ============================================================================ the document model
-
-
-@dataclass(frozen=True)
-class _Section:
-    title: str
-
-
-@dataclass(frozen=True)
-class _Text:
-    text: str  # LaTeX text mode (inline math with $...$)
-
-
-@dataclass(frozen=True)
-class _Eqs:
-    lines: tuple[str, ...]  # align lines (with &)
-
-
-@dataclass(frozen=True)
-class _Table:
-    header: tuple[str, ...]  # text mode
-    rows: tuple[tuple[str, ...], ...]  # math mode cells
-    align: str
-    equation: bool = False  # kept in snippets (the numeric table asked for with `at`)
-
-
-def _metres_of(mech) -> float:
-    from .units import length_factor
-
-    return length_factor(mech.units.length, "m")
-
 
 def velocity_solution(kin) -> dict[str, sp.Expr] | None:
     """The unknown rates of a 2×2 velocity equation by Cramer's rule, simplified.
@@ -363,105 +331,16 @@ class _Builder:
         return out
 
     def dynamics(self):
-        """The equation of motion from the bodies and loads (models with ``[bodies]``), in textbook notation."""
-        mech, kin = self.mech, self.kin
-        dyn = mech.dynamics
-        if dyn is None or not dyn.bodies or len(kin.inputs) != 1:
-            return
-        from .bodies import LoadKind
-        from .dynamics import _converter, _point_expr
+        """The equation of motion (models with ``[bodies]``): :mod:`loopsolve.latex_dynamics`."""
+        from .latex_dynamics import equation_of_motion
 
-        conv, k = _converter(mech, kin)
-        D = kin.time_derivative
-        x = kin.inputs[0]
-        xt = symbol_latex(x)
-        unit_rate = {kin.z1[kin.variables.index(x)]: 1, kin.z2[kin.variables.index(x)]: 0}
+        self.items += equation_of_motion(self)
 
-        def primes(tex: str) -> str:  # at unit input speed the rates are kinematic coefficients: q'
-            for q in kin.unknowns:
-                tex = tex.replace(symbol_latex(q + "__d1"), "{%s}'" % symbol_latex(q))
-            return tex
+    def dynamics_at(self):
+        """M, M′, Q and the driving torque at the input ``at`` (models with ``[bodies]``)."""
+        from .latex_dynamics import equation_of_motion_at
 
-        def gname(b):
-            return r"G_{\mathrm{%s}}" % _escape(b.name)
-
-        def num(v):
-            return self.tex(sp.Float(v, 6))
-
-        self.items.append(_Section("Equation of motion"))
-        self.items.append(_Text(
-            r"Mass properties (SI) of the moving bodies. With the input moving at $%s = 1$ the rates are the "
-            r"kinematic coefficients $q' = \mathrm{d}q/\mathrm{d}%s$ and $q'' = \mathrm{d}^2q/\mathrm{d}%s^2$; the "
-            r"generalized inertia $M$, its derivative $M'$ and the generalized force $Q$ (virtual work of gravity "
-            r"and the loads) give the equation of motion of the one-degree-of-freedom mechanism, where $T$ is the "
-            r"driving torque (force) on the input." % (symbol_latex(x + "__d1"), xt, xt)))
-        rows = []
-        for b in dyn.bodies:
-            rows.append((r"\mathrm{%s}" % _escape(b.name), num(b.mass), num(b.inertia),
-                         _join_terms(self.point_terms(b.com)) if b.com.terms else r"\vec{0}",
-                         self.tex(sp.expand(k * conv(b.angle))) if b.angle is not None else "-"))
-        self.items.append(_Table(("Body", "$m$ [kg]", "$I_G$ [kg m$^2$]", "$\\vec{r}_G$", "$\\theta$"), tuple(rows),
-                                 "lrrll"))
-        lines: list[str] = []
-        m_terms, dm_terms, q_terms = [], [], []
-        lf = sp.Float(_metres_of(mech), 6)
-        for b in dyn.bodies:
-            g = gname(b)
-            vel = _point_expr(kin, b.com, conv).applyfunc(D).xreplace(unit_rate)
-            if lines:
-                lines.append(_GAP)
-            for c, axis in ((0, "x"), (1, "y")):
-                lines += _eq_lines("%s'_{%s}" % (axis, g), [(neg, primes(t)) for neg, t in self.terms(vel[c])])
-            m_terms.append((False, r"%s\left({x'_{%s}}^2 + {y'_{%s}}^2\right)" % (num(b.mass * float(lf) ** 2), g, g)))
-            dm_terms.append((False, r"%s\left(x'_{%s} x''_{%s} + y'_{%s} y''_{%s}\right)"
-                             % (num(2 * b.mass * float(lf) ** 2), g, g, g, g)))
-            for c, axis in ((0, "x"), (1, "y")):
-                gc = dyn.gravity[c] * b.mass * float(lf)
-                if gc:
-                    q_terms.append((gc < 0, r"%s\,%s'_{%s}" % (num(abs(gc)), axis, g)))
-            if b.angle is not None and b.inertia:
-                th = self.tex(sp.expand(k * conv(b.angle)))
-                m_terms.append((False, r"%s\,{%s'}^2" % (num(b.inertia), th)))
-                dm_terms.append((False, r"%s\,%s'\,%s''" % (num(2 * b.inertia), th, th)))
-        self.items.append(_Eqs(tuple(lines)))
-        for ld in dyn.loads:
-            if ld.kind is LoadKind.FORCE:
-                p = symbol_latex(ld.at)
-                for c, axis in ((0, "x"), (1, "y")):
-                    v = ld.values[c]
-                    ftex = num(v) if isinstance(v, (int, float)) else self.tex(conv(v))
-                    if ftex not in ("0", "0.0"):
-                        q_terms.append((False, r"\left(%s\right) %s\,%s'_{%s}" % (ftex, num(float(lf)), axis, p)))
-            elif ld.kind is LoadKind.TORQUE:
-                v = ld.values[0]
-                ttex = num(v) if isinstance(v, (int, float)) else self.tex(conv(v))
-                th = self.tex(sp.expand(k * conv(dyn.body(ld.body).angle)))
-                q_terms.append((False, r"\left(%s\right) %s'" % (ttex, th)))
-            elif ld.kind in (LoadKind.SPRING, LoadKind.DAMPER):
-                ends = r"\mathrm{%s%s}" % (_escape(ld.ends[0]), _escape(ld.ends[1]))
-                if ld.kind is LoadKind.SPRING:
-                    q_terms.append((True, r"%s\left(L_{%s} - %s\right) L'_{%s}"
-                                    % (num(ld.stiffness), ends, num(ld.free * float(lf)), ends)))
-                else:
-                    q_terms.append((True, r"%s\,\dot{L}_{%s} L'_{%s}" % (num(ld.damping), ends, ends)))
-            else:
-                th = self.tex(sp.expand(k * conv(dyn.body(ld.body).angle)))
-                if ld.kind is LoadKind.TORSION_SPRING:
-                    q_terms.append((True, r"%s\left(%s - %s\right) %s'" % (num(ld.stiffness), th, num(ld.free), th)))
-                else:
-                    q_terms.append((True, r"%s\,\dot{%s}\,%s'" % (num(ld.damping), th, th)))
-        eqs = _eq_lines(r"M(%s)" % xt, m_terms) + _eq_lines(r"M'(%s)" % xt, dm_terms)
-        eqs += _eq_lines(r"Q", q_terms or [(False, "0")])
-        eqs.append(r"M(%s)\,%s + \tfrac{1}{2} M'(%s)\,%s^2 &= Q + T" % (xt, symbol_latex(x + "__d2"), xt,
-                                                                        symbol_latex(x + "__d1")))
-        self.items.append(_Text(r"Lengths in m (the model's positions times %s), forces in N, torques in N\,m; "
-                                r"$L$ is the length of a spring or damper between its two points." % num(float(lf))))
-        self.items.append(_Eqs(tuple(eqs)))
-        self.items.append(_Text(
-            r"Newton--Euler for each moving body, $\sum \vec{F} = m\,\vec{a}_G$ and $\sum M_G = I_G\,\alpha$, is a "
-            r"linear system in the joint forces, the guide reactions and $T$ (\texttt{loopsolve forces}); its $T$ "
-            r"equals the one above, and the power balance $T%s = \dot{E}_k + \dot{V} - P_\mathrm{loads}$ "
-            r"is checked at every point." % symbol_latex(x + "__d1")))
+        self.items += equation_of_motion_at(self)
 
     def numeric(self):
         if self.at is None:
@@ -504,6 +383,7 @@ class _Builder:
         self.points()
         self.dynamics()
         self.numeric()
+        self.dynamics_at()
         return self.items
 
 

@@ -217,6 +217,12 @@ class Mechanism:
 
         return derive(self, input=input)
 
+    def derive_dynamics(self, input: str | None = None):
+        """The equation of motion in symbols (M, M′, Q and their values): see :func:`loopsolve.eom.derive_dynamics`."""
+        from .eom import derive_dynamics
+
+        return derive_dynamics(self, input=input)
+
     def compile(self, input: str | Sequence[str] | None = None, *, cache: bool = True):
         """Compiled numeric kinematics: see :func:`loopsolve.compiled.compile_mechanism`."""
         from .compiled import compile_mechanism

@@ -15,6 +15,7 @@ from __future__ import annotations
 import math
 import re
 from collections.abc import Sequence
+from dataclasses import dataclass
 
 import sympy as sp
 from sympy.printing.latex import LatexPrinter as _SympyLatexPrinter
@@ -33,6 +34,8 @@ _GREEK_UPPER = frozenset("Gamma Delta Theta Xi Pi Sigma Upsilon Phi Psi Omega".s
 # amsmath's \dddot sets the subscript far from its base; three dots over the letter look right
 _ACCENT = {1: r"\dot", 2: r"\ddot", 3: r"\overset{\ldots}"}
 _RATE_RE = re.compile(r"^(?P<base>.+)__d(?P<order>[123])$")
+# kinematic coefficients of loopsolve.eom: name__p1 = dq/dx (q'), name__p2 = d²q/dx² (q'')
+_PRIME_RE = re.compile(r"^(?P<base>.+)__p(?P<order>[12])$")
 
 
 def _word(text: str) -> str:
@@ -75,6 +78,8 @@ def symbol_latex(name: str) -> str:
     ('\\\\theta_{2}', 'r_{AB}', '\\\\phi')
     >>> symbol_latex("theta3__d2"), symbol_latex("s_1__d1")
     ('\\\\ddot{\\\\theta}_{3}', '\\\\dot{s}_{1}')
+    >>> symbol_latex("theta3__p1"), symbol_latex("theta3__p2")  # kinematic coefficients dθ₃/dx, d²θ₃/dx²
+    ("\\\\theta'_{3}", "\\\\theta''_{3}")
     >>> symbol_latex("theta_in"), symbol_latex("AB")
     ('\\\\theta_{\\\\mathrm{in}}', 'AB')
     """
@@ -82,6 +87,11 @@ def symbol_latex(name: str) -> str:
     order = 0
     if m:
         name, order = m.group("base"), int(m.group("order"))
+    p = _PRIME_RE.match(name)
+    if p:
+        base, sub = _split_name(p.group("base"))
+        base += "'" * int(p.group("order"))
+        return base if sub is None else "%s_{%s}" % (base, sub)
     base, sub = _split_name(name)
     if order:
         base = "%s{%s}" % (_ACCENT[order], base)
@@ -214,6 +224,10 @@ class LatexPrinter(_SympyLatexPrinter):
             expr = _to_degrees(sp.sympify(expr))
         return self.doprint(expr)
 
+    def parenthesize_super(self, s):
+        """Braces around a base that carries a superscript or a prime (``{\\theta'_{3}}^{2}``)."""
+        return "{%s}" % s if ("^" in s or "'" in s) else s
+
     # ---- symbols
     def _print_Symbol(self, expr, style="plain"):
         name = self._settings["symbol_names"].get(expr)
@@ -255,7 +269,7 @@ class LatexPrinter(_SympyLatexPrinter):
         if f.is_Number:
             return (0, 0, "")
         if isinstance(base, sp.Symbol):
-            m = _RATE_RE.match(base.name)
+            m = _RATE_RE.match(base.name) or _PRIME_RE.match(base.name)
             if m:
                 return (2, int(m.group("order")), m.group("base"))
             return (1, 0, base.name)
@@ -476,3 +490,30 @@ def _unit(label: str) -> str:
         return r"^{\circ}"
     label = re.sub(r"\^(\d)", r"^{\1}", label)
     return r"\,\mathrm{%s}" % label
+
+
+# ============================================================================ the document model
+# (built by latex.py and latex_dynamics.py, rendered by latex.py)
+
+
+@dataclass(frozen=True)
+class _Section:
+    title: str
+
+
+@dataclass(frozen=True)
+class _Text:
+    text: str  # LaTeX text mode (inline math with $...$)
+
+
+@dataclass(frozen=True)
+class _Eqs:
+    lines: tuple[str, ...]  # align lines (with &)
+
+
+@dataclass(frozen=True)
+class _Table:
+    header: tuple[str, ...]  # text mode
+    rows: tuple[tuple[str, ...], ...]  # math mode cells
+    align: str
+    equation: bool = False  # kept in snippets (the numeric table asked for with `at`)
