@@ -15,6 +15,7 @@ __version__ = "0.1.0"
 from . import bodies, diagram, errors, expr, newton, topology, units  # noqa: E402
 from .errors import (  # noqa: E402
     AssemblyError,
+    ModeError,
     BranchError,
     ConvergenceError,
     LoopsolveError,
@@ -91,6 +92,7 @@ def simulate(mech, duration, **kwargs):
 __all__ = [
     "__version__",
     "AssemblyError",
+    "ModeError",
     "BranchError",
     "ConvergenceError",
     "Event",
