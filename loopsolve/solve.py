@@ -301,7 +301,9 @@ def guessed_mode(ck: CompiledKinematics, x: float | None = None, *, guess: dict 
     '-'
     """
     z = guess_pose(ck, x, guess=guess)
-    return None if z is None else block_signs(ck, z)
+    if z is None or not np.all(np.isfinite(z)):
+        return None  # a NaN guess names nothing (Newton from it reports NOT_FINITE)
+    return block_signs(ck, z)
 
 
 def _requested_mode(ck: CompiledKinematics, x: float, mode, guess) -> tuple[str | None, str]:
@@ -397,11 +399,12 @@ def start_position(ck: CompiledKinematics, x: float, *, mode=None, guess: dict |
         where = ck.mechanism.source or ck.mechanism.name
         aliases = [k for k, v in ck.mechanism.mode_aliases.items() if v == sig]
         label = sig + (f" ({', '.join(aliases)})" if aliases else "")
+        partial = found[0] if found is not None else getattr(failure, "result", None)
         raise ModeError(
             f"{where}: no solution in assembly mode {label} (named by {who}) at {ck.inputs[0]} = {disp:g}"
             f"{_input_unit(ck)}: the mechanism assembles there only in mode(s) {_mode_names(ck.mechanism, modes)}; "
             "choose one of them with --mode (mode=) or guesses in it, or another input value",
-            mode=sig, modes=tuple(m.signature for m in modes), input_value=disp)
+            mode=sig, modes=tuple(m.signature for m in modes), input_value=disp, result=partial)
     from .sweep import assembly_failure
 
     if failure is None:
