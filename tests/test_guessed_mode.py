@@ -306,3 +306,12 @@ def test_guesses_on_a_singular_configuration_name_no_mode():
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         assert mech.solve(90, mode="+").mode == "+"  # an explicit mode needs no guesses
+
+
+def test_cli_modes_says_which_mode_the_guesses_name(capsys):
+    from loopsolve.cli import main
+
+    path = str(ls.models_dir() / "thesis_crank_rocker.toml")  # θ3 = 20°, θ4 = 80°: sin(θ3 − θ4) < 0
+    assert main(["modes", path, "--at", "90"]) == 0
+    assert capsys.readouterr().out.splitlines()[-1].startswith("the guesses name mode - (open)")
+    assert ls.guessed_mode(ls.load(path)) == "-"
