@@ -15,6 +15,7 @@ __version__ = "0.1.0"
 from . import bodies, diagram, errors, expr, newton, topology, units  # noqa: E402
 from .errors import (  # noqa: E402
     AssemblyError,
+    ModeError,
     BranchError,
     ConvergenceError,
     LoopsolveError,
@@ -67,6 +68,25 @@ def solve(mech, at=None, **kwargs):
     return _solve(mech, at, **kwargs)
 
 
+def guessed_mode(mech, at=None, *, input=None, compiled=None):
+    """The assembly mode the guesses name: the signature of Φ_q's blocks at the guesses.
+
+    What ``solve``, ``sweep``, ``study`` and ``forces`` solve in without ``mode`` (see
+    :func:`loopsolve.solve.guessed_mode`); ``at`` matters only when the input has no guess.
+    ``None`` when an unknown has no guess; a ``"0"`` marks a block the guesses leave singular.
+
+    Examples
+    --------
+    >>> ls.guessed_mode(ls.load(ls.models_dir() / "thesis_crank_rocker.toml"))
+    '-'
+    """
+    from .solve import guessed_mode as _guessed, input_value
+
+    ck = compiled if compiled is not None else mech.compile(input)
+    x = None if at is None else input_value(ck, at)
+    return _guessed(ck, x)
+
+
 def sweep(mech, start, stop, step, **kwargs):
     """Sweep the input: see :func:`loopsolve.sweep.sweep`."""
     from .sweep import sweep as _sweep
@@ -98,6 +118,7 @@ def simulate(mech, duration, **kwargs):
 __all__ = [
     "__version__",
     "AssemblyError",
+    "ModeError",
     "BranchError",
     "ConvergenceError",
     "Event",
@@ -121,6 +142,7 @@ __all__ = [
     "dumps",
     "forces",
     "fourbar",
+    "guessed_mode",
     "inverted_slider_crank",
     "load",
     "loads",

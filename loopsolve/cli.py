@@ -422,7 +422,20 @@ def cmd_modes(args) -> int:
 
     mech = _load(args.model)
     modes = assembly_modes(mech, args.at, input=args.input)
-    _write(modes_to_json(modes) + "\n" if args.format == "json" else format_modes(modes), None)
+    if args.format == "json":
+        _write(modes_to_json(modes) + "\n", None)
+        return EXIT_OK
+    from . import guessed_mode
+    from .export import mode_label
+
+    named = guessed_mode(mech, args.at, input=args.input)
+    if named is None:
+        note = "the guesses name no mode (an unknown has no guess): pass --mode to solve and sweep"
+    elif "0" in named:
+        note = f"the guesses sit on a singular configuration ({named}): they name no mode there; pass --mode"
+    else:
+        note = f"the guesses name mode {mode_label(mech, named)}: solve, sweep, study and forces use it"
+    _write(format_modes(modes) + note + "\n", None)
     return EXIT_OK
 
 

@@ -18,6 +18,7 @@ __all__ = [
     "SolveError",
     "ConvergenceError",
     "AssemblyError",
+    "ModeError",
     "SingularPositionError",
     "BranchError",
     "MissingDependencyError",
@@ -98,6 +99,20 @@ class AssemblyError(SolveError):
         super().__init__(message, input_value=input_value, result=result)
         self.residual = residual
         self.nearest = tuple(nearest)
+
+
+class ModeError(AssemblyError):
+    """The mechanism assembles at the requested input, but not in the requested assembly mode.
+
+    ``mode`` is the signature asked for (by ``--mode`` or by the guesses), ``modes`` the
+    signatures of the real solutions that exist there.
+    """
+
+    def __init__(self, message: str, *, mode: str = "", modes: tuple[str, ...] = (),
+                 input_value: float | None = None, result: Any = None):
+        super().__init__(message, input_value=input_value, result=result)
+        self.mode = mode
+        self.modes = tuple(modes)
 
 
 class SingularPositionError(SolveError):

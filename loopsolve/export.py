@@ -14,7 +14,7 @@ import math
 
 import numpy as np
 
-from .results import State, Sweep, column_units
+from .results import State, Sweep, _turns_of, column_units
 from .units import Kind, unit_label
 
 __all__ = ["to_json", "to_csv", "to_table", "state_table", "sweep_table", "iter_json", "iter_csv", "printable",
@@ -46,11 +46,14 @@ def mode_label(mech, signature: str) -> str:
 def _chunks(sweep: Sweep, size: int = CHUNK):
     """The sweep as consecutive sub-sweeps of at most ``size`` rows (views, no copies)."""
     n = len(sweep)
+    last = None  # angles stay continuous across the chunks (each continues the one before)
     for i in range(0, n, size):
         j = min(n, i + size)
+        turns, last = _turns_of(sweep.compiled, sweep.z[i:j], last)
         yield Sweep.from_arrays(sweep.compiled, sweep.z[i:j], sweep.z1[i:j], sweep.z2[i:j], sweep.z3[i:j],
                                 modes=sweep.modes[i:j], residual=sweep.residual[i:j], n_iter=sweep.n_iter[i:j],
-                                cond=sweep.cond[i:j], mode=sweep.mode, method=sweep.method, copy=False)
+                                cond=sweep.cond[i:j], mode=sweep.mode, method=sweep.method, copy=False,
+                                turns=turns)
 
 
 def _keys(obj) -> list[str]:

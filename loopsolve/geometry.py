@@ -23,7 +23,7 @@ A model written as a kinematic diagram (``[joints]``/``[links]``, see :mod:`loop
 is drawn from its links and joints instead, when its ``spec`` still carries them.
 
 Also here, for the plots against the input: which columns to plot (:func:`plot_vars`),
-angles tracked continuously (:func:`unwrapped`) and the names of assembly modes
+angles tracked continuously (:func:`unwrapped`, for wrapped data) and the names of assembly modes
 (:func:`mode_label`).
 """
 
@@ -91,7 +91,10 @@ def plot_vars(sweep, vars) -> list[str]:
 
 
 def unwrapped(values: np.ndarray, unit: str) -> np.ndarray:
-    """Angles tracked continuously (the table wraps them to (−180°, 180°]).
+    """Angles tracked continuously, for angle data wrapped to (−180°, 180°] from elsewhere.
+
+    A sweep's own columns are continuous already (:func:`loopsolve.results.angle_turns`), and
+    plots and pages draw them as they are.
 
     The jumps of a whole turn are removed between finite values, then the curve is shifted by
     whole turns so that its mean lies within half a turn of zero. Fewer than two finite

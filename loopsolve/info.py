@@ -100,12 +100,18 @@ def _topology(mech: Mechanism):
 
 
 def _start_pose(ck):
-    """All variables solved at the declared guesses (the drawn pose of a diagram), or None."""
-    from .errors import LoopsolveError
-    from .solve import initial_z, solve_position
+    """All variables solved at the input's guess in the mode the guesses name (the drawn pose of a
+    diagram), or None."""
+    import warnings
 
+    from .errors import LoopsolveError
+    from .solve import initial_z, start_position
+
+    x = float(initial_z(ck, warn=False)[ck.input_idx[0]])
     try:
-        z, _, _ = solve_position(ck, initial_z(ck, warn=False))
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")  # info reports; the solve commands warn about guesses
+            z, _, _ = start_position(ck, x)
     except LoopsolveError:
         return None
     return z

@@ -4,9 +4,11 @@ The generated ``*_v`` functions broadcast over their last axis, so a parameter v
 of shape ``(npar, D)`` evaluates D designs in one call. :func:`sweep_chunk` follows every
 design of a chunk along the same input values:
 
-1. **Start.** Newton from the declared guesses at the guesses' input value (where
-   :func:`loopsolve.solve.start_position` takes the assembly mode from), every design at once;
-   then natural-parameter continuation to the start of the range.
+1. **Start.** Newton from the declared guesses at the guesses' input value, every design at
+   once; a design whose solution does not have the signature of Φ_q's blocks *at the guesses*,
+   evaluated with that design's parameters (the mode the guesses name, as
+   :func:`loopsolve.solve.start_position` asks for), is handed off; then natural-parameter
+   continuation to the start of the range.
 2. **Continuation** over the output grid in internal substeps of at most 1° (or 1 % of the
    length scale; 2° on the way from the guesses to the start): Taylor predictor from the
    tangent dq/dx = Φ_q⁻¹ b₁ (and its change over the previous step), Newton corrector (a fused
@@ -167,6 +169,26 @@ class _Ops:
                 X[c0] = (d * r[0] - b * r[1]) / det
                 X[c1] = (a * r[1] - c * r[0]) / det
         return X
+
+    def guess_signs(self, J):
+        """Signs ``(nb, N)`` of the diagonal-block determinants, 0 within :data:`GUESS_SINGULAR` of
+        singular: the mode the guesses name, per design (:func:`loopsolve.solve.block_signs`)."""
+        from .solve import GUESS_SINGULAR
+
+        n = self.n
+        out = []
+        for eqs, cols in self.blocks:
+            if len(cols) == 1:
+                d = J[eqs[0] * n + cols[0]]
+                norms = np.abs(d)
+            else:
+                (e0, e1), (c0, c1) = eqs, cols
+                a, b, c, d_ = J[e0 * n + c0], J[e0 * n + c1], J[e1 * n + c0], J[e1 * n + c1]
+                d = a * d_ - b * c
+                norms = np.hypot(a, c) * np.hypot(b, d_)
+            ok = np.isfinite(d) & np.isfinite(norms) & (np.abs(d) > GUESS_SINGULAR * norms)
+            out.append(np.where(ok, np.sign(d), 0.0))
+        return np.array(out).reshape(len(out), -1)
 
     def signs_and_regularity(self, J, scale):
         """Signs of the diagonal-block determinants ``(nb, N)`` and the smallest regularity ``(N,)``."""
@@ -371,11 +393,17 @@ def _lockstep(ck, ops, P, Pfull, xs, ch, rates, derivatives) -> np.ndarray:
     Z = np.repeat(z0[:, None], D, axis=1)
     Z[ix] = x_guess
     alive = np.ones(D, dtype=bool)
+    mech = ck.mechanism
+    guessed = all(mech.variable(n).guess is not None for n in ck.unknowns)
     with np.errstate(all="ignore"):
+        # the mode each design is asked for: the signs at the guesses, with this design's parameters
+        req = ops.guess_signs(ops.jac(Z, P)) if guessed else None
         Z = _newton_start(ops, Z, P, scale, alive)
         J = ops.jac(Z, P)
         sig0, reg = ops.signs_and_regularity(J, scale)
         alive &= reg >= REGULAR_MIN
+        if req is not None:  # Newton fell into another mode: the single sweep finds the one asked for
+            alive &= np.all((req == 0) | (sig0 == req), axis=0)
         # the path: from the guesses' input to the start, then the grid
         kind = ck.kinds[ix]
         hmax = _SUB_ANGLE if kind is Kind.ANGLE else 0.01 * float(np.median(scale))

@@ -44,7 +44,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .errors import AssemblyError, ModelError
+from .errors import AssemblyError, ModeError, ModelError
 from .newton import Newton, NewtonStatus, newton
 from .units import Kind
 
@@ -476,8 +476,9 @@ def select_mode(mech, x_internal: float, mode: str, *, compiled=None) -> np.ndar
     Raises
     ------
     ModelError
-        Unknown alias or malformed signature, or no mode with that signature at ``x``
-        (the message lists the modes there).
+        Unknown alias or malformed signature.
+    ModeError
+        No mode with that signature at ``x`` (the message lists the modes there).
     AssemblyError
         No real assembly mode at all at ``x`` (names the nearest assemblable inputs).
 
@@ -490,7 +491,7 @@ def select_mode(mech, x_internal: float, mode: str, *, compiled=None) -> np.ndar
     ('+', 234.04)
     """
     ck = compiled if compiled is not None else mech.compile()
-    from .solve import display_value, initial_z
+    from .solve import display_value
 
     name = ck.inputs[0]
     disp = display_value(ck, x_internal, name)
@@ -513,20 +514,32 @@ def select_mode(mech, x_internal: float, mode: str, *, compiled=None) -> np.ndar
             input_value=disp, nearest=near)
     match = [m for m in modes if m.signature == sig]
     if not match:
-        raise ModelError(f"{mech.source or mech.name}: assembly mode {mode!r} ({sig}) does not exist at {name} = "
-                         f"{disp:g}; the modes there are: {_mode_names(mech, modes)}")
-    if len(match) > 1:
-        g = initial_z(ck, warn=False)
-        w = np.array([1.0 if k is Kind.ANGLE else 1.0 / ck.scale for k in ck.kinds])
-        ang = np.array([k is Kind.ANGLE for k in ck.kinds])
+        raise ModeError(f"{mech.source or mech.name}: assembly mode {mode!r} ({sig}) does not exist at {name} = "
+                        f"{disp:g}; the modes there are: {_mode_names(mech, modes)}",
+                        mode=sig, modes=tuple(m.signature for m in modes), input_value=disp)
+    return nearest_solution(ck, match)
 
-        def dist(m):
-            d = m.z - g
-            d = np.where(ang, (d + math.pi) % TWO_PI - math.pi, d)
-            return float(np.linalg.norm(d * w))
 
-        match.sort(key=dist)
-    return match[0].z.copy()
+def nearest_solution(ck, modes, *, guess: dict | None = None) -> np.ndarray:
+    """``z`` of the mode nearest the guesses (angles compared modulo a turn, lengths scaled).
+
+    Several distinct solutions may share a signature when a block is larger than a dyad; the
+    guesses then choose among them.
+    """
+    from .solve import initial_z
+
+    if len(modes) == 1:
+        return np.array(modes[0].z, dtype=float)
+    g = initial_z(ck, guess=guess, warn=False)
+    w = np.array([1.0 if k is Kind.ANGLE else 1.0 / ck.scale for k in ck.kinds])
+    ang = np.array([k is Kind.ANGLE for k in ck.kinds])
+
+    def dist(m):
+        d = m.z - g
+        d = np.where(ang, (d + math.pi) % TWO_PI - math.pi, d)
+        return float(np.linalg.norm(d * w))
+
+    return np.array(min(modes, key=dist).z, dtype=float)
 
 
 def _nearest_text(ck, near) -> str:

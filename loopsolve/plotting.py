@@ -22,7 +22,7 @@ import numpy as np
 
 from .errors import LoopsolveError, MissingDependencyError, ModelError
 from .drawstyle import Style, arrow_label_sides, drawing_style, label_placements
-from .geometry import LINK_COLORS, Frame, hull_order, mode_label, plot_vars, polygon_area, pose_frames, unwrapped
+from .geometry import LINK_COLORS, Frame, hull_order, mode_label, plot_vars, polygon_area, pose_frames
 
 __all__ = ["plot_sweep", "draw", "animate", "check_output", "tex_name", "FIGURE_FORMATS", "ANIMATION_FORMATS"]
 
@@ -183,8 +183,8 @@ def plot_sweep(sweep, vars=None, *, output=None):
     """Positions, velocities and accelerations of the chosen variables against the input.
 
     One column of panels per unit (angles and lengths are never mixed on an axis), three
-    rows: position, velocity, acceleration. Angles are shown tracked continuously (not
-    wrapped to ±180°); limit, singular, not-assemblable and mode-change events of the sweep
+    rows: position, velocity, acceleration. Angles are the table's (continuous along the rows,
+    the first in (−180°, 180°]); limit, singular, not-assemblable and mode-change events of the sweep
     are marked with vertical lines.
 
     Parameters
@@ -236,9 +236,7 @@ def plot_sweep(sweep, vars=None, *, output=None):
         for r, suffix in enumerate(suffixes):
             ax = axes[r, c]
             for k, n in enumerate(members):
-                y = np.array(cols[n + suffix], dtype=float)
-                if r == 0 and angular and n in ck.variables:
-                    y = unwrapped(y, unit)
+                y = np.array(cols[n + suffix], dtype=float)  # angles continuous as in the table
                 if r > 0:  # at a limit position the rates are unbounded: no value there
                     y[at_limit] = np.nan
                 style = "-o" if len(x) < 40 else "-"

@@ -1,8 +1,9 @@
 """Immutable results: the :class:`State` at one input value and the :class:`Sweep` over many.
 
 Internally everything is radians and the model's length unit. ``row()``/``rows`` give the
-values at the human interface: angles in the model's angle unit (wrapped to (−180°, 180°] for
-unknowns), rates in rad/s, rad/s², rad/s³ (or length unit/s...), with the column names of the
+values at the human interface: angles in the model's angle unit (an unknown's angle in
+(−180°, 180°] at one position; along a sweep the first row is in (−180°, 180°] and later rows
+follow the motion, see :func:`angle_turns`), rates in rad/s, rad/s², rad/s³ (or length unit/s...), with the column names of the
 command-line contract: ``q``, ``q_vel``, ``q_acc``, ``q_jerk``, ``P_x``, ``P_y``, ``P_x_vel``....
 """
 
@@ -18,7 +19,7 @@ import numpy as np
 from .errors import ModelError
 from .units import Kind, unit_label
 
-__all__ = ["State", "Sweep", "Event", "EventKind", "AccelerationComponents", "column_units"]
+__all__ = ["State", "Sweep", "Event", "EventKind", "AccelerationComponents", "column_units", "angle_turns"]
 
 _SUFFIX = ("", "_vel", "_acc", "_jerk")
 _RATE_KINDS = {
@@ -85,6 +86,51 @@ def _wrap_deg(x: np.ndarray | float, unit: str):
     return np.where(y == -half, half, y)
 
 
+def angle_turns(values, unit: str, *, after=None) -> np.ndarray:
+    """Whole turns to subtract from angles along rows so that they are continuous.
+
+    ``values`` are angles in display units (``(N,)`` or ``(N, D)``, rows along axis 0, NaN
+    where there is no row). The first finite row of each column is brought into (−180°, 180°]
+    (or (−π, π]) and every later row within half a turn of the finite row before it, so that
+    ``values - period * turns`` follows the motion instead of jumping by a turn where the
+    angle passes ±180°. The rule of every sweep's table, CSV, JSON, arrays, plot and page.
+    ``after`` (one value per column, NaN for none) continues a previous part of the rows: the
+    first row goes within half a turn of it instead.
+
+    Examples
+    --------
+    >>> from loopsolve.results import angle_turns
+    >>> v = np.array([350.0, 365.0, 375.0, np.nan, 541.0])
+    >>> v - 360 * angle_turns(v, "deg")
+    array([-10.,   5.,  15.,  nan, 181.])
+    """
+    period = 360.0 if unit == "deg" else 2 * math.pi
+    half = period / 2
+    v = np.asarray(values, dtype=float)
+    if v.size == 0:
+        return np.zeros(v.shape, dtype=np.int64)
+    flat = v.reshape(v.shape[0], -1) if v.ndim else v.reshape(1, 1)
+    n = flat.shape[0]
+    ok = np.isfinite(flat)
+    # forward-fill the gaps (and back-fill leading ones with the first finite value)
+    idx = np.where(ok, np.arange(n)[:, None], -1)
+    np.maximum.accumulate(idx, axis=0, out=idx)
+    first = np.argmax(ok, axis=0)
+    idx = np.where(idx < 0, first[None, :], idx)
+    g = np.take_along_axis(np.where(ok, flat, 0.0), idx, axis=0)
+    g0 = g[0]
+    k0 = np.floor((g0 + half) / period)
+    k0 = np.where(g0 - period * k0 == -half, k0 - 1, k0)  # -180 is written 180
+    if after is not None:
+        a = np.broadcast_to(np.asarray(after, dtype=float).reshape(-1), g0.shape)
+        with np.errstate(invalid="ignore"):
+            k0 = np.where(np.isfinite(a), np.round((g0 - a) / period), k0)
+    steps = np.round(np.diff(g, axis=0) / period)
+    turns = k0[None, :] + np.concatenate([np.zeros((1, g.shape[1])), np.cumsum(steps, axis=0)], axis=0)
+    turns = np.where(np.isfinite(turns), turns, 0.0).astype(np.int64)
+    return turns.reshape(v.shape) if v.ndim else turns.reshape(())
+
+
 def column_units(compiled) -> dict[str, str]:
     """Column name → unit label for every column of :meth:`State.row`."""
     u = compiled.mechanism.units
@@ -114,6 +160,30 @@ def _display(compiled, name: str, order: int, value, *, wrap: bool):
     return value
 
 
+def _period(compiled) -> float:
+    return 360.0 if compiled.mechanism.units.angle == "deg" else 2 * math.pi
+
+
+def _turns_of(ck, z, after=None):
+    """:func:`angle_turns` of every unknown angle of rows ``z`` ``(N, nvar)``, internal units.
+
+    Returns ``(turns, last)``: ``(N, nvar)`` integers and, per variable, the last finite displayed
+    value (``after`` where the rows have none) — what the next part of the rows continues from.
+    """
+    t = np.zeros(z.shape, dtype=np.int64)
+    last = np.full(len(ck.variables), np.nan) if after is None else np.array(after, dtype=float)
+    unit = ck.mechanism.units.angle
+    period = _period(ck)
+    for i, (name, kind) in enumerate(zip(ck.variables, ck.kinds)):
+        if kind is Kind.ANGLE and name not in ck.inputs and len(z):
+            v = np.asarray(_display(ck, name, 0, z[:, i], wrap=False), dtype=float)
+            t[:, i] = angle_turns(v, unit, after=last[i])
+            ok = np.flatnonzero(np.isfinite(v))
+            if len(ok):
+                last[i] = v[ok[-1]] - period * t[ok[-1], i]
+    return t, last
+
+
 @dataclass(frozen=True, eq=False)
 class State:
     """Positions and rates of every variable and point at one input value.
@@ -136,6 +206,9 @@ class State:
     residual: float = 0.0
     n_iter: int = 0
     cond: float = 1.0
+    #: whole turns subtracted from each variable's angle (declaration order) for display, as
+    #: the row of a sweep it belongs to; ``None``: unknown angles in (−180°, 180°]
+    turns: tuple[int, ...] | None = field(default=None, repr=False)
 
     @property
     def mechanism(self):
@@ -159,7 +232,11 @@ class State:
         for name in order:
             i = ck.index(name)
             for k, (suffix, arr) in enumerate(zip(_SUFFIX, (self.z, self.z1, self.z2, self.z3))):
-                out[name + suffix] = _clean(_display(ck, name, k, arr[i], wrap=name not in inputs))
+                if k == 0 and self.turns is not None and name not in inputs and ck.kinds[i] is Kind.ANGLE:
+                    v = _display(ck, name, 0, arr[i], wrap=False) - _period(ck) * self.turns[i]
+                else:
+                    v = _display(ck, name, k, arr[i], wrap=name not in inputs)
+                out[name + suffix] = _clean(v)
         for j, p in enumerate(ck.points):
             for c, axis in (("x", 0), ("y", 1)):
                 for k, suffix in enumerate(_SUFFIX):
@@ -200,7 +277,8 @@ class Sweep:
     Immutable. ``z``, ``z1``, ``z2``, ``z3`` are ``(N, nvar)`` arrays (internal units, one row
     per output point in the order traversed); ``modes`` the signature at every point,
     ``residual``/``n_iter``/``cond`` the solver's figures. ``columns`` maps every column name
-    of the output contract to an array (display units; plus a ``mode`` column of signatures when
+    of the output contract to an array (display units, the angles of unknowns continuous along
+    the rows — the first in (−180°, 180°], see :attr:`turns`; plus a ``mode`` column of signatures when
     the rows are not all in one mode, as through limits); ``states`` gives one :class:`State`
     per point (built on first use); ``events`` lists limits, singular points, mode changes;
     ``mode`` is the starting mode and ``method`` how the points were solved.
@@ -243,11 +321,12 @@ class Sweep:
 
     @classmethod
     def from_arrays(cls, compiled, z, z1, z2, z3, *, modes, residual=None, n_iter=None, cond=None, events=(),
-                    mode: str = "", method: str = "tracked", copy: bool = True) -> "Sweep":
+                    mode: str = "", method: str = "tracked", copy: bool = True, turns=None) -> "Sweep":
         """A sweep from ``(N, nvar)`` arrays of positions and rates (internal units).
 
         ``copy=False`` takes the arrays as they are (the caller hands them over and must not
-        keep writing to them); they are made read-only either way.
+        keep writing to them); they are made read-only either way. ``turns`` (``(N, nvar)``
+        integers, see :attr:`turns`) continues the angles of a longer sweep this one is a part of.
         """
         self = cls.__new__(cls)
         z = np.asarray(z, dtype=float).reshape(-1, len(compiled.variables))
@@ -256,7 +335,24 @@ class Sweep:
                    np.zeros(n) if residual is None else residual,
                    np.zeros(n, dtype=int) if n_iter is None else n_iter,
                    np.ones(n) if cond is None else cond, events, mode, method, copy)
+        if turns is not None:
+            t = np.array(turns, dtype=np.int64).reshape(n, len(compiled.variables))
+            t.setflags(write=False)
+            self._cache["turns"] = t
         return self
+
+    @property
+    def turns(self) -> np.ndarray:
+        """``(N, nvar)`` whole turns subtracted from each angle for display (0 for lengths and inputs).
+
+        Chosen by :func:`angle_turns`: an unknown's angle is in (−180°, 180°] at the first row
+        and follows the motion after it, so the rows never jump by a turn.
+        """
+        if "turns" not in self._cache:
+            t, _ = _turns_of(self.compiled, self.z)
+            t.setflags(write=False)
+            self._cache["turns"] = t
+        return self._cache["turns"]
 
     def __setattr__(self, key, value):
         raise AttributeError(f"Sweep is immutable (cannot set {key!r})")
@@ -294,9 +390,11 @@ class Sweep:
     def states(self) -> tuple[State, ...]:
         if "states" not in self._cache:
             pts = self.points
+            turns = self.turns
             self._cache["states"] = tuple(
                 State(self.compiled, self.z[i].copy(), self.z1[i].copy(), self.z2[i].copy(), self.z3[i].copy(),
-                      pts[i].copy(), self.modes[i], float(self.residual[i]), int(self.n_iter[i]), float(self.cond[i]))
+                      pts[i].copy(), self.modes[i], float(self.residual[i]), int(self.n_iter[i]), float(self.cond[i]),
+                      tuple(int(t) for t in turns[i]))
                 for i in range(len(self)))
         return self._cache["states"]
 
@@ -308,10 +406,14 @@ class Sweep:
             out: dict[str, np.ndarray] = {}
             inputs = set(ck.inputs)
             order = list(ck.inputs) + [n for n in ck.variables if n not in inputs]
+            turns = self.turns
+            period = _period(ck)
             for name in order:
                 i = ck.index(name)
                 for k, (suffix, arr) in enumerate(zip(_SUFFIX, (self.z, self.z1, self.z2, self.z3))):
-                    v = np.asarray(_display(ck, name, k, arr[:, i], wrap=name not in inputs), dtype=float)
+                    v = np.asarray(_display(ck, name, k, arr[:, i], wrap=False), dtype=float)
+                    if k == 0 and name not in inputs and ck.kinds[i] is Kind.ANGLE:
+                        v = v - period * turns[:, i]  # continuous along the rows (angle_turns)
                     out[name + suffix] = v + 0.0
             pts = self.points
             for j, p in enumerate(ck.points):

@@ -14,15 +14,15 @@ from collections.abc import Sequence
 import numpy as np
 
 from .compiled import CompiledKinematics
-from .errors import (AssemblyError, ConvergenceError, LoopsolveWarning, ModelError, SingularPositionError,
-                     SolveError)
+from .errors import (AssemblyError, ConvergenceError, LoopsolveWarning, ModeError, ModelError,
+                     SingularPositionError)
 from .model import Mechanism
 from .newton import Newton, NewtonStatus, newton
 from .results import State
 from .units import Kind, parse_quantity, to_display
 
 __all__ = ["solve", "start_position", "solve_position", "solve_rates", "initial_z", "input_value", "input_rates",
-           "SINGULAR_COND"]
+           "guessed_mode", "block_signs", "signature_matches", "SINGULAR_COND", "GUESS_SINGULAR"]
 
 #: a Jacobian block whose condition number exceeds this is treated as singular
 SINGULAR_COND = 1e10
@@ -228,35 +228,136 @@ def solve_rates(ck: CompiledKinematics, z: np.ndarray, rates: Sequence[float], *
     return zs[1], zs[2], zs[3], pts, cond
 
 
-def _guessed_mode(ck: CompiledKinematics, x: float, settings) -> str | None:
-    """The mode signature the guesses pick, when they describe another input value than ``x``.
+#: a diagonal block of Φ_q at the guesses whose |det| is at most this fraction of the product of
+#: its column norms (1 for orthogonal columns) names no sign: the guesses sit on a singular
+#: configuration (for a four-bar: θ4 − θ3 within ~1e-9 rad of 0° or 180°)
+GUESS_SINGULAR = 1e-9
 
-    Guesses describe the pose at the input's own guess. Newton started from them at a distant
-    input may converge to another assembly mode; so the pose at the guessed input is solved
-    first and its signature is what a solve at ``x`` keeps. ``None`` when the guesses are for
-    ``x`` itself (or cannot be solved where they were given).
+
+def block_signs(ck: CompiledKinematics, z) -> str:
+    """Signature at ``z`` with ``"0"`` for a block within :data:`GUESS_SINGULAR` of singular.
+
+    The sign of each diagonal block's determinant of Φ_q, judged by its ratio to the product of
+    the block's column norms (invariant to the units of the unknowns).
     """
-    x_guess = ck.mechanism.variable(ck.inputs[0]).guess
-    if x_guess is None or abs(x_guess - x) <= 1e-12 * max(1.0, abs(x)):
+    J = ck.jac(np.asarray(z, dtype=float))
+    out = []
+    for b in ck.blocks:
+        M = J[np.ix_(b.eqs, b.unknowns)]
+        d = float(np.linalg.det(M)) if M.size else 1.0
+        norms = float(np.prod(np.linalg.norm(M, axis=0))) if M.size else 1.0
+        if not (math.isfinite(d) and math.isfinite(norms)) or abs(d) <= GUESS_SINGULAR * norms:
+            out.append("0")
+        else:
+            out.append("+" if d > 0 else "-")
+    return "".join(out)
+
+
+def signature_matches(signature: str, requested: str) -> bool:
+    """Whether a solution's ``signature`` is the ``requested`` mode (a ``"0"`` there matches any sign).
+
+    Examples
+    --------
+    >>> from loopsolve.solve import signature_matches
+    >>> signature_matches("+-", "+-"), signature_matches("+-", "0-"), signature_matches("+-", "--")
+    (True, True, False)
+    """
+    return len(signature) == len(requested) and all(r in ("0", c) for c, r in zip(signature, requested))
+
+
+def guess_pose(ck: CompiledKinematics, x: float | None = None, *, guess: dict | None = None):
+    """All variables at the guesses (internal units), or ``None`` when an unknown has no guess.
+
+    The input is at its own guess (the pose the guesses describe); at ``x`` when it has none,
+    or when explicit ``guess`` overrides are given (those are for ``x`` itself).
+    """
+    mech = ck.mechanism
+    if any(mech.variable(n).guess is None and not (guess and n in guess) for n in ck.unknowns):
         return None
-    z0 = initial_z(ck, warn=False)
-    z0[ck.input_idx[0]] = x_guess
-    try:
-        z, _, _ = solve_position(ck, z0, settings=settings)
-    except SolveError:
-        return None
-    sig = ck.signature(z)
-    return sig if "0" not in sig else None
+    z = initial_z(ck, guess=guess, warn=False)
+    name = ck.inputs[0]
+    own = mech.variable(name).guess
+    if guess and name not in guess or own is None:
+        if x is None:
+            return None
+        z[ck.input_idx[0]] = x
+    return z
+
+
+def guessed_mode(ck: CompiledKinematics, x: float | None = None, *, guess: dict | None = None) -> str | None:
+    """The assembly mode the guesses name: the signature of Φ_q's diagonal blocks at the guesses.
+
+    **The guesses name the mode** (DESIGN.md, Conventions): a solve, sweep, study or force analysis
+    without ``mode`` returns the solution with this signature, wherever Newton started. ``None``
+    when some unknown has no guess (then Newton from the default start decides, with a warning).
+    A ``"0"`` marks a block whose guesses sit on a singular configuration (see :func:`block_signs`):
+    they name no sign for it, and a solve takes the one Newton reaches there, with a warning.
+
+    Examples
+    --------
+    >>> mech = ls.load(ls.models_dir() / "thesis_crank_rocker.toml")   # theta3 = 20, theta4 = 80
+    >>> from loopsolve.solve import guessed_mode
+    >>> guessed_mode(mech.compile())   # det = r3 r4 sin(θ3 − θ4) = r3 r4 sin(−60°) < 0: open
+    '-'
+    """
+    z = guess_pose(ck, x, guess=guess)
+    if z is None or not np.all(np.isfinite(z)):
+        return None  # a NaN guess names nothing (Newton from it reports NOT_FINITE)
+    return block_signs(ck, z)
+
+
+def _requested_mode(ck: CompiledKinematics, x: float, mode, guess) -> tuple[str | None, str]:
+    """``(signature, who asked)`` of the mode to solve in at ``x``: ``mode``, else the guesses'."""
+    from .modes import _mode_names, _modes_at, _resolve_signature
+
+    mech = ck.mechanism
+    where = mech.source or mech.name
+    if mode is not None:
+        sig = _resolve_signature(mech, mode)
+        nb = len(ck.blocks)
+        if sig is None or len(sig) != nb or set(sig) - {"+", "-"}:
+            aliases = ", ".join(f"{k} = {v}" for k, v in mech.mode_aliases.items())
+            raise ModelError(
+                f"{where}: unknown assembly mode {mode!r}: give a signature of {nb} sign(s) (+ or -, one per "
+                "block of the solve order)" + (f" or one of the aliases {aliases}" if aliases else "")
+                + f"; the modes at {ck.inputs[0]} = {display_value(ck, x):g}{_input_unit(ck)} are: "
+                + _mode_names(mech, _modes_at(ck, x)))
+        return sig, f"--mode {mode}"
+    sig = guessed_mode(ck, x, guess=guess)
+    if sig is not None and "0" in sig:
+        # the guesses sit on a singular configuration: they name no sign for those blocks, which
+        # then take whatever Newton reaches (any sign matches a "0"), with a warning
+        from .errors import warn
+
+        z = guess_pose(ck, x, guess=guess)
+        bad = [b for b, c in zip(ck.blocks, sig) if c == "0"]
+        names = sorted({ck.unknowns[c] for b in bad for c in b.unknowns}, key=ck.unknowns.index)
+        vals = ", ".join(f"{n} = {display_value(ck, z[ck.index(n)], n):g}" for n in names)
+        warn(f"{where}: the guesses {vals} sit on a singular configuration (dead centre, toggle or change "
+             "point: a block of the coefficient matrix Φ_q is singular there), so they name no assembly mode "
+             "for these unknowns and the solution Newton reaches is taken; move a guess off it or choose "
+             "the mode with --mode (mode=)")
+    return sig, "the guesses"
 
 
 def start_position(ck: CompiledKinematics, x: float, *, mode=None, guess: dict | None = None,
                    settings: Newton = Newton()):
-    """Solved position at input ``x`` (internal units), in ``mode`` or the one the guesses pick.
+    """Solved position at input ``x`` (internal units), in ``mode`` or the one the guesses name.
 
-    The start of every solve and sweep. Without ``mode`` or ``guess``, the mode is the one the
-    declared guesses pick at the input value they were given for. Returns ``(z, residual, n_iter)``; raises
-    :class:`AssemblyError` naming the nearest assemblable inputs when the mechanism cannot be
-    assembled at ``x``.
+    The start of every solve and sweep. The mode asked for is ``mode`` (signature or alias), else
+    the signature of Φ_q's blocks at the guesses (:func:`guessed_mode`). Newton from the guesses
+    is kept when it lands in that mode; otherwise every real solution at ``x`` is computed
+    (:func:`loopsolve.modes.assembly_modes`) and the one with that signature taken (the nearest
+    the guesses if several). Returns ``(z, residual, n_iter)``.
+
+    Raises
+    ------
+    AssemblyError
+        No real solution at ``x`` (names the nearest assemblable inputs).
+    ModeError
+        Solutions exist at ``x``, but none in the mode asked for (names the modes there).
+    ModelError
+        ``mode`` is not a signature or alias, or the guesses sit on a singular configuration.
 
     Examples
     --------
@@ -267,43 +368,50 @@ def start_position(ck: CompiledKinematics, x: float, *, mode=None, guess: dict |
     ('+', True)
     """
     disp = display_value(ck, x, ck.inputs[0])
-    from .modes import select_mode
-
-    z0 = None
-    if mode is not None:
-        z0 = select_mode(ck.mechanism, x, mode, compiled=ck)
-    elif guess is None:  # explicit guesses are for x itself
-        guessed = _guessed_mode(ck, x, settings)
-        if guessed is not None:
-            try:
-                z0 = select_mode(ck.mechanism, x, guessed, compiled=ck)
-            except (ModelError, SolveError):
-                z0 = None  # no such mode at x: let Newton from the guesses decide (and report)
-    if z0 is None:
-        z0 = initial_z(ck, guess=guess)
-        z0[ck.input_idx[0]] = x
+    sig, who = _requested_mode(ck, x, mode, guess)
+    z0 = initial_z(ck, guess=guess)
+    z0[ck.input_idx[0]] = x
+    failure = found = None
     try:
-        return solve_position(ck, z0, settings=settings, display_input=disp)
-    except AssemblyError as exc:
-        # no real solution at x (AssemblyError naming the nearest assemblable inputs), or poor
-        # guesses (ConvergenceError naming the modes that exist there)
-        from .modes import _modes_at
-        from .sweep import assembly_failure
+        found = solve_position(ck, z0, settings=settings, display_input=disp)
+        if sig is None or signature_matches(ck.signature(found[0]), sig):
+            return found
+    except (AssemblyError, ConvergenceError) as exc:
+        failure = exc
+    from .modes import _mode_names, _modes_at, nearest_solution
 
-        modes = _modes_at(ck, x)
-        if modes and _coincide(ck, [m.z for m in modes]):
-            # a limit position: the modes meet there, and Newton stalls from guesses on one side
-            z = np.array(modes[0].z, dtype=float)
-            return z, float(np.max(np.abs(ck.phi(z)))), 0
-        raise assembly_failure(ck, x, exc) from None
-    except ConvergenceError as exc:  # Newton ran out of iterations: is there anything to find?
-        from .modes import _modes_at
+    modes = list(_modes_at(ck, x))
+    if found is not None and not any(_coincide(ck, [m.z, found[0]]) for m in modes):
+        from .modes import Mode
 
-        if _modes_at(ck, x):
-            raise
-        from .sweep import assembly_failure
+        modes.append(Mode(ck.signature(found[0]), (), {}, found[0]))  # one the enumeration missed
+    if sig is not None:
+        match = [m for m in modes if signature_matches(m.signature, sig)]
+        if match:
+            z = nearest_solution(ck, match, guess=guess)
+            return solve_position(ck, z, settings=settings, display_input=disp)
+    if modes and _coincide(ck, [m.z for m in modes]):
+        # a limit position: the modes meet there (its signature is round-off), and Newton stalls
+        # from guesses on one side
+        z = np.array(modes[0].z, dtype=float)
+        return z, float(np.max(np.abs(ck.phi(z)))), 0
+    if modes and sig is not None:
+        where = ck.mechanism.source or ck.mechanism.name
+        aliases = [k for k, v in ck.mechanism.mode_aliases.items() if v == sig]
+        label = sig + (f" ({', '.join(aliases)})" if aliases else "")
+        partial = found[0] if found is not None else getattr(failure, "result", None)
+        raise ModeError(
+            f"{where}: no solution in assembly mode {label} (named by {who}) at {ck.inputs[0]} = {disp:g}"
+            f"{_input_unit(ck)}: the mechanism assembles there only in mode(s) {_mode_names(ck.mechanism, modes)}; "
+            "choose one of them with --mode (mode=) or guesses in it, or another input value",
+            mode=sig, modes=tuple(m.signature for m in modes), input_value=disp, result=partial)
+    from .sweep import assembly_failure
 
-        raise assembly_failure(ck, x, exc) from None
+    if failure is None:
+        failure = AssemblyError("no real solution")
+    if modes and isinstance(failure, ConvergenceError):
+        raise failure
+    raise assembly_failure(ck, x, failure) from None
 
 
 def _coincide(ck, zs) -> bool:

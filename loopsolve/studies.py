@@ -37,6 +37,7 @@ from .designs import designs_from
 from .errors import MissingDependencyError, ModelError
 from .lockstep import _Ops, sweep_chunk
 from .metrics import evaluate_metrics, parse_metric
+from .results import _display, angle_turns
 from .units import Kind
 
 __all__ = ["study", "write", "to_long_frame"]
@@ -59,7 +60,8 @@ def _display_columns(ch, ck, P, derivatives=3):
     """Sweep columns (display units), each ``(K, D)``, from a chunk's internal rows ``(nv, K, D)``.
 
     Columns of derivatives not computed (``derivatives`` < 3) are left out. Angles of unknowns
-    are wrapped to (−180°, 180°] as in a sweep; the input is the Dataset's coordinate.
+    are continuous along each design's rows, the first in (−180°, 180°], as in a sweep
+    (:func:`loopsolve.results.angle_turns`); the input is the Dataset's coordinate.
     """
     Zs = ch.Z
     nv, K, D = Zs[0].shape
@@ -74,12 +76,9 @@ def _display_columns(ch, ck, P, derivatives=3):
                 continue  # the coordinate
             v = Zs[k][i]
             if k == 0 and ck.kinds[i] is Kind.ANGLE:
-                half = 180.0 if deg else math.pi
-                v = np.degrees(v) if deg else v + 0.0
-                if name not in inputs:
-                    np.mod(v + half, 2 * half, out=v)
-                    v -= half
-                    v[v == -half] = half
+                v = _display(ck, name, 0, v, wrap=False) + 0.0  # as a sweep's table, to the bit
+                if name not in inputs:  # continuous along each design's rows, as in a sweep
+                    v = v - (360.0 if deg else 2 * math.pi) * angle_turns(v, "deg" if deg else "rad")
             out[name + _SUFFIX[k]] = v
     if ck.points:
         pts = ch.points

@@ -39,8 +39,7 @@ import numpy as np
 
 from .errors import ModelError
 from .drawstyle import drawing_style
-from .geometry import (LINK_COLORS, hull_order, mode_label, plot_vars, polygon_area, pose_frames, unit_vector,
-                       unwrapped)
+from .geometry import LINK_COLORS, hull_order, mode_label, plot_vars, polygon_area, pose_frames, unit_vector
 
 __all__ = ["to_html", "write_html", "page_data", "check_output", "Page", "MAX_INLINE_ROWS"]
 
@@ -302,7 +301,7 @@ def page_data(sweep, vars=None, *, extra_series=None, title=None) -> dict:
     """Everything the page shows, as plain JSON-ready data (see :func:`to_html` for the arguments).
 
     ``input`` (the driving variable's values per row), ``series`` (each chosen variable's
-    position — angles unwrapped —, velocity and acceleration), ``extra``, ``events`` (with the
+    position — angles as in the table, continuous along the rows —, velocity and acceleration), ``extra``, ``events`` (with the
     row each is marked at), ``modes`` (runs of rows in one assembly mode, the unknowns of each
     part) and ``scene`` (point trajectories in model units and the shapes that refer to them).
 
@@ -331,8 +330,8 @@ def page_data(sweep, vars=None, *, extra_series=None, title=None) -> dict:
     for name in names:
         unit = units[name]
         angular = name in ck.variables and unit in ("deg", "rad")
-        pos = unwrapped(np.asarray(cols[name], dtype=float), unit) if angular else cols[name]
-        period = (360.0 if unit == "deg" else 2 * math.pi) if angular and name not in ck.inputs else 0
+        pos = cols[name]  # angles continuous along the rows, as in the table
+        period = 0  # the readout shows the table's value (continuous), not a re-wrapped one
         series.append({"name": name, "label": _pretty_name(name), "unit": _pretty_unit(unit),
                        "units": [_pretty_unit(units[name + s]) for s in ("", "_vel", "_acc")],
                        "angular": angular, "wrap": period,

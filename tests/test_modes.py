@@ -186,13 +186,14 @@ class TestSelectMode:
         with pytest.raises(ls.ModelError, match="2 sign"):
             watt_sixbar().solve(60, mode="+")
 
-    def test_missing_combination_is_a_model_error(self):
+    def test_missing_combination_is_a_mode_error(self):
         # with a shorter second coupler the second loop only closes on the first loop's crossed mode
         mech = watt_sixbar().with_parameters(r5=40)
         ck = mech.compile()
         assert sorted(m.signature for m in assembly_modes(mech, 60, compiled=ck)) == ["++", "+-"]
-        with pytest.raises(ls.ModelError, match=r"does not exist at theta2 = 60.*\+\+, \+-"):
+        with pytest.raises(ls.ModeError, match=r"does not exist at theta2 = 60.*\+\+, \+-") as exc:
             select_mode(mech, math.radians(60), "--", compiled=ck)
+        assert exc.value.mode == "--" and sorted(exc.value.modes) == ["++", "+-"]
         z = select_mode(mech, math.radians(60), "+-", compiled=ck)
         assert ck.signature(z) == "+-"
 

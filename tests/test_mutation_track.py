@@ -280,21 +280,36 @@ def test_grid_refuses_a_zero_or_non_finite_step(step):
 
 def test_stalled_newton_error_keeps_the_partial_solution():
     """Watt II six-bar with r5 = 40: the second loop only closes on the first loop's crossed mode, the
-    guesses pick the open one. The ConvergenceError carries ``result``, the partial solution: the
-    input at 60°, the first loop closed in the open mode (law of cosines), the second loop open.
+    guesses pick the open one. Newton from them stalls; the error (since issue 17 a ModeError: the
+    guesses name a mode no solution has, and the modes there are listed) carries ``result``, the
+    partial solution: the input at 60°, the first loop closed in the open mode (law of cosines), the
+    second loop open. ``assembly_failure`` turns that stall into a ConvergenceError keeping it too.
 
     Kills loopsolve.sweep.x_assembly_failure__mutmut_22 and loopsolve.sweep.x_assembly_failure__mutmut_32
     (``result`` dropped).
     """
     from test_modes import watt_sixbar
 
+    from loopsolve.solve import initial_z, solve_position
+    from loopsolve.sweep import assembly_failure
+
     mech = watt_sixbar().with_parameters(r5=40)
-    with pytest.raises(ls.ConvergenceError) as exc:
+    with pytest.raises(ls.ModeError) as exc:
         mech.solve(60)
-    err = exc.value
-    assert err.input_value == pytest.approx(60, abs=1e-12)
-    z = np.asarray(err.result, dtype=float)
     ck = mech.compile()
+    z0 = initial_z(ck)
+    z0[ck.index("theta2")] = math.radians(60)
+    with pytest.raises(ls.AssemblyError) as stall:
+        solve_position(ck, z0)
+    failure = assembly_failure(ck, math.radians(60), stall.value)
+    assert isinstance(failure, ls.ConvergenceError)
+    for err in (exc.value, failure):
+        assert err.input_value == pytest.approx(60, abs=1e-12)
+        _check_partial_watt(ck, np.asarray(err.result, dtype=float))
+
+
+def _check_partial_watt(ck, z):
+    """The input at 60°, the first loop closed in a mode of the law of cosines, the second loop open."""
     assert z.shape == (len(ck.variables),)
     assert z[ck.index("theta2")] == pytest.approx(math.radians(60), abs=1e-15)
     poses = [fourbar_pose(60, 25, 70, 45, math.radians(60), s) for s in (1, -1)]

@@ -130,9 +130,12 @@ def test_crank_driven_slider_crank_is_regular_at_dead_centre():
 
 
 def test_convergence_error_carries_the_partial_result():
+    from loopsolve.solve import solve_position
+
     mech = ls.load(ls.models_dir() / "thesis_crank_rocker.toml")
+    ck = mech.compile()
     with pytest.raises(ls.ConvergenceError) as info:
-        mech.solve(90, guess={"theta3": 3.0, "theta4": -2.0}, settings=Newton(max_iter=2))
+        solve_position(ck, np.array([math.radians(90), 3.0, -2.0]), settings=Newton(max_iter=2), display_input=90)
     exc = info.value
     assert exc.input_value == 90
     assert isinstance(exc.result, np.ndarray) and exc.result.shape == (3,)
@@ -142,6 +145,9 @@ def test_convergence_error_carries_the_partial_result():
     # the partial result is a good restart: the solve then converges to the open mode
     s = mech.solve(90, guess={"theta3": exc.result[1], "theta4": exc.result[2]})
     assert np.isfinite(s["theta4"])
+    # a solve does not stop where Newton gave up: the guesses name the mode (sin(θ3 − θ4) < 0: open)
+    s = mech.solve(90, guess={"theta3": 3.0, "theta4": -2.0}, settings=Newton(max_iter=2))
+    assert s.mode == "-" and s["theta4"] == pytest.approx(80.7225, abs=1e-4)
 
 
 def test_newton_statuses():

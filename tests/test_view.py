@@ -107,10 +107,10 @@ def test_page_data_contents():
     covered = [i for a, b, _ in runs for i in range(a, b + 1)]
     assert covered == list(range(len(sw)))
     assert all(sw.modes[i] == m for a, b, m in runs for i in range(a, b + 1))
-    # θ3 is plotted continuously (unwrapped), the table wraps it back: same angle modulo 360
+    # θ3 is plotted and read out as the table gives it (continuous along the rows): no re-wrapping
     th3 = np.array(data["series"][0]["q"][0], dtype=float)
-    assert np.allclose(np.mod(th3 - sw["theta3"] + 180, 360) - 180, 0, atol=1e-8)
-    assert data["series"][0]["wrap"] == 360.0
+    assert np.allclose(th3, sw["theta3"], atol=1e-8)
+    assert data["series"][0]["wrap"] == 0
 
 
 def test_extra_series_and_errors():
