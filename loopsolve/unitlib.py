@@ -20,7 +20,7 @@ no spelling of a unit is listed here or anywhere else in loopsolve.
   to an engineer it is the newton metre). ``s2``/``s3`` after a unit name read as ``s^2``/``s^3``.
 * **The memo.** Each answer (dimension, exact factor) is stored in a small JSON file next to the
   compiled models (``units-<hash>.json`` in :func:`loopsolve.compiled.cache_dir`'s directory, keyed
-  by pint's version and these definitions; written atomically, read only when it is a regular file
+  by pint's definitions file and ours; written atomically, read only when it is a regular file
   of the user's that nobody else can write). A run whose units are all in the memo never imports
   pint: that is what keeps a cached command line within 150 ms of ``import numpy``.
 """
@@ -189,16 +189,19 @@ _KEY: str | None = None
 
 
 def _memo_key() -> str:
-    """pint's version and our definitions: another pint or other definitions start a new memo."""
+    """pint's definitions file (its size and time) and ours: another pint or other definitions start a
+    new memo. Found without importing pint (or ``importlib.metadata``, itself ~20 ms)."""
     global _KEY
     if _KEY is None:
-        try:
-            from importlib.metadata import version
+        from importlib.util import find_spec
 
-            pv = version("pint")
-        except Exception:  # pragma: no cover - pint not installed: the memo still keys on the definitions
-            pv = "none"
-        _KEY = hashlib.sha256(f"{_FORMAT}\n{pv}\n{EXTRA_DEFINITIONS}".encode()).hexdigest()[:16]
+        try:
+            spec = find_spec("pint")
+            st = os.stat(Path(spec.origin).parent / "default_en.txt")
+            stamp = f"{spec.origin}:{st.st_size}:{st.st_mtime_ns}"
+        except (AttributeError, TypeError, ValueError, OSError):  # pint missing: pint's import will say so
+            stamp = "none"
+        _KEY = hashlib.sha256(f"{_FORMAT}\n{stamp}\n{EXTRA_DEFINITIONS}".encode()).hexdigest()[:16]
     return _KEY
 
 
