@@ -56,6 +56,7 @@ Nms = newton * meter * second
 _FORMAT = 1  # layout of the memo file
 _MAX_TEXT = 60  # a unit longer than this is not a unit
 _MAX_MEMO = 1 << 20
+_MAX_ENTRIES = 512  # the memo stops growing here (a model uses a dozen units)
 _EXP_RE = re.compile(r"(?<=[A-Za-zµμ°])([23])(?![0-9A-Za-z_])")  # s2 -> s**2
 _NUM_RE = re.compile(r"[0-9]+(?:\.[0-9]*)?")
 _ALLOWED_RE = re.compile(r"[A-Za-z0-9_µμ°·⋅ */^()²³.\-]+\Z")
@@ -294,6 +295,6 @@ def lookup(text: str) -> UnitInfo | None:
                 return _MEMO[key]
         info = _ask_pint(key)
         _MEMO[key] = info
-        if path is not None:
+        if path is not None and len(_MEMO) <= _MAX_ENTRIES:  # a fuzzer's garbage does not grow it forever
             _write_disk(path)
         return info
