@@ -23,7 +23,6 @@ This module does not import :mod:`loopsolve.model`: the builder passes its point
 from __future__ import annotations
 
 import enum
-import math
 import re
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass

@@ -13,7 +13,6 @@ import re
 import subprocess
 import sys
 import tomllib
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -398,3 +397,14 @@ def test_a_memo_writable_by_others_is_ignored(tmp_path):
     memo.chmod(0o666)
     out = subprocess.run([sys.executable, "-c", code], check=True, capture_output=True, text=True, env=env).stdout
     assert out.split() == ["25.4", "True"]  # not trusted: pint answered again
+
+
+def test_cli_simulate_takes_units_for_torque_and_speed0():
+    """Issue 17: ``--torque "0.05N*m"`` advised writing ``0.05*N``; ``--speed0 "120 rev/min"`` was refused."""
+    r = subprocess.run([sys.executable, "-m", "loopsolve.cli", "simulate", str(THESIS_DYN), "--duration", "0.02",
+                        "--step", "0.01", "--torque", "0.4 in*lbf", "--speed0", "120 rev/min", "--format", "json"],
+                       capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    import json
+    rows = json.loads(r.stdout)["rows"]
+    assert rows[0]["theta2_vel"] == pytest.approx(4 * math.pi, rel=1e-12)
