@@ -19,10 +19,11 @@ no spelling of a unit is listed here or anywhere else in loopsolve.
   ``Nmm``, ``kNm``, ``Ns``, ``Nms`` (pint's ``Nm``, the textile count "number metric", is dropped:
   to an engineer it is the newton metre). ``s2``/``s3`` after a unit name read as ``s^2``/``s^3``.
 * **The memo.** Each answer (dimension, exact factor) is stored in a small JSON file next to the
-  compiled models (``units-<hash>.json`` in :func:`loopsolve.compiled.cache_dir`'s directory, keyed
-  by pint's definitions file and ours; written atomically, read only when it is a regular file
-  of the user's that nobody else can write). A run whose units are all in the memo never imports
-  pint: that is what keeps a cached command line within 150 ms of ``import numpy``.
+  compiled models (``units-<hash>.json`` in :func:`loopsolve.compiled.cache_dir`'s directory,
+  keyed by pint's definitions file, ours and this module's source; written atomically, read only
+  when it is a regular file of the user's that nobody else can write). A run whose units are all
+  in the memo never imports pint: that is what keeps a cached command line within 150 ms of
+  ``import numpy``. The memo is written once the cache directory exists (the compiler makes it).
 """
 
 from __future__ import annotations
@@ -190,8 +191,9 @@ _KEY: str | None = None
 
 
 def _memo_key() -> str:
-    """pint's definitions file (its size and time) and ours: another pint or other definitions start a
-    new memo. Found without importing pint (or ``importlib.metadata``, itself ~20 ms)."""
+    """pint's definitions file (its size and time), ours and this module's source: another pint,
+    other definitions or another way of reading units start a new memo. Found without importing
+    pint (or ``importlib.metadata``, itself ~20 ms)."""
     global _KEY
     if _KEY is None:
         from importlib.util import find_spec
@@ -202,7 +204,11 @@ def _memo_key() -> str:
             stamp = f"{spec.origin}:{st.st_size}:{st.st_mtime_ns}"
         except (AttributeError, TypeError, ValueError, OSError):  # pint missing: pint's import will say so
             stamp = "none"
-        _KEY = hashlib.sha256(f"{_FORMAT}\n{stamp}\n{EXTRA_DEFINITIONS}".encode()).hexdigest()[:16]
+        try:  # this module's own source: a change in how units are read starts a new memo too
+            own = hashlib.sha256(Path(__file__).read_bytes()).hexdigest()
+        except OSError:  # pragma: no cover - frozen or zipped installs
+            own = "?"
+        _KEY = hashlib.sha256(f"{_FORMAT}\n{stamp}\n{own}\n{EXTRA_DEFINITIONS}".encode()).hexdigest()[:16]
     return _KEY
 
 
