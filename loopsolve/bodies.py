@@ -7,13 +7,15 @@ dampers between two points, torsional springs and dampers on a body). This modul
 validates them into frozen declarations; :mod:`loopsolve.dynamics` derives the equation of motion
 and :mod:`loopsolve.kinetostatics` the joint forces.
 
-Values are SI (kg, kg·m², N, N·m, N/m, N·s/m, m/s²) when plain numbers; a string may carry a
-unit (``"0.3kg"``, ``"2.5e-4kg*m^2"``, ``"1.2lbf"``, ``"-9.81m/s^2"``). A force or torque may also
-be an expression (SI result) of the parameters, the variables (in the model's units: a piston
-position in mm, an angle in degrees) and the rates ``<variable>_vel`` (rad/s or length unit/s).
-Free lengths are in the model's length unit, free angles in its angle unit, unless they carry a
-unit. The mechanical units live here, not in :mod:`loopsolve.units`, so that they never enter the
-kinematic expression language (``2N`` is not an expression there).
+Values are SI (kg, kg·m², N, N·m, N/m, N·s/m, m/s²) when plain numbers — except that, in a model
+whose length unit is not the metre, a plain number whose SI unit involves the metre (inertia,
+torque, stiffness, damping, gravity, density) is refused as ambiguous; a string may carry any unit
+of the right dimension (``"0.3kg"``, ``"2.5e-4kg*m^2"``, ``"0.5 slug*ft^2"``, ``"12 in*lbf"``,
+``"-9.81m/s^2"``), read by :func:`loopsolve.units.parse_quantity` like every other quantity. A
+force or torque may also be an expression (SI result) of the parameters, the variables (in the
+model's units: a piston position in mm, an angle in degrees) and the rates ``<variable>_vel``
+(rad/s or length unit/s). Free lengths are in the model's length unit, free angles in its angle
+unit, unless they carry a unit.
 
 This module does not import :mod:`loopsolve.model`: the builder passes its point parser in.
 """
@@ -21,7 +23,6 @@ This module does not import :mod:`loopsolve.model`: the builder passes its point
 from __future__ import annotations
 
 import enum
-import math
 import re
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
@@ -29,41 +30,25 @@ from typing import Any
 
 from . import expr as _expr
 from .errors import ModelError
-from .units import Kind, length_factor, parse_quantity
+from .units import Kind, length_factor, parse_quantity, unit_label
 
-__all__ = ["Body", "Load", "LoadKind", "Dynamics", "MECH_UNITS", "parse_mech_quantity", "parse_dynamics",
+__all__ = ["Body", "Load", "LoadKind", "Dynamics", "parse_mech_quantity", "parse_dynamics",
            "uniform_bar"]
 
 FRAME = "frame"
 
-#: unit spellings of the mechanical kinds -> factor to SI (after removing spaces, ``^`` and ``·``)
-MECH_UNITS: Mapping[str, Mapping[str, float]] = {
-    "mass": {"kg": 1.0, "g": 1e-3, "lb": 0.45359237, "lbm": 0.45359237, "t": 1e3},
-    "inertia": {"kg*m2": 1.0, "kgm2": 1.0, "kg*cm2": 1e-4, "kg*mm2": 1e-6, "g*cm2": 1e-7, "g*mm2": 1e-9,
-                "lb*in2": 0.45359237 * 0.0254**2, "lb*ft2": 0.45359237 * 0.3048**2},
-    "force": {"N": 1.0, "kN": 1e3, "mN": 1e-3, "lbf": 4.4482216152605},
-    "torque": {"N*m": 1.0, "Nm": 1.0, "N*mm": 1e-3, "Nmm": 1e-3, "kN*m": 1e3, "lbf*in": 4.4482216152605 * 0.0254,
-               "lbf*ft": 4.4482216152605 * 0.3048},
-    "stiffness": {"N/m": 1.0, "N/mm": 1e3, "kN/m": 1e3, "lbf/in": 4.4482216152605 / 0.0254},
-    "damping": {"N*s/m": 1.0, "Ns/m": 1.0, "N*s/mm": 1e3, "lbf*s/in": 4.4482216152605 / 0.0254},
-    "torsional stiffness": {"N*m/rad": 1.0, "Nm/rad": 1.0, "N*mm/rad": 1e-3, "N*m/deg": 180 / math.pi},
-    "torsional damping": {"N*m*s/rad": 1.0, "Nms/rad": 1.0, "N*mm*s/rad": 1e-3},
-    "acceleration": {"m/s2": 1.0, "mm/s2": 1e-3, "cm/s2": 1e-2, "ft/s2": 0.3048, "in/s2": 0.0254},
-    "density": {"kg/m3": 1.0, "g/cm3": 1e3, "kg/dm3": 1e3, "g/mm3": 1e6, "lb/in3": 0.45359237 / 0.0254**3},
-}
-
-_QTY_RE = re.compile(r"^\s*([+-]?(?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:[eE][+-]?[0-9]+)?)\s*([A-Za-z][A-Za-z0-9*/^·²³ ]*)?\s*$")
+_QTY_RE = re.compile(r"^\s*([+-]?(?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:[eE][+-]?[0-9]+)?)\s*([A-Za-z°µμ][A-Za-z0-9*/^·²³ ]*)?\s*$")
 _VEL = "_vel"
 
 
-def _norm_unit(u: str) -> str:
-    return u.replace(" ", "").replace("^", "").replace("·", "*").replace("²", "2").replace("³", "3")
+def parse_mech_quantity(value: Any, kind: str | Kind, *, length_unit: str = "m", where: str = "") -> float:
+    """A plain number or a quantity string of a mechanical ``kind`` (``"mass"``, ``"inertia"``, ...,
+    a :class:`~loopsolve.units.Kind` value), in SI.
 
-
-def parse_mech_quantity(value: Any, kind: str) -> float:
-    """A number (SI) or a quantity string of a mechanical ``kind`` (a key of :data:`MECH_UNITS`), in SI.
-
-    Raises :class:`ModelError` naming the accepted units.
+    Any unit of the kind's dimension is accepted (:func:`loopsolve.units.parse_quantity`). A plain
+    number is SI; where the SI unit involves the metre (inertia, torque, stiffness, damping,
+    acceleration, density) it is refused unless ``length_unit`` is the metre (or it is 0). Raises
+    :class:`~loopsolve.units.UnitError` (a :class:`ModelError`) naming the kind and examples.
 
     Examples
     --------
@@ -71,34 +56,11 @@ def parse_mech_quantity(value: Any, kind: str) -> float:
     0.00025
     >>> round(ls.bodies.parse_mech_quantity("1lbf", "force"), 4)
     4.4482
+    >>> round(ls.bodies.parse_mech_quantity("12 in*lbf", "torque", length_unit="mm"), 6)
+    1.355818
     """
-    if isinstance(value, bool) or not isinstance(value, (int, float, str)):
-        raise ModelError(f"expected a number or a quantity such as \"{_example(kind)}\", got {value!r}")
-    if not isinstance(value, str):
-        v = float(value)
-    else:
-        m = _QTY_RE.match(value)
-        if not m:
-            raise ModelError(f"{value!r} is not a {kind} (write a number in SI or a quantity such as "
-                             f"\"{_example(kind)}\")")
-        v = float(m.group(1))
-        if m.group(2):
-            u = _norm_unit(m.group(2))
-            table = MECH_UNITS[kind]
-            if u not in table:
-                raise ModelError(f"{value!r}: unknown {kind} unit {m.group(2).strip()!r} (accepted: "
-                                 + ", ".join(table) + ")")
-            v *= table[u]
-    if not math.isfinite(v):
-        raise ModelError(f"{value!r} is not a finite number")
-    return v
-
-
-def _example(kind: str) -> str:
-    return {"mass": "0.3kg", "inertia": "2.5e-4kg*m^2", "force": "-50N", "torque": "2N*m",
-            "stiffness": "200N/m", "damping": "5N*s/m", "torsional stiffness": "2N*m/rad",
-            "torsional damping": "0.1N*m*s/rad", "acceleration": "-9.81m/s^2",
-            "density": "7850kg/m^3"}[kind]
+    k = kind if isinstance(kind, Kind) else Kind(kind)
+    return parse_quantity(value, k, angle_unit="deg", length_unit=length_unit, where=where)
 
 
 def uniform_bar(length: float, width: float, thickness: float, density: float = 7850.0) -> tuple[float, float]:
@@ -203,8 +165,10 @@ def parse_dynamics(spec: Mapping[str, Any], *, problems, parse_point: Callable, 
         return None
     try:
         lf = length_factor(length_unit, "m")
+        physical = True
     except ModelError:
         lf = 1.0
+        physical = False
         if "bodies" in spec:
             problems.add("units.length", f"{length_unit!r} is not a physical length unit: a model with "
                          "bodies needs mm, cm, m, in or ft")
@@ -222,11 +186,11 @@ def parse_dynamics(spec: Mapping[str, Any], *, problems, parse_point: Callable, 
             for n in _expr.walk(node):
                 if isinstance(n, _expr.Num) and n.unit is not None:
                     problems.add(key, f"{raw!r}: an expression is in SI ({kind} in "
-                                 f"{next(iter(MECH_UNITS[kind]))}); drop the unit {n.unit!r}")
+                                 f"{unit_label(Kind(kind))}); drop the unit {n.unit!r}")
                     return None
             return None if bad else node
         try:
-            return parse_mech_quantity(raw, kind)
+            return parse_mech_quantity(raw, kind, length_unit=length_unit if physical else "m")
         except ModelError as exc:
             problems.add(key, str(exc))
             return None
@@ -274,7 +238,7 @@ def parse_dynamics(spec: Mapping[str, Any], *, problems, parse_point: Callable, 
                                                    length_unit=length_unit) * lf)
                     except (ModelError, ValueError, TypeError) as exc:
                         problems.add(f"{key}.bar.{d}", str(exc))
-                rho = value(bar.get("density", 7850.0), "density", f"{key}.bar.density")
+                rho = value(bar.get("density", "7850kg/m^3"), "density", f"{key}.bar.density")
                 if len(dims) == 3 and rho is not None:
                     if min(dims) <= 0 or rho <= 0:
                         problems.add(f"{key}.bar", "the bar's dimensions and density must be positive")

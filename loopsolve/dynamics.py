@@ -22,6 +22,7 @@ References: Uicker, Pennock and Shigley, *Theory of Machines and Mechanisms*, ch
 
 from __future__ import annotations
 
+import re
 import threading
 from dataclasses import dataclass, field
 
@@ -33,7 +34,7 @@ from .compiled import CompiledKinematics, structure_key
 from .errors import ModelError
 from .model import Mechanism
 from .symbolic import Kinematics, derive, to_sympy
-from .units import Kind, length_factor
+from .units import Kind, length_factor, parse_quantity
 
 __all__ = ["DynamicsModel", "compile_dynamics", "kinematic_coefficients", "mass_matrix_terms", "mass_terms_from",
            "compile_drive"]
@@ -310,6 +311,10 @@ def mass_terms_from(dm: DynamicsModel, e: dict) -> tuple[np.ndarray, np.ndarray]
     return M, dM
 
 
+#: a number with a unit (not an expression): ``0.05N*m``, ``0.4 in*lbf``
+_QUANTITY_RE = re.compile(r"\s*[+-]?(?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:[eE][+-]?[0-9]+)?\s*[A-Za-z°µμ][A-Za-z0-9*/^·²³ ]*\Z")
+
+
 def compile_drive(mech: Mechanism, text, inputs) -> object:
     """A driving torque (force) given as a number or an expression of the input (model units),
     ``<input>_vel`` and ``t``, parameters allowed, compiled to ``f(x, xd, t) -> float`` (SI result).
@@ -319,6 +324,10 @@ def compile_drive(mech: Mechanism, text, inputs) -> object:
     from . import expr as _expr
 
     (name,) = inputs
+    if isinstance(text, str) and _QUANTITY_RE.match(text):  # "0.05N*m", "0.4 in*lbf", "20N": a constant
+        kind = Kind.TORQUE if mech.variable(name).kind is Kind.ANGLE else Kind.FORCE
+        value = parse_quantity(text, kind, length_unit="m", where="--torque")
+        return lambda x, xd, t: value
     node = _expr.parse(text) if not isinstance(text, _expr.Name) else text
     allowed = {name, name + "_vel", "t"} | {p.name for p in mech.parameters}
     bad = sorted(_expr.names(node) - allowed)

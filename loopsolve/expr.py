@@ -14,8 +14,11 @@ Grammar (``**`` is right-associative and binds tighter than unary minus)::
     atom   := NUMBER [UNIT] | 'pi' | NAME | FUNC '(' args ')' | '(' expr ')'
 
 Functions: ``sin cos tan asin acos atan sqrt abs`` (one argument) and ``atan2(y, x)``.
-A number may carry a unit suffix from :mod:`loopsolve.units` (``30deg``, ``10 rpm``,
-``2rad/s``); the unit must end at a word boundary (``2radius`` is not ``2rad``).
+A number may carry a unit (``30deg``, ``10 rpm``, ``2rad/s``, ``5°``): a word right after the
+number (or after one space) that the units library (:mod:`loopsolve.units`) knows as a unit with
+a dimension, continued by ``/word`` parts while the longer text is an angle, a length or one of
+their rates (``2rad/s``, ``10rev/min``; ``30deg/k`` is ``30deg`` divided by ``k``). The unit must end at a
+word boundary (``2radius`` is not ``2rad``).
 """
 
 from __future__ import annotations
@@ -28,7 +31,7 @@ from dataclasses import dataclass
 from typing import Iterator, Mapping, Union
 
 from loopsolve.errors import ModelError
-from loopsolve.units import UNIT_SUFFIXES, UNITS, Kind
+from loopsolve.units import Kind, UnitError, unit_info, unit_kind
 
 __all__ = [
     "ExpressionError",
@@ -141,17 +144,45 @@ Node = Union[Num, Name, Const, Unary, Binary, Call]
 # --------------------------------------------------------------------------- tokenizer
 
 _NUMBER = r"(?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:[eE][+-]?[0-9]+)?"
-_UNIT_ALT = "|".join(re.escape(u) for u in UNIT_SUFFIXES)  # longest first
 _TOKEN_RE = re.compile(
     rf"""
     (?P<ws>[ \t\r\n]+)
-  | (?P<num>{_NUMBER})(?:(?P<usp>\ ?)(?P<unit>{_UNIT_ALT})(?![A-Za-z0-9_]))?
+  | (?P<num>{_NUMBER})
   | (?P<name>[A-Za-z_][A-Za-z0-9_]*)
   | (?P<op>\*\*|[-+*/(),])
     """,
     re.VERBOSE,
 )
 _WORDCHAR_RE = re.compile(r"[A-Za-z0-9_]+")
+# a unit candidate after a number: a word (or °), then /word parts (s, s2, s^2, s², min...)
+_UNIT_RE = re.compile(r" ?((?:[A-Za-zµμ][A-Za-z0-9_]*|°)(?:/(?:[A-Za-z][A-Za-z0-9_]*)(?:\^[0-9]|[²³])?)*)")
+
+
+def _kinematic(unit: str) -> bool:
+    try:
+        kind = unit_kind(unit)
+    except UnitError:
+        return False
+    return kind.is_angular or kind.is_length
+
+
+def _unit_at(text: str, pos: int) -> tuple[str, int] | None:
+    """The longest unit with a dimension starting at ``pos`` (after a number): ``(unit, end)``."""
+    m = _UNIT_RE.match(text, pos)
+    if m is None:
+        return None
+    cand = m.group(1)
+    start = m.start(1)
+    while True:
+        info = unit_info(cand)
+        if info is not None and info.dims and ("/" not in cand or _kinematic(cand)):
+            end = start + len(cand)
+            if _WORDCHAR_RE.match(text, end) is None:
+                return cand, end
+        cut = cand.rfind("/")
+        if cut < 0:
+            return None
+        cand = cand[:cut]
 
 _CHAR_HINTS = {
     "^": "'^' is not a power operator here; use '**' (e.g. x**2)",
@@ -220,17 +251,22 @@ def _tokenize(text: str) -> list[_Tok]:
                 shown = m.group("num") if len(m.group("num")) <= 40 else m.group("num")[:37] + "..."
                 raise _error(text, pos, f"number {shown!r} is too large (beyond float range)")
             end = m.end()
-            if m.group("unit") is None:
-                w = _WORDCHAR_RE.match(text, end)
-                if w is not None:
-                    raise _error(
-                        text,
-                        end,
-                        f"unknown unit {w.group(0)!r} after number {m.group('num')!r}",
-                        f"implicit multiplication is not supported: write "
-                        f"{m.group('num')}*{w.group(0)}",
-                    )
-            tokens.append(_Tok("num", value, pos, src, m.group("unit")))
+            unit = _unit_at(text, end)
+            if unit is not None:
+                src = text[pos:unit[1]]
+                tokens.append(_Tok("num", value, pos, src, unit[0]))
+                pos = unit[1]
+                continue
+            w = _WORDCHAR_RE.match(text, end)
+            if w is not None:
+                raise _error(
+                    text,
+                    end,
+                    f"unknown unit {w.group(0)!r} after number {m.group('num')!r}",
+                    f"implicit multiplication is not supported: write "
+                    f"{m.group('num')}*{w.group(0)}",
+                )
+            tokens.append(_Tok("num", value, pos, src, None))
         elif m.group("name") is not None:
             word = m.group("name")
             if word.startswith("_"):
@@ -633,10 +669,12 @@ def evaluate(node: Node | str | int | float, env: Mapping[str, float] | None = N
             value = float(n.value)
             if n.unit is None:
                 return value
-            entry = UNITS.get(n.unit)
-            if entry is None:
-                raise fail(f"unknown unit {n.unit!r}")
-            kind, factor = entry
+            info = unit_info(n.unit)
+            try:
+                kind = unit_kind(n.unit)
+            except UnitError:
+                raise fail(f"unknown unit {n.unit!r}") from None
+            factor = info.si_factor
             if kind is Kind.ANGLE:
                 return value * factor / angle_unit_factor
             if kind.is_angular:

@@ -22,7 +22,7 @@ from __future__ import annotations
 import math
 
 from . import expr as _expr
-from .units import MAX_MAGNITUDE, UNITS, Kind, UnitError, parse_quantity
+from .units import MAX_MAGNITUDE, Kind, UnitError, parse_quantity, unit_kind
 
 __all__ = ["MAX_EXPONENT", "MAX_DEGREE", "MAX_CALL_NESTING", "MAX_TERMS"]
 
@@ -252,7 +252,10 @@ def _check_literals(node, ctx: str, key: str, problems, angle_unit: str, length_
                              "that large overflow the squares and products the solver forms (use a larger unit)")
             return
         literal = _expr.to_text(node)
-        got = UNITS.get(node.unit, (None, 0.0))[0]
+        try:
+            got = unit_kind(node.unit)
+        except UnitError:
+            got = None
         if ctx == _ANGLE:
             want = Kind.ANGLE
         elif ctx == _LENGTH:

@@ -21,7 +21,7 @@ from .bodies import parse_dynamics
 from .errors import ModelError, ModelFileError
 from .exprcheck import _check_literals, _check_terms, _constant_size, _degree, _nesting, _TooLarge
 from .model import Loop, Mechanism, Parameter, Point, Units, Variable, Vector, _deep_copy
-from .units import MAX_MAGNITUDE, UNITS, Kind, UnitError, parse_quantity, units_of_kind, validate_units
+from .units import MAX_MAGNITUDE, Kind, UnitError, parse_quantity, unit_kind, units_of_kind, validate_units
 
 __all__ = ["build_mechanism"]
 
@@ -741,8 +741,11 @@ def _unit_kind_of_text(text: str) -> Kind | None:
         except (ModelError, ValueError):
             continue
     m = re.match(r"\s*[+-]?(?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:[eE][+-]?[0-9]+)?\s*(.+?)\s*\Z", s)
-    if m and m.group(1) in UNITS:  # a known unit of another kind (a rate...)
-        return UNITS[m.group(1)][0]
+    if m:  # a unit of another kind (a rate, a mass...)
+        try:
+            return unit_kind(m.group(1))
+        except UnitError:
+            return None
     return None
 
 

@@ -20,7 +20,7 @@ import sympy as sp
 from . import expr as _expr
 from .errors import ModelError
 from .model import Mechanism
-from .units import Kind, angle_factor, parse_quantity
+from .units import Kind, angle_factor, parse_quantity, unit_info, unit_kind
 
 __all__ = ["Kinematics", "derive", "to_sympy"]
 
@@ -102,7 +102,7 @@ def to_sympy(node: _expr.Node, symbols: Mapping[str, sp.Expr], *, k: sp.Expr, an
         if isinstance(n, _expr.Num):
             if n.unit is None:
                 return sp.nsimplify(n.value) if float(n.value).is_integer() else sp.Float(n.value)
-            if n.unit.strip().lower() in _ANGLE_UNITS:
+            if unit_kind(n.unit) is Kind.ANGLE:
                 return _angle_const(n, k)
             # a length literal such as 25mm: converted to the model's length unit
             return sp.Float(parse_quantity(f"{n.value}{n.unit}", Kind.LENGTH, angle_unit="rad",
@@ -136,14 +136,11 @@ def to_sympy(node: _expr.Node, symbols: Mapping[str, sp.Expr], *, k: sp.Expr, an
     return go(node)
 
 
-_ANGLE_UNITS = {"deg": sp.pi / 180, "degree": sp.pi / 180, "degrees": sp.pi / 180, "°": sp.pi / 180,
-                "rad": sp.Integer(1), "rev": 2 * sp.pi, "turn": 2 * sp.pi}
-
-
 def _angle_const(n: _expr.Num, k: sp.Expr) -> sp.Expr:
     """An angle literal with a unit (``30deg``, ``0.5rad``) expressed in model units (exactly)."""
     val = sp.nsimplify(n.value) if float(n.value).is_integer() else sp.Float(n.value)
-    return val * _ANGLE_UNITS[n.unit.strip().lower()] / k
+    info = unit_info(n.unit)  # radians per unit, exactly: a rational times π^pi_power
+    return val * sp.Rational(info.ratio.numerator, info.ratio.denominator) * sp.pi**info.pi_power / k
 
 
 def derive(mech: Mechanism, input: str | Sequence[str] | None = None) -> Kinematics:

@@ -1,20 +1,27 @@
-"""Quantities with units: the unit table, parsing and display conversions.
+"""Quantities with units: one parser for every quantity of a model file, the CLI and Python.
 
-Model files give quantities either as plain numbers (in the *display unit* of their kind)
-or as strings with a unit suffix (``"10rpm"``, ``"90 deg"``, ``"1.2 m/s"``).  This module
-converts both to the *internal* units used by the solver:
+A quantity is a plain number or a number with a unit (``"10rpm"``, ``"90 deg"``, ``"1.2 m/s"``,
+``"12 in*lbf"``, ``"0.5 slug*ft^2"``). Every :class:`Kind` accepts *any* unit of its dimension,
+converted exactly: the units library (pint, through :mod:`loopsolve.unitlib`) says what a unit is
+by dimensional analysis, so no spelling is listed here. A unit of another dimension is an error
+naming the field, the value, the expected kind and examples of its units.
 
-* angular kinds (angle, angular rate, acceleration, jerk) are radian based
-  (rad, rad/s, rad/s², rad/s³);
-* length kinds are expressed in the model's length unit (``length_unit``, e.g. mm) and
-  its rates per second.
+Internal units (what :func:`parse_quantity` returns):
 
-Plain numbers for angles are in the model's ``angle_unit`` (degrees by default); plain
-numbers for angular rates, accelerations and jerks are always radian based (rad/s,
-rad/s², rad/s³), following the textbook convention.
+* angular kinds (angle, angular rate, acceleration, jerk) are radian based (rad, rad/s, ...);
+* length kinds are in the model's length unit (``length_unit``, e.g. mm) and its rates per second;
+* the mechanical kinds (mass, inertia, force, torque, stiffness, damping, torsional stiffness and
+  damping, acceleration of gravity, density, time) are SI (kg, kg·m², N, N·m, N/m, N·s/m, ...).
 
-Nothing here evaluates user text as code: strings are matched against a regular
-expression and a fixed unit table.
+Plain numbers keep their documented meaning: angles are in the model's ``angle_unit`` (degrees by
+default), angular rates rad/s (rad/s², rad/s³), lengths the model's length unit; masses, forces
+and times SI; a kind whose SI unit is written with the metre (inertia, torque, stiffness, damping,
+torsional stiffness and damping, gravity, density) is SI in a metre model and **refused** in any
+other (``inertia = 1000`` in a mm model: kg·m² or kg·mm²?), naming the field and the units to
+write — except 0, which is 0 in every unit.
+
+Nothing here evaluates user text as code: a string is split into a number and a unit by a
+regular expression, and the unit is read by the units library's parser.
 """
 
 from __future__ import annotations
@@ -24,22 +31,22 @@ import math
 import numbers
 import re
 from fractions import Fraction
-from types import MappingProxyType
 from typing import Mapping
 
 from loopsolve.errors import ModelError
+from loopsolve.unitlib import UnitInfo, lookup
 
 __all__ = [
     "Kind",
     "UnitError",
-    "UNITS",
-    "UNIT_SUFFIXES",
     "MODEL_ANGLE_UNITS",
     "unit_kind",
+    "unit_info",
     "units_of_kind",
     "parse_quantity",
     "angle_factor",
     "length_factor",
+    "is_physical_length",
     "validate_units",
     "unit_label",
     "to_display",
@@ -60,6 +67,17 @@ class Kind(enum.Enum):
     ANGULAR_ACCEL = "angular acceleration"
     ANGULAR_JERK = "angular jerk"
     DIMENSIONLESS = "dimensionless"
+    MASS = "mass"
+    INERTIA = "inertia"
+    FORCE = "force"
+    TORQUE = "torque"
+    STIFFNESS = "stiffness"
+    DAMPING = "damping"
+    TORSIONAL_STIFFNESS = "torsional stiffness"
+    TORSIONAL_DAMPING = "torsional damping"
+    ACCELERATION = "acceleration"
+    DENSITY = "density"
+    TIME = "time"
 
     @property
     def is_angular(self) -> bool:
@@ -68,14 +86,24 @@ class Kind(enum.Enum):
 
     @property
     def is_length(self) -> bool:
-        """True for the four length-based kinds."""
+        """True for the four length-based kinds (in the model's length unit)."""
         return self in _LENGTH_KINDS
+
+    @property
+    def is_mechanical(self) -> bool:
+        """True for the SI kinds of mass properties and loads."""
+        return self in _SI_LABEL
+
+    @property
+    def dimension(self) -> tuple[tuple[str, Fraction], ...]:
+        """Powers of the base dimensions, as :class:`loopsolve.unitlib.UnitInfo` gives them."""
+        return _DIMS[self]
 
 
 _ANGULAR_KINDS = frozenset({Kind.ANGLE, Kind.ANGULAR_RATE, Kind.ANGULAR_ACCEL, Kind.ANGULAR_JERK})
 _LENGTH_KINDS = frozenset({Kind.LENGTH, Kind.LENGTH_RATE, Kind.LENGTH_ACCEL, Kind.LENGTH_JERK})
 
-# order of the time derivative of each kind: used to build the rate/accel/jerk suffixes
+# order of the time derivative of each kinematic kind
 _ORDER = {
     Kind.LENGTH: 0,
     Kind.LENGTH_RATE: 1,
@@ -86,65 +114,74 @@ _ORDER = {
     Kind.ANGULAR_ACCEL: 2,
     Kind.ANGULAR_JERK: 3,
 }
+
+
+def _dims(**powers: int) -> tuple[tuple[str, Fraction], ...]:
+    return tuple(sorted((d, Fraction(p)) for d, p in powers.items() if p))
+
+
+_DIMS = {
+    **{k: _dims(length=1, time=-o) for k, o in _ORDER.items() if k in _LENGTH_KINDS},
+    **{k: _dims(angle=1, time=-o) for k, o in _ORDER.items() if k in _ANGULAR_KINDS},
+    Kind.DIMENSIONLESS: (),
+    Kind.MASS: _dims(mass=1),
+    Kind.INERTIA: _dims(mass=1, length=2),
+    Kind.FORCE: _dims(mass=1, length=1, time=-2),
+    Kind.TORQUE: _dims(mass=1, length=2, time=-2),
+    Kind.STIFFNESS: _dims(mass=1, time=-2),
+    Kind.DAMPING: _dims(mass=1, time=-1),
+    Kind.TORSIONAL_STIFFNESS: _dims(mass=1, length=2, time=-2, angle=-1),
+    Kind.TORSIONAL_DAMPING: _dims(mass=1, length=2, time=-1, angle=-1),
+    Kind.ACCELERATION: _dims(length=1, time=-2),
+    Kind.DENSITY: _dims(mass=1, length=-3),
+    Kind.TIME: _dims(time=1),
+}
+
+#: the SI unit of each mechanical kind (what a plain number means, where it is not ambiguous)
+_SI_LABEL = {
+    Kind.MASS: "kg", Kind.INERTIA: "kg*m^2", Kind.FORCE: "N", Kind.TORQUE: "N*m", Kind.STIFFNESS: "N/m",
+    Kind.DAMPING: "N*s/m", Kind.TORSIONAL_STIFFNESS: "N*m/rad", Kind.TORSIONAL_DAMPING: "N*m*s/rad",
+    Kind.ACCELERATION: "m/s^2", Kind.DENSITY: "kg/m^3", Kind.TIME: "s",
+}
+#: the same unit with the metre replaced by the model's length unit (``{L}``), for suggestions
+_SI_WITH_LENGTH = {
+    Kind.INERTIA: "kg*{L}^2", Kind.TORQUE: "N*{L}", Kind.STIFFNESS: "N/{L}", Kind.DAMPING: "N*s/{L}",
+    Kind.TORSIONAL_STIFFNESS: "N*{L}/rad", Kind.TORSIONAL_DAMPING: "N*{L}*s/rad",
+    Kind.ACCELERATION: "{L}/s^2", Kind.DENSITY: "kg/{L}^3",
+}
+
+#: examples of units of each kind, for messages and documentation (any unit of the dimension is
+#: accepted: these are not a list of what is)
+_EXAMPLES: Mapping[Kind, tuple[str, ...]] = {
+    Kind.LENGTH: ("mm", "cm", "m", "in", "ft", "µm"),
+    Kind.LENGTH_RATE: ("mm/s", "m/s", "in/s", "ft/min"),
+    Kind.LENGTH_ACCEL: ("mm/s^2", "m/s^2", "in/s^2", "cm/s²"),
+    Kind.LENGTH_JERK: ("mm/s^3", "m/s^3", "in/s^3"),
+    Kind.ANGLE: ("deg", "degree", "°", "rad", "rev", "turn", "arcmin"),
+    Kind.ANGULAR_RATE: ("rad/s", "deg/s", "rpm", "rev/min", "rev/s", "°/s"),
+    Kind.ANGULAR_ACCEL: ("rad/s^2", "deg/s^2", "rpm/s"),
+    Kind.ANGULAR_JERK: ("rad/s^3", "deg/s^3"),
+    Kind.DIMENSIONLESS: (),
+    Kind.MASS: ("kg", "g", "t", "lb", "slug", "blob"),
+    Kind.INERTIA: ("kg*m^2", "kg*mm^2", "g*cm^2", "lb*in^2", "slug*ft^2", "blob*in^2"),
+    Kind.FORCE: ("N", "kN", "lbf", "kgf"),
+    Kind.TORQUE: ("N*m", "N*mm", "kN*m", "in*lbf", "ft*lbf"),
+    Kind.STIFFNESS: ("N/m", "N/mm", "kN/m", "lbf/in"),
+    Kind.DAMPING: ("N*s/m", "N*s/mm", "lbf*s/in"),
+    Kind.TORSIONAL_STIFFNESS: ("N*m/rad", "N*mm/deg", "in*lbf/rad"),
+    Kind.TORSIONAL_DAMPING: ("N*m*s/rad", "N*mm*s/rad", "in*lbf*s/rad"),
+    Kind.ACCELERATION: ("m/s^2", "mm/s^2", "ft/s^2", "in/s^2"),
+    Kind.DENSITY: ("kg/m^3", "g/cm^3", "lb/in^3"),
+    Kind.TIME: ("s", "ms", "min"),
+}
+
+_PER_TIME = {1: "/s", 2: "/s^2", 3: "/s^3"}
 _BY_ORDER_LENGTH = {v: k for k, v in _ORDER.items() if k.is_length}
-_BY_ORDER_ANGULAR = {v: k for k, v in _ORDER.items() if k.is_angular}
-
-# spellings of "per second", "per second squared", "per second cubed"
-_PER_TIME = {1: ("/s",), 2: ("/s^2", "/s2", "/s²"), 3: ("/s^3", "/s3", "/s³")}
-
-_TWO_PI = 2.0 * math.pi
-_DEG = math.pi / 180.0
-
-# length units: metres per unit
-_LENGTHS = {"mm": 1e-3, "cm": 1e-2, "m": 1.0, "in": 0.0254, "inch": 0.0254, "ft": 0.3048}
-
-
-def _build_table() -> dict[str, tuple[Kind, float]]:
-    table: dict[str, tuple[Kind, float]] = {}
-    # angles (factor: radians per unit)
-    for name, f in (
-        ("deg", _DEG),
-        ("degree", _DEG),
-        ("degrees", _DEG),
-        ("°", _DEG),
-        ("rad", 1.0),
-        ("rev", _TWO_PI),
-        ("turn", _TWO_PI),
-    ):
-        table[name] = (Kind.ANGLE, f)
-    # angular rates (rad/s per unit)
-    for name, f in (
-        ("rad/s", 1.0),
-        ("deg/s", _DEG),
-        ("rpm", _TWO_PI / 60.0),
-        ("rps", _TWO_PI),
-        ("rev/s", _TWO_PI),
-    ):
-        table[name] = (Kind.ANGULAR_RATE, f)
-    for order in (2, 3):
-        for base, f in (("rad", 1.0), ("deg", _DEG)):
-            for per in _PER_TIME[order]:
-                table[base + per] = (_BY_ORDER_ANGULAR[order], f)
-    # lengths (factor: metres per unit) and their time derivatives
-    for base, f in _LENGTHS.items():
-        table[base] = (Kind.LENGTH, f)
-        for order in (1, 2, 3):
-            for per in _PER_TIME[order]:
-                table[base + per] = (_BY_ORDER_LENGTH[order], f)
-    return table
-
-
-#: every known unit spelling -> (kind, factor to the SI base: radians or metres based)
-UNITS: Mapping[str, tuple[Kind, float]] = MappingProxyType(_build_table())
-
-#: every unit spelling, longest first (so a tokenizer trying them in order finds the
-#: longest match: ``rad/s^2`` before ``rad/s`` before ``rad``)
-UNIT_SUFFIXES: tuple[str, ...] = tuple(sorted(UNITS, key=lambda u: (-len(u), u)))
 
 #: angle units a model may declare as its display angle unit
 MODEL_ANGLE_UNITS: tuple[str, ...] = ("deg", "rad")
 
-_IDENT_RE = re.compile(r"[A-Za-z][A-Za-z0-9_]*\Z")
+_IDENT_RE = re.compile(r"[A-Za-zµμ][A-Za-z0-9_]*\Z")
 _QUANTITY_RE = re.compile(
     r"\s*(?P<num>[+-]?(?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:[eE][+-]?[0-9]+)?)\s*(?P<unit>.*?)\s*\Z",
     re.DOTALL,
@@ -180,8 +217,20 @@ def _prefix(where: str) -> str:
     return f"{where}: " if where else ""
 
 
+def unit_info(unit: str) -> UnitInfo | None:
+    """What the units library knows of ``unit`` (dimension, exact SI size), ``None`` if not a unit."""
+    return lookup(unit)
+
+
+def _kind_of_dims(info: UnitInfo) -> Kind | None:
+    for kind, dims in _DIMS.items():  # kinematic kinds first: m/s^2 is a length acceleration
+        if dims == info.dims and kind is not Kind.DIMENSIONLESS:
+            return kind
+    return None
+
+
 def unit_kind(unit: str) -> Kind:
-    """Return the :class:`Kind` of a known unit spelling.
+    """Return the :class:`Kind` of a unit (the first kind of its dimension).
 
     Examples
     --------
@@ -189,34 +238,48 @@ def unit_kind(unit: str) -> Kind:
     <Kind.ANGULAR_RATE: 'angular rate'>
     >>> unit_kind("mm/s^2").name
     'LENGTH_ACCEL'
+    >>> unit_kind("in*lbf").name
+    'TORQUE'
     """
-    try:
-        return UNITS[unit][0]
-    except (KeyError, TypeError):
-        raise UnitError(f"unknown unit {unit!r}", text=str(unit)) from None
+    info = lookup(unit) if isinstance(unit, str) else None
+    kind = _kind_of_dims(info) if info is not None else None
+    if kind is None:
+        raise UnitError(f"unknown unit {unit!r}" if info is None else
+                        f"unit {unit!r} ({info.dimension_text()}) is not a unit of any quantity loopsolve reads",
+                        text=str(unit))
+    return kind
 
 
 def units_of_kind(kind: Kind, length_unit: str | None = None) -> tuple[str, ...]:
-    """List the unit spellings accepted for ``kind`` (table order).
+    """Examples of units of ``kind`` (every unit of the same dimension is accepted).
 
-    A custom ``length_unit`` (one not in the table, e.g. ``"px"``) is added to the
-    length kinds with its ``/s``, ``/s^2``, ``/s^3`` forms.
+    A custom ``length_unit`` (one the units library does not know as a length, e.g.
+    ``"units"``) is added to the length kinds with its ``/s``, ``/s^2``, ``/s^3`` forms.
 
     Examples
     --------
     >>> units_of_kind(Kind.ANGULAR_RATE)
-    ('rad/s', 'deg/s', 'rpm', 'rps', 'rev/s')
-    >>> units_of_kind(Kind.LENGTH, "px")[-1]
-    'px'
+    ('rad/s', 'deg/s', 'rpm', 'rev/min', 'rev/s', '°/s')
+    >>> units_of_kind(Kind.LENGTH, "units")[-1]
+    'units'
     """
-    found = [u for u, (k, _) in UNITS.items() if k is kind]
-    if kind.is_length and length_unit and length_unit not in UNITS:
+    found = list(_EXAMPLES[kind])
+    if kind.is_length and length_unit and not is_physical_length(length_unit):
         order = _ORDER[kind]
-        if order == 0:
-            found.append(length_unit)
-        else:
-            found.extend(length_unit + per for per in _PER_TIME[order])
+        found.append(length_unit + _PER_TIME[order] if order else length_unit)
     return tuple(found)
+
+
+def is_physical_length(unit: str) -> bool:
+    """Whether ``unit`` is a length the units library converts (mm, in, ...), not a display-only name.
+
+    Examples
+    --------
+    >>> is_physical_length("in"), is_physical_length("units")
+    (True, False)
+    """
+    info = lookup(unit) if isinstance(unit, str) else None
+    return info is not None and info.dims == _DIMS[Kind.LENGTH]
 
 
 def angle_factor(angle_unit: str) -> float:
@@ -229,69 +292,57 @@ def angle_factor(angle_unit: str) -> float:
     >>> angle_factor("rad")
     1.0
     """
-    entry = UNITS.get(angle_unit) if isinstance(angle_unit, str) else None
-    if entry is None or entry[0] is not Kind.ANGLE:
-        accepted = ", ".join(units_of_kind(Kind.ANGLE))
+    info = lookup(angle_unit) if isinstance(angle_unit, str) else None
+    if info is None or info.dims != _DIMS[Kind.ANGLE]:
         raise UnitError(
-            f"unknown angle unit {angle_unit!r} (accepted: {accepted})",
+            f"unknown angle unit {angle_unit!r} (e.g. {', '.join(units_of_kind(Kind.ANGLE))})",
             text=str(angle_unit),
             kind=Kind.ANGLE,
         )
-    return entry[1]
-
-
-def _custom_length_base(unit: str, length_unit: str) -> int | None:
-    """Derivative order of ``unit`` when it is the custom ``length_unit`` (+ /s...)."""
-    if unit == length_unit:
-        return 0
-    for order, pers in _PER_TIME.items():
-        if any(unit == length_unit + per for per in pers):
-            return order
-    return None
+    return info.si_factor
 
 
 def length_factor(from_unit: str, to_unit: str) -> float:
     """Factor ``f`` such that a length ``x`` in ``from_unit`` is ``x * f`` in ``to_unit``.
 
-    Identical units give 1 (even custom ones such as ``"px"``); converting between a
+    Identical units give 1 (even custom ones such as ``"units"``); converting between a
     custom unit and another unit raises :class:`UnitError`.
 
     Examples
     --------
-    >>> round(length_factor("in", "mm"), 6)
+    >>> length_factor("in", "mm")
     25.4
-    >>> round(length_factor("mm", "m"), 6)
+    >>> length_factor("mm", "m")
     0.001
-    >>> length_factor("px", "px")
+    >>> length_factor("units", "units")
     1.0
     """
     if from_unit == to_unit:
         return 1.0
-    factors = []
+    infos = []
     for unit in (from_unit, to_unit):
-        entry = UNITS.get(unit) if isinstance(unit, str) else None
-        if entry is None or entry[0] is not Kind.LENGTH:
+        if not is_physical_length(unit):
             raise UnitError(
                 f"cannot convert length from {from_unit!r} to {to_unit!r}: {unit!r} is not a "
-                f"known length unit (known: {', '.join(_LENGTHS)})",
+                f"length unit (e.g. {', '.join(_EXAMPLES[Kind.LENGTH])})",
                 text=str(unit),
                 kind=Kind.LENGTH,
             )
-        factors.append(entry[1])
-    return factors[0] / factors[1]
+        infos.append(lookup(unit))
+    return infos[0].factor_to(infos[1])
 
 
 def validate_units(angle_unit: str, length_unit: str) -> None:
     """Check a model's display units; raise :class:`UnitError` when invalid.
 
-    ``angle_unit`` must be ``'deg'`` or ``'rad'``.  ``length_unit`` may be a known length
-    unit (mm, cm, m, in, inch, ft) or any identifier-like name (``"px"``, ``"units"``)
-    used only for display; it must not be a unit of another kind.
+    ``angle_unit`` must be ``'deg'`` or ``'rad'``.  ``length_unit`` may be any length unit
+    (mm, cm, m, in, ft, µm, ...) or any identifier-like name (``"units"``) used only for
+    display; it must not be a unit of another kind loopsolve reads (an angle, a rate, a mass...).
 
     Examples
     --------
     >>> validate_units("deg", "mm")
-    >>> validate_units("rad", "px")
+    >>> validate_units("rad", "units")
     >>> try:
     ...     validate_units("grad", "mm")
     ... except UnitError as exc:
@@ -312,10 +363,11 @@ def validate_units(angle_unit: str, length_unit: str) -> None:
             text=str(length_unit),
             kind=Kind.LENGTH,
         )
-    entry = UNITS.get(length_unit)
-    if entry is not None and entry[0] is not Kind.LENGTH:
+    info = lookup(length_unit)
+    other = _kind_of_dims(info) if info is not None else None
+    if other is not None and other is not Kind.LENGTH:
         raise UnitError(
-            f"length_unit {length_unit!r} is {_a(entry[0].value)} unit, not a length unit",
+            f"length_unit {length_unit!r} is {_a(other.value)} unit, not a length unit",
             where="length_unit",
             text=length_unit,
             kind=Kind.LENGTH,
@@ -324,7 +376,8 @@ def validate_units(angle_unit: str, length_unit: str) -> None:
 
 def _kind_error(kind: Kind, text: str, where: str, length_unit: str, detail: str) -> UnitError:
     accepted = units_of_kind(kind, length_unit) if kind is not Kind.DIMENSIONLESS else ()
-    accepted_text = ", ".join(accepted) if accepted else "none (give a plain number)"
+    accepted_text = ("any " + kind.value + " unit, e.g. " + ", ".join(accepted)) if accepted \
+        else "none (give a plain number)"
     return UnitError(
         f"{_prefix(where)}{detail} in {text!r}; expected {_a(kind.value)}, "
         f"accepted units: {accepted_text}",
@@ -339,32 +392,37 @@ def _kind_error(kind: Kind, text: str, where: str, length_unit: str, detail: str
 #: number of whole turns would swamp the digits of the angle within the turn)
 REDUCE_TURNS = 2**16
 
-#: turns per unit for the angle units whose turn is a rational number of units
-_TURN = {"deg": 360, "degree": 360, "degrees": 360, "°": 360, "rev": 1, "turn": 1}
+
+def _turn_in(info: UnitInfo | None) -> Fraction | None:
+    """How many of the angle unit ``info`` make a turn, when that is rational (360 for deg)."""
+    turn = lookup("turn")
+    if info is None or turn is None or info.pi_power != turn.pi_power:
+        return None  # radians: a turn is 2π of them
+    return turn.ratio / info.ratio
 
 
-def _reduce_angle(number: float, text: str | None, unit: str) -> float:
-    """``number`` (an angle in ``unit``) reduced modulo a turn when it is huge, still in ``unit``.
+def _reduce_angle(number: float, text: str | None, unit_turn: Fraction | None) -> float:
+    """``number`` (an angle in a unit of which ``unit_turn`` make a turn, ``None`` for the radian)
+    reduced modulo a turn when it is huge, still in its unit.
 
-    Degrees and turns are reduced exactly: from the decimal ``text`` when given (``"1e17"`` is
-    exactly 280 degrees modulo 360), else with :func:`math.fmod` (exact for floats). Radians
-    are reduced through ``atan2(sin x, cos x)``, which uses the platform's exact argument
-    reduction of the float ``x``.
+    Units with a rational turn (degrees, turns) are reduced exactly: from the decimal ``text``
+    when given (``"1e17"`` is exactly 280 degrees modulo 360), else with :func:`math.fmod` (exact
+    for floats). Radians are reduced through ``atan2(sin x, cos x)``, which uses the platform's
+    exact argument reduction of the float ``x``.
     """
-    turn = _TURN.get(unit)
-    if turn is None:  # radians
-        if abs(number) < REDUCE_TURNS * _TWO_PI:
+    if unit_turn is None:  # radians
+        if abs(number) < REDUCE_TURNS * 2.0 * math.pi:
             return number
         return math.atan2(math.sin(number), math.cos(number))
-    if abs(number) < REDUCE_TURNS * turn:
+    if abs(number) < REDUCE_TURNS * unit_turn:
         return number
     if text is not None:
         try:
             exact = Fraction(text)
         except (ValueError, ZeroDivisionError):
-            return math.fmod(number, turn)
-        return math.copysign(float(abs(exact) % turn), exact)
-    return math.fmod(number, turn)
+            return math.fmod(number, unit_turn)
+        return math.copysign(float(abs(exact) % unit_turn), exact)
+    return math.fmod(number, unit_turn) if unit_turn.denominator == 1 else math.fmod(number, float(unit_turn))
 
 
 #: largest magnitude of a length, a rate or a plain number (angles are reduced modulo a turn
@@ -383,14 +441,40 @@ def _finite(value: float, kind: Kind, text: str, where: str, length_unit: str) -
     return value
 
 
+def _metre_model(length_unit: str) -> bool:
+    info = lookup(length_unit)
+    return info is not None and info.dims == _DIMS[Kind.LENGTH] and info.ratio == 1 and info.pi_power == 0
+
+
 def _plain(value: float, kind: Kind, angle_unit: str, text: str | None = None, where: str = "",
            length_unit: str = "mm", reduce: bool = True) -> float:
     """Convert a plain number in the display unit of ``kind`` to internal units."""
+    shown = text if text is not None else repr(value)
     if kind is Kind.ANGLE:
         if reduce:
-            value = _reduce_angle(value, text, angle_unit)
-        return _finite(value * angle_factor(angle_unit), kind, text or repr(value), where, length_unit)
-    return _finite(value, kind, text if text is not None else repr(value), where, length_unit)
+            value = _reduce_angle(value, text, _turn_in(lookup(angle_unit)))
+        return _finite(value * angle_factor(angle_unit), kind, shown, where, length_unit)
+    if kind in _SI_WITH_LENGTH and value != 0 and not _metre_model(length_unit):
+        si = _SI_LABEL[kind]
+        model = _SI_WITH_LENGTH[kind].format(L=length_unit)
+        raise UnitError(
+            f"{_prefix(where)}the plain number {shown} is ambiguous in a model whose length unit is "
+            f"{length_unit} ({si}? {model}?): write the unit, e.g. \"{shown}{si}\" or \"{shown}{model}\"",
+            where=where, text=shown, kind=kind)
+    return _finite(value, kind, shown, where, length_unit)
+
+
+def _custom_length_order(unit: str, length_unit: str) -> int | None:
+    """Derivative order of ``unit`` when it is the custom ``length_unit`` (+ /s, /s^2 ...)."""
+    if unit == length_unit:
+        return 0
+    if not unit.startswith(length_unit + "/"):
+        return None
+    same = lookup("m" + unit[len(length_unit):])  # the metre in its place: m/s, m/s^2 ...
+    for order in (1, 2, 3):
+        if same is not None and same.dims == _DIMS[_BY_ORDER_LENGTH[order]] and same.ratio == 1:
+            return order
+    return None
 
 
 def parse_quantity(
@@ -407,11 +491,10 @@ def parse_quantity(
     Parameters
     ----------
     value : int, float or str
-        A plain number (in the display unit of ``kind``: ``angle_unit`` for angles,
-        rad/s, rad/s², rad/s³ for angular rates, ``length_unit`` based for lengths) or a
-        string such as ``"10rpm"``, ``"10 rpm"``, ``"90deg"``, ``"-3.5"``, ``"1.2 m/s"``.
+        A plain number (see the module's notes for its meaning per kind) or a string such as
+        ``"10rpm"``, ``"10 rpm"``, ``"90deg"``, ``"-3.5"``, ``"1.2 m/s"``, ``"12 in*lbf"``.
     kind : Kind
-        The expected kind.
+        The expected kind; any unit of its dimension is accepted.
     angle_unit, length_unit : str
         The model's display units.
     where : str
@@ -424,12 +507,14 @@ def parse_quantity(
     Returns
     -------
     float
-        Radians (rad/s, ...) for angular kinds; ``length_unit`` (per s, ...) for lengths.
+        Radians (rad/s, ...) for angular kinds; ``length_unit`` (per s, ...) for lengths; SI for
+        the mechanical kinds.
 
     Raises
     ------
     UnitError
-        Unknown unit, unit of the wrong kind, non-finite number, bool or garbage.
+        Unknown unit, unit of another dimension, ambiguous plain number, non-finite number,
+        bool or garbage.
 
     Examples
     --------
@@ -439,13 +524,18 @@ def parse_quantity(
     1.570796
     >>> parse_quantity("0.1m", Kind.LENGTH)
     100.0
-    >>> round(parse_quantity("1.2 m/s", Kind.LENGTH_RATE), 6)
-    1200.0
+    >>> round(parse_quantity("12 in*lbf", Kind.TORQUE), 6)
+    1.355818
     >>> try:
     ...     parse_quantity("5mm", Kind.ANGULAR_RATE, where="speed")
     ... except UnitError as exc:
     ...     print(exc)
-    speed: unit 'mm' is a length unit, not an angular rate in '5mm'; expected an angular rate, accepted units: rad/s, deg/s, rpm, rps, rev/s
+    speed: unit 'mm' is a length unit, not an angular rate in '5mm'; expected an angular rate, accepted units: any angular rate unit, e.g. rad/s, deg/s, rpm, rev/min, rev/s, °/s
+    >>> try:
+    ...     parse_quantity(1000, Kind.INERTIA, length_unit="mm", where="bodies.crank.inertia")
+    ... except UnitError as exc:
+    ...     print(exc)
+    bodies.crank.inertia: the plain number 1000 is ambiguous in a model whose length unit is mm (kg*m^2? kg*mm^2?): write the unit, e.g. "1000kg*m^2" or "1000kg*mm^2"
     """
     if not isinstance(kind, Kind):
         raise TypeError(f"kind must be a Kind, got {kind!r}")
@@ -476,9 +566,8 @@ def parse_quantity(
     if not unit:
         return _plain(number, kind, angle_unit, m.group("num"), where, length_unit, reduce)
 
-    entry = UNITS.get(unit)
-    if entry is None:
-        order = _custom_length_base(unit, length_unit) if length_unit not in UNITS else None
+    if kind.is_length and not is_physical_length(length_unit):
+        order = _custom_length_order(unit, length_unit)
         if order is not None:
             custom_kind = _BY_ORDER_LENGTH[order]
             if custom_kind is kind:
@@ -487,24 +576,24 @@ def parse_quantity(
                 kind, text, where, length_unit,
                 f"unit {unit!r} is {_a(custom_kind.value)} unit, not {_a(kind.value)}",
             )
+    info = lookup(unit)
+    if info is None:
         hint = ""
-        lowered = {u.lower(): u for u in UNITS}
-        if unit.lower() in lowered:
-            hint = f" (did you mean {lowered[unit.lower()]!r}?)"
+        for guess in (unit.lower(), unit.strip().replace(" ", "")):
+            if guess != unit and lookup(guess) is not None:
+                hint = f" (did you mean {guess!r}?)"
+                break
         raise _kind_error(kind, text, where, length_unit, f"unknown unit {unit!r}{hint}")
-
-    got_kind, factor = entry
-    if got_kind is not kind:
-        raise _kind_error(
-            kind, text, where, length_unit,
-            f"unit {unit!r} is {_a(got_kind.value)} unit, not {_a(kind.value)}",
-        )
+    if info.dims != _DIMS[kind]:
+        got = _kind_of_dims(info)
+        what = f"{_a(got.value)} unit" if got is not None else f"a unit of {info.dimension_text()}"
+        raise _kind_error(kind, text, where, length_unit, f"unit {unit!r} is {what}, not {_a(kind.value)}")
     if kind is Kind.ANGLE and reduce:
-        number = _reduce_angle(number, m.group("num"), unit)
-    if kind.is_angular:
-        return _finite(number * factor, kind, text, where, length_unit)
-    # a length kind: the table factor is metres based; convert to the model's length unit
-    if length_unit not in UNITS:
+        number = _reduce_angle(number, m.group("num"), _turn_in(info))
+    if not kind.is_length:
+        return _finite(number * info.si_factor, kind, text, where, length_unit)
+    # a length kind: converted to the model's length unit
+    if not is_physical_length(length_unit):
         raise UnitError(
             f"{_prefix(where)}cannot convert {unit!r} in {text!r} to the custom length unit "
             f"{length_unit!r}; give the value in {length_unit} (a plain number)",
@@ -512,7 +601,7 @@ def parse_quantity(
             text=text,
             kind=kind,
         )
-    return _finite(number * factor / UNITS[length_unit][1], kind, text, where, length_unit)
+    return _finite(number * info.factor_to(lookup(length_unit)), kind, text, where, length_unit)
 
 
 def _short(value: object, limit: int = 40) -> str:
@@ -536,6 +625,8 @@ def unit_label(kind: Kind, angle_unit: str = "deg", length_unit: str = "mm") -> 
         return angle_unit
     if kind is Kind.DIMENSIONLESS:
         return ""
+    if kind in _SI_LABEL:
+        return _SI_LABEL[kind]
     order = _ORDER[kind]
     base = "rad" if kind.is_angular else length_unit
     return base + ("/s", "/s^2", "/s^3")[order - 1] if order else base

@@ -241,7 +241,7 @@ class TestSameAsVectors:
 class TestFormatErrors:
     @pytest.mark.parametrize("edit, key, message", [
         (lambda d: d["joints"]["B"].pop("at"), "joints.B.at", "expected the drawn position [x, y]"),
-        (lambda d: d["joints"]["B"].update(at=[0, "25 furlongs"]), "joints.B.at", "unknown unit 'furlongs'"),
+        (lambda d: d["joints"]["B"].update(at=[0, "25 blargs"]), "joints.B.at", "unknown unit 'blargs'"),
         (lambda d: d["joints"]["B"].update(type="Q"), "joints.B.type", "expected \"R\" (revolute) or \"P\""),
         (lambda d: d["joints"]["B"].update(type="P"), "joints.B", "a prismatic joint needs `axis`"),
         (lambda d: d["joints"]["B"].update(axis=[1, 0]), "joints.B.axis", "`axis` is for a prismatic joint"),

@@ -122,16 +122,16 @@ BASE = (MODELS / "thesis_crank_rocker_dynamics_diagram.toml").read_text().split(
 
 class TestBadBodies:
     @pytest.mark.parametrize("body, key", [
-        ('follower = { mass = 1, inertia = 0.1, at = [0, 1] }', "bodies.follower"),
-        ('crank = { mass = 1, inertia = 0.1, at = [0, "x"] }', "bodies.crank.at"),
-        ('crank = { mass = 1, inertia = 0.1, at = [1, 2, 3] }', "bodies.crank.at"),
-        ('crank = { mass = 1, inertia = 0.1, com = { at = 5 } }', "bodies.crank.com.at"),
-        ('crank = { mass = 1, inertia = 0.1, com = "C" }', "bodies.crank.com"),
-        ('crank = { mass = 0, inertia = 0.1, at = [0, 1] }', "bodies.crank.mass"),
-        ('crank = { mass = "-2kg", inertia = 0.1, at = [0, 1] }', "bodies.crank.mass"),
-        ('crank = { mass = 1, inertia = 0.1 }', "bodies.crank"),
-        ('crank = { mass = 1, inertia = 0.1, at = [0, 1], angle = "theta_crank" }', "bodies.crank"),
-        ('ground = { mass = 1, inertia = 0.1, at = [0, 1] }', "bodies.ground"),
+        ('follower = { mass = 1, inertia = "0.1kg*m^2", at = [0, 1] }', "bodies.follower"),
+        ('crank = { mass = 1, inertia = "0.1kg*m^2", at = [0, "x"] }', "bodies.crank.at"),
+        ('crank = { mass = 1, inertia = "0.1kg*m^2", at = [1, 2, 3] }', "bodies.crank.at"),
+        ('crank = { mass = 1, inertia = "0.1kg*m^2", com = { at = 5 } }', "bodies.crank.com.at"),
+        ('crank = { mass = 1, inertia = "0.1kg*m^2", com = "C" }', "bodies.crank.com"),
+        ('crank = { mass = 0, inertia = "0.1kg*m^2", at = [0, 1] }', "bodies.crank.mass"),
+        ('crank = { mass = "-2kg", inertia = "0.1kg*m^2", at = [0, 1] }', "bodies.crank.mass"),
+        ('crank = { mass = 1, inertia = "0.1kg*m^2" }', "bodies.crank"),
+        ('crank = { mass = 1, inertia = "0.1kg*m^2", at = [0, 1], angle = "theta_crank" }', "bodies.crank"),
+        ('ground = { mass = 1, inertia = "0.1kg*m^2", at = [0, 1] }', "bodies.ground"),
     ])
     def test_one_line_error_naming_the_key(self, body, key):
         with pytest.raises(ModelFileError) as exc:

@@ -124,8 +124,15 @@ def test_unit_does_not_swallow_identifiers():
     assert parse("3mm") == Num(3.0, "mm")
     with pytest.raises(ExpressionError, match="unknown unit 'radius'"):
         parse("2radius")
-    with pytest.raises(ExpressionError, match="unknown unit 'min'"):
-        parse("3min")
+    # any unit with a dimension is a unit here (the field's kind is checked later, by exprcheck)
+    assert parse("3min") == Num(3.0, "min")
+    assert parse("2rev/min") == Num(2.0, "rev/min")
+    # a /word continues the unit only while the text is still a unit
+    assert parse("30deg/k") == Binary("/", Num(30.0, "deg"), Name("k"))
+    assert parse("30deg/2") == Binary("/", Num(30.0, "deg"), Num(2.0))
+    # dimensionless names are not units: 2pi is still implicit multiplication
+    with pytest.raises(ExpressionError, match="unknown unit 'pi'"):
+        parse("2pi")
 
 
 def test_evaluate_units():

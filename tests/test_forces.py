@@ -45,7 +45,7 @@ def with_extra_loads(mech: ls.Mechanism) -> ls.Mechanism:
         {"body": rot[-1], "stiffness": "0.4N*m/rad", "free_angle": 10, "damping": "0.01N*m*s/rad"},
         {"body": rot[0], "torque": f"-0.002*{inp}_vel + 0.01*sin({inp})"},
     ]
-    spec["gravity"] = [0.7, -9.81]
+    spec["gravity"] = ["0.7m/s^2", "-9.81m/s^2"]  # a plain number is ambiguous in a mm model
     return ls.build_mechanism(spec)
 
 
@@ -82,7 +82,7 @@ class TestPowerBalance:
         mech = ls.load(path)
         spec = ls.model._deep_copy(mech.spec)
         spec.pop("loads", None)
-        spec["gravity"] = [0.5, -9.81]
+        spec["gravity"] = ["0.5m/s^2", "-9.81m/s^2"]
         mech = ls.build_mechanism(spec)
         w, h = 3.0, 1e-4  # rad/s; step in degrees
         for at in (20.0, 145.0, 260.0):
@@ -133,11 +133,11 @@ def fourbar_dynamics() -> ls.Mechanism:
     b.vector("r3", length="r3", angle="theta3").vector("r4", length="r4", angle="theta4")
     b.loop("r2 + r3 = r1 + r4")
     b.point("O2", "0").point("B", "r2").point("C", "r2 + r3").point("O4", "r1")
-    b.body("crank", mass=MASS[0], inertia=INERTIA[0], com="0.5*r2", angle="theta2", joints=["O2", "B"])
-    b.body("coupler", mass=MASS[1], inertia=INERTIA[1], com="r2 + 0.5*r3", angle="theta3", joints=["B", "C"])
-    b.body("rocker", mass=MASS[2], inertia=INERTIA[2], com="r1 + 0.5*r4", angle="theta4", joints=["C", "O4"])
-    b.load(body="rocker", torque=TAU4)
-    return b.gravity(0, -G).build()
+    b.body("crank", mass=MASS[0], inertia=f"{INERTIA[0]}kg*m^2", com="0.5*r2", angle="theta2", joints=["O2", "B"])
+    b.body("coupler", mass=MASS[1], inertia=f"{INERTIA[1]}kg*m^2", com="r2 + 0.5*r3", angle="theta3", joints=["B", "C"])
+    b.body("rocker", mass=MASS[2], inertia=f"{INERTIA[2]}kg*m^2", com="r1 + 0.5*r4", angle="theta4", joints=["C", "O4"])
+    b.load(body="rocker", torque=f"{TAU4}N*m")  # the model is in mm: SI plain numbers would be ambiguous
+    return b.gravity(0, f"{-G}m/s^2").build()
 
 
 @pytest.fixture(scope="module")
@@ -474,7 +474,7 @@ class TestBadDeclarations:
         assert q("2lb", "mass") == pytest.approx(0.90718474)
         assert q("1.2lbf", "force") == pytest.approx(5.33786594)
         assert q("3e5g*mm^2", "inertia") == pytest.approx(3e-4)
-        with pytest.raises(ls.ModelError, match="unknown mass unit"):
+        with pytest.raises(ls.ModelError, match="unit 'furlong' is a length unit, not a mass"):
             q("3 furlong", "mass")
 
 
