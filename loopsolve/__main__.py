@@ -1,0 +1,7 @@
+"""``python -m loopsolve``: the ``loopsolve`` command."""
+
+import sys
+
+from .cli import main
+
+sys.exit(main())
