@@ -242,20 +242,24 @@ def grid_values(ck, start, stop, step, *, max_rows=None, max_rows_error=None):
     return exact_radians(v), v
 
 
-def _no_path(message: str, source) -> str:
-    """A per-design message without the machine's path of the model file (its file name stays)."""
-    if not source:
-        return message
-    src = str(source)
+def _no_path(message: str, mech) -> str:
+    """A per-design message without the leading model path (or name) and no machine path in it.
+
+    The Dataset names the model once (``attrs``); a path inside the message keeps its file name.
+    """
     import os
 
+    message = message.removeprefix(f"{mech.name}: ")
+    if not mech.source:
+        return message
+    src = str(mech.source)
     return message.removeprefix(src + ": ").replace(src, os.path.basename(src))
 
 
 def _sweep_one(mech, names, row, start, stop, step, speed, accel, jerk, mode, derivatives, ch, j, xs_disp):
     """The single sweep of design j, or None with its status and events set in ``ch``."""
     def text(exc, default):
-        return _no_path(str(exc).splitlines()[0], mech.source) if str(exc) else default
+        return _no_path(str(exc).splitlines()[0], mech) if str(exc) else default
 
     try:
         m = mech.with_parameters(**{n: float(v) for n, v in zip(names, row)})
@@ -291,7 +295,7 @@ def _single(mech, names, row, start, stop, step, speed, accel, jerk, mode, deriv
         sw = _sweep_one(mech, names, row, start, stop, step, speed, accel, jerk, mode, derivatives, ch, j, xs_disp)
     for w in caught:
         if issubclass(w.category, LoopsolveWarning):
-            ch.warnings.append((j, _no_path(str(w.message), mech.source)))
+            ch.warnings.append((j, _no_path(str(w.message), mech)))
         else:
             warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
     if sw is None:
