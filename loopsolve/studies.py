@@ -437,8 +437,8 @@ def summarize_warnings(warned, total: int) -> list[str]:
     Examples
     --------
     >>> lines = summarize_warnings([(3, "stops at theta2 = 81.5 deg"), (7, "stops at theta2 = 84 deg")], 10)
-    >>> len(lines), lines[0][:55]
-    (1, '2 of 10 designs: stops at theta2 = 81.5 deg (design 3; ')
+    >>> len(lines), lines[0][:95]
+    (1, "2 of 10 designs gave this warning (design 3's): stops at theta2 = 81.5 deg; the other: design 7")
     """
     import re
 
@@ -452,13 +452,13 @@ def summarize_warnings(warned, total: int) -> list[str]:
         designs = sorted({d for d, _ in items})
         first, msg = min(items)
         rest = [d for d in designs if d != first]
-        also = ""
+        others = ""
         if rest:
             shown = ", ".join(map(str, rest[: _FIRST - 1]))
             more = f" and {len(rest) - (_FIRST - 1)} more" if len(rest) > _FIRST - 1 else ""
-            also = f"; also design{'s' if len(rest) > 1 else ''} {shown}{more}"
-        lines.append(f"{len(designs)} of {total} design{'s' if total != 1 else ''}: {msg} (design {first}{also}); "
-                     "each design's status, stop and events are in the Dataset")
+            others = f"; the other{'s' if len(rest) > 1 else ''}: design{'s' if len(rest) > 1 else ''} {shown}{more}"
+        lines.append(f"{len(designs)} of {total} design{'s' if total != 1 else ''} gave this warning (design "
+                     f"{first}'s): {msg}{others}; each design's status, stop and events are in the Dataset")
     return lines
 
 

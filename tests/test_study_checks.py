@@ -208,7 +208,7 @@ def test_cli_random_box_warns_once_per_kind(tmp_path):
     assert limit >= 5  # the box holds designs that jam
     assert len(warned) == 1, lines  # one line for all of them (one per design before)
     assert f"{limit} of 60 designs" in warned[0] and "limit position" in warned[0]
-    assert f"design {first};" in warned[0] and f"{stop:.10g}" in warned[0]
+    assert f"(design {first}'s)" in warned[0] and f"{stop:.10g}" in warned[0]
     assert "--through-limits" not in warned[0]  # not an option of a study
     assert len(lines) == 2 and lines[1].startswith("wrote ")
 
