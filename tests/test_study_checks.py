@@ -296,3 +296,16 @@ def test_python_dash_m_loopsolve_runs(tmp_path):
     bad = subprocess.run([sys.executable, "-m", "loopsolve", "solve", str(tmp_path / "missing.toml")],
                          capture_output=True, text=True, env=env)
     assert bad.returncode == 2 and len(bad.stderr.strip().splitlines()) == 1
+
+
+def test_unreachable_scheduler_is_a_model_error(monkeypatch):
+    """A well-formed address where no scheduler answers: one ModelError naming it (no wait in the test)."""
+    distributed = pytest.importorskip("distributed")
+
+    def refuse(address, timeout=None, **kw):
+        raise OSError(f"Timed out trying to connect to {address} after {timeout}")
+
+    monkeypatch.setattr(distributed, "Client", refuse)
+    with pytest.raises(ls.ModelError, match=r"--scheduler 'tcp://127.0.0.1:9'.*cannot connect") as info:
+        ls.study(ls.load(THESIS), {"r2": [20.0]}, 0, 90, 30, scheduler="tcp://127.0.0.1:9", progress=False)
+    assert "\n" not in str(info.value)
