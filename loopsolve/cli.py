@@ -289,7 +289,8 @@ def build_parser() -> argparse.ArgumentParser:
                    "transmission(a, b), swing(v), stroke(v), time_ratio(v), max_acc(v), grashof(a, b, c, d)")
     p.add_argument("--sensitivity", action="store_true", help="add d<unknown>/d<parameter> at every row")
     p.add_argument("--chunk", type=int, default=256, help="designs per chunk / Dask task (default 256)")
-    p.add_argument("--workers", type=int, metavar="N", help="run on a local Dask cluster of N worker processes")
+    p.add_argument("--workers", type=int, metavar="N", help="run on a local Dask cluster of N worker processes "
+                   "(at most the CPUs of this machine)")
     p.add_argument("--scheduler", metavar="ADDRESS", help="run on the Dask cluster at ADDRESS (tcp://host:port)")
     p.add_argument("-o", "--output", required=True, help=".nc (netCDF), .zarr or .csv (long format)")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
