@@ -94,7 +94,7 @@ def part_kernel(args):
     ls.study(mech, d.slice(0, 10), 0, 360, 1, derivatives=2)  # imports, compile, warm caches
 
     fns = {"loopsolve": lambda: ls.study(mech, d, 0, 360, 1, derivatives=2, chunk_size=args.chunk_kernel,
-                                         progress=False),
+                                         progress=False, max_cells=D * len(x)),
            "closed form": lambda: closed_form(r2, r3, x)}
     kernel = None
     try:
@@ -182,7 +182,7 @@ def part_zarr(args):
             ls.study(mech, d.slice(0, 4), 0, 360, 1, client=client, progress=False)  # warm the workers
             t = time.perf_counter()
             ds = ls.study(mech, d, 0, 360, 1, client=client, chunk_size=args.chunk, out=store, progress=args.progress,
-                          derivatives=args.derivatives)
+                          derivatives=args.derivatives, max_cells=n * 361, max_designs=max(n, 100_000))
             wall = time.perf_counter() - t
             workers = client.run(_rss_peak_mb)
         size = sum(f.stat().st_size for f in store.rglob("*") if f.is_file())

@@ -268,8 +268,14 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--vary", action="append", required=True, metavar="NAME=SPEC",
                    help="a varied parameter: NAME=START:STOP:COUNT (grid), NAME=V1,V2,... (list) or "
                    "NAME=LOW:HIGH (box, with --samples/--lhs); repeat for more parameters")
-    p.add_argument("--samples", type=int, metavar="N", help="N random designs from the box instead of the grid")
-    p.add_argument("--lhs", type=int, metavar="N", help="N designs of a Latin hypercube of the box")
+    p.add_argument("--samples", type=int, metavar="N", help="N random designs from the box instead of the grid "
+                   "(every --vary is then NAME=LOW:HIGH)")
+    p.add_argument("--lhs", type=int, metavar="N", help="N designs of a Latin hypercube of the box (every --vary is "
+                   "then NAME=LOW:HIGH)")
+    p.add_argument("--max-designs", type=int, default=100_000, metavar="N",
+                   help="refuse more designs, before any work (default 100000)")
+    p.add_argument("--max-cells", type=int, default=5_000_000, metavar="N",
+                   help="refuse more designs x input rows, before any work (default 5000000)")
     p.add_argument("--seed", type=int, default=0, help="seed of --samples/--lhs (default 0)")
     p.add_argument("--from", dest="start", required=True, help="first input value")
     p.add_argument("--to", dest="stop", required=True, help="last input value")
@@ -283,7 +289,8 @@ def build_parser() -> argparse.ArgumentParser:
                    "transmission(a, b), swing(v), stroke(v), time_ratio(v), max_acc(v), grashof(a, b, c, d)")
     p.add_argument("--sensitivity", action="store_true", help="add d<unknown>/d<parameter> at every row")
     p.add_argument("--chunk", type=int, default=256, help="designs per chunk / Dask task (default 256)")
-    p.add_argument("--workers", type=int, metavar="N", help="run on a local Dask cluster of N worker processes")
+    p.add_argument("--workers", type=int, metavar="N", help="run on a local Dask cluster of N worker processes "
+                   "(at most the CPUs of this machine)")
     p.add_argument("--scheduler", metavar="ADDRESS", help="run on the Dask cluster at ADDRESS (tcp://host:port)")
     p.add_argument("-o", "--output", required=True, help=".nc (netCDF), .zarr or .csv (long format)")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
@@ -406,7 +413,7 @@ def _sweep_for(args):
     return sweep(mech, start, stop, args.step, speed=args.speed, accel=args.accel, jerk=args.jerk,
                  input=args.input, mode=args.mode, through_limits=through,
                  progress=None if not args.quiet else False, method=getattr(args, "method", "auto"),
-                 max_rows=args.max_rows, limit_rows=args.command == "plot")
+                 max_rows=args.max_rows, limit_rows=args.command in ("plot", "view"))
 
 
 def cmd_vectors(args) -> int:
@@ -511,15 +518,21 @@ def cmd_study(args) -> int:
     _check_output(args.output)
     mech = _load(args.model)
     vary = {}
+    box = args.samples is not None or args.lhs is not None
     for text in args.vary:
-        name, values = parse_vary(text)
+        name, values = parse_vary(text, max_count=args.max_designs)
         if name in vary:
             raise ModelError(f"--vary {name} given twice")
+        if box and not isinstance(values, tuple):
+            raise ModelError(f"--vary {text}: --{'samples' if args.samples is not None else 'lhs'} draws designs from "
+                             f"the box NAME=LOW:HIGH; a COUNT or a list of values would not be used: give "
+                             f"{name}=LOW:HIGH (or drop --samples/--lhs for a grid)")
         vary[name] = values
     ds = study(mech, vary, args.start, args.stop, args.step, samples=args.samples, lhs=args.lhs, seed=args.seed,
                metrics=args.metric, sensitivity=args.sensitivity, speed=args.speed, accel=args.accel,
                jerk=args.jerk, mode=args.mode, chunk_size=args.chunk, workers=args.workers,
-               scheduler=args.scheduler, out=args.output, progress=None if not args.quiet else False)
+               scheduler=args.scheduler, out=args.output, progress=None if not args.quiet else False,
+               max_designs=args.max_designs, max_cells=args.max_cells)
     counts = {}
     for s in ds["status"].values.tolist():
         counts[s] = counts.get(s, 0) + 1

@@ -33,10 +33,11 @@ one root) are swept design by design.
 from __future__ import annotations
 
 import math
+import warnings
 
 import numpy as np
 
-from .errors import AssemblyError, SingularPositionError, SolveError
+from .errors import AssemblyError, LoopsolveWarning, ModelError, SingularPositionError, SolveError
 from .units import Kind
 
 __all__ = ["sweep_chunk", "FOLD_SLOPE", "REGULAR_MIN", "Chunk"]
@@ -58,7 +59,8 @@ class Chunk:
     ``Z[0..d]`` are positions and their time derivatives up to ``derivatives``, ``(nv, K, D)``,
     NaN where a design has no row; ``points`` ``(d+1, P, 2, K, D)`` the points of the lockstep
     designs (the others' are computed from their rows afterwards); ``status``, ``stop``, ``events``,
-    ``nearest``, ``mode`` per design; ``lockstep`` marks the designs the vectorized path solved.
+    ``nearest``, ``mode`` per design; ``lockstep`` marks the designs the vectorized path solved;
+    ``warnings`` the warnings of the designs swept alone (summarized per study by the caller).
     """
 
     def __init__(self, nv, D, K, npts=0, derivatives=3):
@@ -72,6 +74,7 @@ class Chunk:
         self.nearest = np.array([""] * D, dtype=object)
         self.mode = np.array([""] * D, dtype=object)
         self.lockstep = np.zeros(D, dtype=bool)
+        self.warnings: list[tuple[int, str]] = []  # (design in the chunk, message) of the single sweeps
 
 
 def param_matrix(ck, names, values) -> np.ndarray:
@@ -218,8 +221,11 @@ def _plain(v):
         return None
 
 
-def grid_values(ck, start, stop, step):
-    """The sweep's output grid: internal values ``(K,)`` and display values ``(K,)``."""
+def grid_values(ck, start, stop, step, *, max_rows=None, max_rows_error=None):
+    """The sweep's output grid: internal values ``(K,)`` and display values ``(K,)``.
+
+    With ``max_rows``, a grid of more rows raises ``max_rows_error(rows)`` before it is made.
+    """
     from .solve import display_value, input_value
 
     name = ck.inputs[0]
@@ -239,7 +245,12 @@ def grid_values(ck, start, stop, step):
 
         raise ModelError("--step must be a nonzero number")
     h = math.copysign(abs(h), x1 - x0) if x1 != x0 else abs(h)
-    n = max(int(math.floor((x1 - x0) / h + 1e-9)), 0)
+    count = (x1 - x0) / h
+    if max_rows is not None:  # counted before anything is made
+        rows = math.floor(count + 1e-9) + 1 if math.isfinite(count) else math.inf
+        if not rows <= max_rows:
+            raise max_rows_error(rows)
+    n = max(int(math.floor(count + 1e-9)), 0)
     k = np.arange(n + 1)
     if not deg:
         xs = x0 + h * k
@@ -253,27 +264,63 @@ def grid_values(ck, start, stop, step):
     return exact_radians(v), v
 
 
-def _single(mech, names, row, start, stop, step, speed, accel, jerk, mode, derivatives, ch, j, xs_disp):
-    """Sweep design j alone with the public sweep and put its rows, events and status into ``ch``."""
-    m = mech.with_parameters(**{n: float(v) for n, v in zip(names, row)})
+def _no_path(message: str, mech) -> str:
+    """A per-design message without the leading model path (or name) and no machine path in it.
+
+    The Dataset names the model once (``attrs``); a path inside the message keeps its file name.
+    """
+    import os
+
+    message = message.removeprefix(f"{mech.name}: ")
+    if not mech.source:
+        return message
+    src = str(mech.source)
+    return message.removeprefix(src + ": ").replace(src, os.path.basename(src))
+
+
+def _sweep_one(mech, names, row, start, stop, step, speed, accel, jerk, mode, derivatives, ch, j, xs_disp):
+    """The single sweep of design j, or None with its status and events set in ``ch``."""
+    def text(exc, default):
+        return _no_path(str(exc).splitlines()[0], mech) if str(exc) else default
+
     try:
-        sw = m.sweep(start, stop, step, speed=speed, accel=accel, jerk=jerk, mode=mode,
-                           derivatives=derivatives, progress=False)
+        m = mech.with_parameters(**{n: float(v) for n, v in zip(names, row)})
+    except ModelError as exc:  # a check of the model file that the design fails
+        ch.status[j] = "invalid"
+        ch.events[j] = text(exc, "invalid")
+        return None
+    try:
+        return m.sweep(start, stop, step, speed=speed, accel=accel, jerk=jerk, mode=mode,
+                       derivatives=derivatives, progress=False)
     except AssemblyError as exc:
         ch.status[j] = "not-assemblable"
-        ch.stop[j] = xs_disp[0]
         ch.nearest[j] = ", ".join(f"{v:.10g}" for v in exc.nearest)
-        ch.events[j] = str(exc).splitlines()[0] if str(exc) else "not-assemblable"
-        return
+        ch.events[j] = text(exc, "not-assemblable")
     except SingularPositionError as exc:
         ch.status[j] = "singular"
-        ch.stop[j] = xs_disp[0]
-        ch.events[j] = str(exc).splitlines()[0] if str(exc) else "singular"
-        return
+        ch.events[j] = text(exc, "singular")
     except SolveError as exc:
         ch.status[j] = "failed"
-        ch.stop[j] = xs_disp[0]
-        ch.events[j] = f"{type(exc).__name__}: {str(exc).splitlines()[0] if str(exc) else ''}"
+        ch.events[j] = f"{type(exc).__name__}: {text(exc, '')}"
+    ch.stop[j] = xs_disp[0]
+    return None
+
+
+def _single(mech, names, row, start, stop, step, speed, accel, jerk, mode, derivatives, ch, j, xs_disp):
+    """Sweep design j alone with the public sweep and put its rows, events and status into ``ch``.
+
+    Its loopsolve warnings (a stop at a limit ...) go to ``ch.warnings`` without the model
+    file's path, for one summary per study; other warnings go on as they came.
+    """
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        sw = _sweep_one(mech, names, row, start, stop, step, speed, accel, jerk, mode, derivatives, ch, j, xs_disp)
+    for w in caught:
+        if issubclass(w.category, LoopsolveWarning):
+            ch.warnings.append((j, _no_path(str(w.message), mech)))
+        else:
+            warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
+    if sw is None:
         return
     ck = sw.compiled
     if len(sw):
@@ -320,6 +367,10 @@ def sweep_chunk(mech, names, values, start, stop, step, *, speed=None, accel=Non
     rates = input_rates(ck, speed, accel, jerk)
     lockstep = (method == "lockstep" and mode is None and all(len(c) <= 2 for _, c in ops.blocks)
                 and ops.n > 0)
+    from .designs import design_problems
+
+    problems = design_problems(mech, names, values)  # the model file's checks, design by design
+    invalid = problems != ""
     alive = np.zeros(D, dtype=bool)
     if lockstep:
         from .sensitivity import fused_module
@@ -328,7 +379,7 @@ def sweep_chunk(mech, names, values, start, stop, step, *, speed=None, accel=Non
         Pr = [P[i] if p.name in varied else P[i, :1] for i, p in enumerate(mech.parameters)]
         lops = _Ops(ck, shared_input=True)
         lops.fused = fused_module(ck)
-        alive = _lockstep(ck, lops, Pr, P, xs, ch, rates, derivatives)
+        alive = _lockstep(ck, lops, Pr, P, xs, ch, rates, derivatives, ~invalid)
     ch.lockstep[:] = alive
     dead = np.flatnonzero(~alive)
     for arr in ch.Z:
@@ -337,7 +388,10 @@ def sweep_chunk(mech, names, values, start, stop, step, *, speed=None, accel=Non
     if ch.points is not None:
         ch.points[..., ch.filled:, :] = np.nan
         ch.points[..., dead] = np.nan
-    for j in np.flatnonzero(~alive):
+    for j in np.flatnonzero(invalid):
+        ch.status[j] = "invalid"
+        ch.events[j] = problems[j]
+    for j in np.flatnonzero(~alive & ~invalid):
         _single(mech, names, values[j], start, stop, step, speed, accel, jerk, mode, derivatives, ch, j, xs_disp)
     return ch, ck, P
 
@@ -377,8 +431,11 @@ def _newton_start(ops, Z, P, scale, alive):
     return Z
 
 
-def _lockstep(ck, ops, P, Pfull, xs, ch, rates, derivatives) -> np.ndarray:
-    """``P``: the parameter rows as the generated code takes them (fixed ones as one value)."""
+def _lockstep(ck, ops, P, Pfull, xs, ch, rates, derivatives, alive=None) -> np.ndarray:
+    """``P``: the parameter rows as the generated code takes them (fixed ones as one value).
+
+    ``alive``: the designs to sweep (default all); the others are left out from the start.
+    """
     from .solve import initial_z
 
     D = Pfull.shape[1]
@@ -392,7 +449,7 @@ def _lockstep(ck, ops, P, Pfull, xs, ch, rates, derivatives) -> np.ndarray:
         x_guess = x0
     Z = np.repeat(z0[:, None], D, axis=1)
     Z[ix] = x_guess
-    alive = np.ones(D, dtype=bool)
+    alive = np.ones(D, dtype=bool) if alive is None else np.array(alive, dtype=bool)
     mech = ck.mechanism
     guessed = all(mech.variable(n).guess is not None for n in ck.unknowns)
     with np.errstate(all="ignore"):

@@ -649,6 +649,35 @@ def build_mechanism(spec: Mapping[str, Any], *, source: str | None = None) -> Me
     )
 
 
+def checked_links(vectors, parameters, variables) -> list:
+    """The vectors whose length must be positive: links (a moving angle) of a constant length.
+
+    Only lengths that are sums and products of length parameters and plain numbers are checked
+    (the rule of a model file, and of every design of a study).
+    """
+    var_names = {v.name for v in variables}
+    lengths = {p.name for p in parameters if p.kind is not Kind.ANGLE}
+    out = []
+    for v in vectors:
+        if v.cartesian or v.length is None:
+            continue
+        moving_angle = (_expr.names(v.angle) | (_expr.names(v.offset) if v.offset is not None else set())) & var_names
+        if not moving_angle or _expr.names(v.length) & var_names:
+            continue
+        if any(isinstance(n, (_expr.Call, _expr.Const)) or (isinstance(n, _expr.Num) and n.unit)
+               for n in _expr.walk(v.length)) or not _expr.names(v.length) <= lengths:
+            continue
+        out.append(v)
+    return out
+
+
+def link_length_problem(v, value: float) -> str:
+    """Why a link of length ``value`` <= 0 is refused (the model-file message)."""
+    return (f"the link {v.name} (angle {_expr.to_text(v.angle)}) has length {_expr.to_text(v.length)} = {value:g}: "
+            "a link's length must be positive (a zero length leaves its angle undetermined; for the opposite "
+            "direction add 180 to the angle)")
+
+
 def _check_links(vectors, loops, parameters, variables, problems: _Problems) -> None:
     """Links of nonzero positive length, and every variable in some loop.
 
@@ -658,25 +687,14 @@ def _check_links(vectors, loops, parameters, variables, problems: _Problems) -> 
     negative one (pointing the other way). A variable used only by vectors outside every loop
     is never determined (an unknown) or drives nothing (an input: every rate would be 0).
     """
-    var_names = {v.name for v in variables}
     env = {p.name: p.value for p in parameters if p.kind is not Kind.ANGLE}
-    for v in vectors:
-        if v.cartesian or v.length is None:
-            continue
-        moving_angle = (_expr.names(v.angle) | (_expr.names(v.offset) if v.offset is not None else set())) & var_names
-        if not moving_angle or _expr.names(v.length) & var_names:
-            continue
-        if any(isinstance(n, (_expr.Call, _expr.Const)) or (isinstance(n, _expr.Num) and n.unit)
-               for n in _expr.walk(v.length)) or not _expr.names(v.length) <= set(env):
-            continue  # only sums and products of length parameters and plain numbers are checked
+    for v in checked_links(vectors, parameters, variables):
         try:
             value = _expr.evaluate(v.length, env)
         except ModelError:
             continue
         if value <= 0:
-            problems.add(f"vectors.{v.name}.length", f"the link {v.name} (angle {_expr.to_text(v.angle)}) has "
-                         f"length {_expr.to_text(v.length)} = {value:g}: a link's length must be positive (a zero "
-                         "length leaves its angle undetermined; for the opposite direction add 180 to the angle)")
+            problems.add(f"vectors.{v.name}.length", link_length_problem(v, value))
     if loops is None:  # a loop could not be read: its vectors are unknown
         return
     in_loops = {n for lp in loops for _, n in lp.terms}

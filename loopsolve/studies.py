@@ -16,8 +16,10 @@ Dataset layout
   variable in display units (NaN where a design has no row: after a limit, or not assemblable);
 * the varied parameters as ``design`` coordinates (fixed ones in ``attrs["fixed"]``);
 * ``status`` (``ok``, ``limit``, ``not-assemblable``, ``singular`` — the start is a singular
-  position —, ``failed`` — the solver gave up), ``stop`` (the input where a design stopped),
-  ``events`` (``kind@input; ...``), ``nearest`` (nearest assemblable inputs), ``mode`` (the
+  position —, ``failed`` — the solver gave up —, ``invalid`` — the design fails a check of the
+  model file, such as a link of zero or negative length; not swept), ``stop`` (the input where
+  a design stopped), ``events`` (``kind@input; ...``, or the reason a design has no rows; never
+  the model file's path), ``nearest`` (nearest assemblable inputs), ``mode`` (the
   assembly-mode signature each design starts in and keeps),
   ``lockstep`` (solved by the vectorized path);
 * one ``(design,)`` variable per metric, and ``d_<unknown>_d_<parameter>`` sensitivities.
@@ -33,16 +35,23 @@ from collections.abc import Mapping, Sequence
 
 import numpy as np
 
-from .designs import designs_from
-from .errors import MissingDependencyError, ModelError
+from .designs import MAX_DESIGNS, design_count, designs_from
+from .errors import MissingDependencyError, ModelError, warn
 from .lockstep import _Ops, sweep_chunk
 from .metrics import evaluate_metrics, parse_metric
 from .results import _display, angle_turns
 from .units import Kind
 
-__all__ = ["study", "write", "to_long_frame"]
+__all__ = ["study", "write", "to_long_frame", "MAX_CELLS"]
 
 _SUFFIX = ("", "_vel", "_acc", "_jerk")
+
+#: default cap on designs × rows of one study (``max_cells=``, ``--max-cells``)
+MAX_CELLS = 5_000_000
+#: the variables every study Dataset has besides the sweep columns
+_PER_DESIGN = ("status", "stop", "events", "nearest", "mode", "lockstep")
+#: designs named in a summarized warning
+_FIRST = 5
 
 
 def _need(module: str):
@@ -139,7 +148,8 @@ def _chunk_task(mech, names, values, start, stop, step, opts):
     cols = _display_columns(ch, ck, P, opts["derivatives"])
     xs, xs_disp = grid_values(ck, start, stop, step)
     out = {"columns": cols, "status": ch.status.astype(str), "stop": ch.stop, "events": ch.events.astype(str),
-           "nearest": ch.nearest.astype(str), "mode": ch.mode.astype(str), "lockstep": ch.lockstep, "x": xs_disp}
+           "nearest": ch.nearest.astype(str), "mode": ch.mode.astype(str), "lockstep": ch.lockstep, "x": xs_disp,
+           "warnings": list(ch.warnings)}
     if opts["sensitivity"]:
         out["sensitivity"] = _sensitivities(ck, ops, ch.Z[0], P, names)
     if opts["metrics"]:
@@ -168,7 +178,7 @@ def _chunk_dataset(res, ck_info, names, values, offset):
     dims = ("design", inp)
     data = {k: (dims, v.T, {"units": ck_info["units"].get(k, "")}) for k, v in res["columns"].items() if k != inp}
     for k, v in res.get("sensitivity", {}).items():
-        data[k] = (dims, v.T)
+        data[k] = (dims, v.T, {"units": ck_info["sensitivity_units"].get(k, "")})
     for k in ("status", "events", "nearest", "mode"):
         data[k] = ("design", np.asarray(res[k], dtype=object))
     data["stop"] = ("design", res["stop"])
@@ -188,7 +198,7 @@ def study(mech, vary, start, stop, step, *, samples: int | None = None, lhs: int
           metrics: Sequence[str] | Mapping[str, str] = (), sensitivity: bool = False, speed=None, accel=None,
           jerk=None, mode: str | None = None, derivatives: int = 3, chunk_size: int = 256, client=None,
           workers: int | None = None, scheduler: str | None = None, out=None, progress: bool | None = None,
-          method: str = "lockstep"):
+          method: str = "lockstep", max_designs: int = MAX_DESIGNS, max_cells: int = MAX_CELLS):
     """Sweep every design of a parameter grid or sample over the input; one Dataset back.
 
     Parameters
@@ -200,7 +210,8 @@ def study(mech, vary, start, stop, step, *, samples: int | None = None, lhs: int
     start, stop, step : float or str
         The input range, as for :func:`loopsolve.sweep`.
     samples, lhs, seed : int, optional
-        Draw ``samples`` random designs (or a Latin hypercube of ``lhs``) from the box of ``vary``.
+        Draw ``samples`` random designs (or a Latin hypercube of ``lhs``) from the box of ``vary``:
+        every value of ``vary`` is then a pair ``(low, high)`` (a list of other length is refused).
     metrics : sequence of ``"NAME=EXPR"`` or mapping NAME → EXPR
         See :mod:`loopsolve.metrics`.
     sensitivity : bool
@@ -221,6 +232,23 @@ def study(mech, vary, start, stop, step, *, samples: int | None = None, lhs: int
         Completed designs of the total (tqdm) on stderr; default: on a terminal.
     method : {"lockstep", "single"}
         ``"single"`` sweeps every design with :func:`loopsolve.sweep` (for comparisons).
+    max_designs, max_cells : int
+        Refuse, before any work, more designs than ``max_designs`` (default 10⁵; a grid is
+        counted without being made) or more designs × input rows than ``max_cells`` (default
+        5·10⁶: every sweep column of the Dataset holds that many numbers).
+
+    Warns
+    -----
+    LoopsolveWarning
+        One line per kind of warning the designs gave (a stop at a limit position ...), with
+        how many designs gave it and the first few of them; each design's own ``status``,
+        ``stop`` and ``events`` are in the Dataset. ``events`` never holds the model file's path.
+
+    Raises
+    ------
+    ModelError
+        A bad range, parameter, metric (also one named like a variable of the Dataset), too many
+        designs or cells, ``workers`` beyond the machine's CPUs, a malformed ``scheduler`` address.
 
     Returns
     -------
@@ -243,31 +271,52 @@ def study(mech, vary, start, stop, step, *, samples: int | None = None, lhs: int
         raise ModelError(f"derivatives={derivatives!r}: expected 1, 2 or 3")
     if chunk_size < 1:
         raise ModelError(f"chunk_size={chunk_size!r}: must be at least 1")
-    designs = designs_from(vary, samples=samples, lhs=lhs, seed=seed)
+    _check_cluster(workers, scheduler)
+    if samples is not None and lhs is not None:
+        raise ModelError("give either --samples or --lhs, not both")
+    N = design_count(vary, samples=samples, lhs=lhs)  # counted, not made
+    if N > max_designs:
+        designs_from(vary, samples=samples, lhs=lhs, seed=seed, max_designs=max_designs)  # raises, naming the cause
+    names = tuple(vary.names if hasattr(vary, "names") else vary)
     pnames = [p.name for p in mech.parameters]
-    bad = [n for n in designs.names if n not in pnames]
+    bad = [n for n in names if n not in pnames]
     if bad:
         raise ModelError(f"{mech.name}: cannot vary {', '.join(map(repr, bad))}: not a parameter; "
                          f"the parameters are {', '.join(pnames)}")
     if isinstance(metrics, Mapping):
         metrics = [f"{k}={v}" for k, v in metrics.items()]
     metrics = tuple(metrics)
-    for m in metrics:
-        parse_metric(m)  # fail early, before any work
+    parsed = [parse_metric(m) for m in metrics]  # fail early, before any work
     ck = mech.compile()
     from .lockstep import grid_values
     from .results import column_units
 
-    grid_values(ck, start, stop, step)  # validate the range
+    units = column_units(ck)
+    _check_metric_names(parsed, ck, units, names, sensitivity)
+
+    def too_many(rows):
+        return ModelError(f"the study would have {_count(N)} designs × {_count(rows)} rows = {_count(N * rows)} "
+                          f"cells per column, more than the limit of {max_cells:,}: use fewer designs, a larger "
+                          "--step or a smaller range, or raise the limit with --max-cells (max_cells=)")
+
+    grid_values(ck, start, stop, step, max_rows=max_cells / max(N, 1), max_rows_error=too_many)  # validate
+    designs = designs_from(vary, samples=samples, lhs=lhs, seed=seed, max_designs=max_designs)
     if sensitivity:
         from .sensitivity import phi_p_module
 
         phi_p_module(ck)  # derive once here, so workers load it from the cache
     names = designs.names
     values = np.column_stack([designs.values[n] for n in names])
+    sens_units = {}
+    if sensitivity:
+        for pn in names:
+            p = mech.parameters[pnames.index(pn)]
+            pu = mech.units.angle if p.kind is Kind.ANGLE else (mech.units.length if p.kind is Kind.LENGTH else "")
+            for u in ck.unknowns:
+                sens_units[f"d_{u}_d_{pn}"] = f"{units[u]}/{pu}" if pu else units[u]
     fixed = {p.name: (math.degrees(p.value) if p.kind is Kind.ANGLE and mech.units.angle == "deg" else p.value)
              for p in mech.parameters if p.name not in names}
-    ck_info = {"input": ck.inputs[0], "units": column_units(ck),
+    ck_info = {"input": ck.inputs[0], "units": units, "sensitivity_units": sens_units,
                "attrs": {"model": mech.name, "source": str(mech.source or ""), "start": str(start), "stop": str(stop),
                          "step": str(step), "fixed": repr(fixed), "metrics": "; ".join(metrics),
                          "length_unit": mech.units.length, "angle_unit": mech.units.angle}}
@@ -278,8 +327,10 @@ def study(mech, vary, start, stop, step, *, samples: int | None = None, lhs: int
     tasks = [(mech, names, values[a:b], start, stop, step, opts) for a, b in bounds]
     writer = _Writer(out, xr) if out is not None else None
     parts = []
+    warned: list[tuple[int, str]] = []
 
     def consume(i, res):
+        warned.extend((bounds[i][0] + j, msg) for j, msg in res.get("warnings", ()))
         ds = _chunk_dataset(res, ck_info, names, values[bounds[i][0]:bounds[i][1]], bounds[i][0])
         if writer is not None and writer.streaming:
             writer.append(ds)
@@ -298,7 +349,7 @@ def study(mech, vary, start, stop, step, *, samples: int | None = None, lhs: int
                 if bar is not None:
                     bar.update(bounds[i][1] - bounds[i][0])
         elif writer is not None and writer.streaming:
-            _run_dask_zarr(client, tasks, bounds, ck_info, names, writer.path, bar)
+            warned.extend(_run_dask_zarr(client, tasks, bounds, ck_info, names, writer.path, bar))
             writer.started = True
         else:
             _run_dask(client, tasks, bounds, consume, bar)
@@ -310,6 +361,8 @@ def study(mech, vary, start, stop, step, *, samples: int | None = None, lhs: int
             own_client.close()
             if cluster is not None and workers:
                 cluster.close()
+    for line in summarize_warnings(warned, N):
+        warn(line)
     if writer is not None and writer.streaming:
         return writer.finish()
     ds = xr.concat(parts, dim="design", data_vars="all", coords="different", compat="equals", join="outer") \
@@ -329,10 +382,94 @@ def _bar(total, progress):
     return tqdm(total=total, unit="design", desc="study", file=sys.stderr)
 
 
+def _cpus() -> int:
+    try:
+        return len(os.sched_getaffinity(0))
+    except (AttributeError, OSError):
+        return os.cpu_count() or 1
+
+
+def _check_cluster(workers, scheduler) -> None:
+    """``workers`` within this machine's CPUs, ``scheduler`` an address: before any work."""
+    if workers is not None:
+        if isinstance(workers, bool) or not isinstance(workers, (int, np.integer)) or workers < 1:
+            raise ModelError(f"--workers {workers!r}: a number of worker processes, at least 1")
+        if workers > _cpus():
+            raise ModelError(f"--workers {workers}: this machine has {_cpus()} CPU(s); a local cluster of more "
+                             "worker processes than CPUs is slower, not faster (for more, start a cluster and "
+                             "pass --scheduler ADDRESS)")
+    if scheduler is not None:
+        import re
+
+        text = str(scheduler)
+        if not re.fullmatch(r"(?:[a-z][a-z0-9+.-]*://)?(?:\[[0-9A-Fa-f:.]+\]|[A-Za-z0-9._-]+):\d{1,5}", text):
+            raise ModelError(f"--scheduler {text!r}: not the address of a Dask scheduler; expected "
+                             "tcp://HOST:PORT (as the scheduler prints it, e.g. tcp://127.0.0.1:8786)")
+
+
+def _count(n) -> str:
+    return f"{n:,.0f}" if n < 1e15 else (f"{float(n):.3g}" if math.isfinite(n) else "too many")
+
+
+def _check_metric_names(parsed, ck, units, names, sensitivity) -> None:
+    """A metric's name must not be a variable or coordinate of the Dataset (it would overwrite it)."""
+    taken = set(units) | set(_PER_DESIGN) | {"design", ck.inputs[0]} | set(names)
+    if sensitivity:
+        taken |= {f"d_{u}_d_{p}" for u in ck.unknowns for p in names}
+    seen = set()
+    for m in parsed:
+        if m.name in taken:
+            raise ModelError(f"--metric {m.name}={m.text}: {m.name!r} is already a variable of the study's Dataset "
+                             "(a sweep column, a varied parameter, the input or one of "
+                             f"{', '.join(_PER_DESIGN)}); choose another name")
+        if m.name in seen:
+            raise ModelError(f"--metric {m.name}: two metrics have this name")
+        seen.add(m.name)
+
+
+def summarize_warnings(warned, total: int) -> list[str]:
+    """One line per kind of per-design warning: how many designs, the first message, the first designs.
+
+    ``warned`` is ``[(design, message), ...]``; two messages are of one kind when they differ
+    only in their numbers (a stop at a limit position at different inputs).
+
+    Examples
+    --------
+    >>> lines = summarize_warnings([(3, "stops at theta2 = 81.5 deg"), (7, "stops at theta2 = 84 deg")], 10)
+    >>> len(lines), lines[0][:95]
+    (1, "2 of 10 designs gave this warning (design 3's): stops at theta2 = 81.5 deg; the other: design 7")
+    """
+    import re
+
+    groups: dict[str, list[tuple[int, str]]] = {}
+    for d, msg in warned:
+        msg = re.sub(r"; --through-limits \(through_limits=True\) goes around it$", "", msg)
+        kind = re.sub(r"[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?", "#", msg)
+        groups.setdefault(kind, []).append((d, msg))
+    lines = []
+    for items in groups.values():
+        designs = sorted({d for d, _ in items})
+        first, msg = min(items)
+        rest = [d for d in designs if d != first]
+        others = ""
+        if rest:
+            shown = ", ".join(map(str, rest[: _FIRST - 1]))
+            more = f" and {len(rest) - (_FIRST - 1)} more" if len(rest) > _FIRST - 1 else ""
+            others = f"; the other{'s' if len(rest) > 1 else ''}: design{'s' if len(rest) > 1 else ''} {shown}{more}"
+        lines.append(f"{len(designs)} of {total} design{'s' if total != 1 else ''} gave this warning (design "
+                     f"{first}'s): {msg}{others}; each design's status, stop and events are in the Dataset")
+    return lines
+
+
 def _make_client(workers, scheduler):
     distributed = _need("distributed")
     if scheduler:
-        return distributed.Client(scheduler)
+        try:
+            return distributed.Client(scheduler, timeout="20s")
+        except (ValueError, TypeError, OSError, TimeoutError) as exc:
+            raise ModelError(f"--scheduler {scheduler!r}: cannot connect to a Dask scheduler there "
+                             f"({type(exc).__name__}: {str(exc).splitlines()[0] if str(exc) else ''}); check the "
+                             "address the scheduler printed and that it is running") from None
     cluster = distributed.LocalCluster(n_workers=int(workers), threads_per_worker=1, processes=True,
                                        host="127.0.0.1", dashboard_address=":0")
     return distributed.Client(cluster)
@@ -380,16 +517,16 @@ def _region_write(ds, path, a, b):
 
 
 def _chunk_to_zarr(task, ck_info, names, a, b, path):
-    """A Dask task: sweep one chunk and write it into its region of the store; returns its size."""
+    """A Dask task: sweep one chunk and write it into its region of the store; its size and warnings."""
     res = _chunk_task(*task)
     _region_write(_chunk_dataset(res, ck_info, names, task[2], a), path, a, b)
-    return b - a
+    return b - a, [(a + j, msg) for j, msg in res["warnings"]]
 
 
 def _run_dask_zarr(client, tasks, bounds, ck_info, names, path, bar):
     """Zarr on a cluster: the store's layout from the first chunk, then every worker writes its own chunks.
 
-    Nothing but a count travels back to the client, so its memory does not grow with the number
+    Nothing but a count (and the chunk's warnings) travels back to the client, so its memory does not grow with the number
     of designs, and the compression of the columns runs on the workers in parallel. A chunk
     lost with a worker is recomputed and rewrites the same region.
     """
@@ -401,7 +538,9 @@ def _run_dask_zarr(client, tasks, bounds, ck_info, names, path, bar):
     xr = _need("xarray")
     N = bounds[-1][1]
     c = bounds[0][1] - bounds[0][0]
-    first = _chunk_dataset(_chunk_task(*tasks[0]), ck_info, names, tasks[0][2], 0)
+    res0 = _chunk_task(*tasks[0])
+    warned = list(res0["warnings"])
+    first = _chunk_dataset(res0, ck_info, names, tasks[0][2], 0)
 
     def lazy(v):
         shape = (N,) + v.shape[1:]
@@ -430,10 +569,12 @@ def _run_dask_zarr(client, tasks, bounds, ck_info, names, path, bar):
                              key=f"loopsolve-study-zarr-{token}-{i}", pure=False, retries=3)
                for i in range(1, len(tasks))]
     for fut in as_completed(futures):
-        n = fut.result()
+        n, w = fut.result()
+        warned.extend(w)
         fut.release()
         if bar is not None:
             bar.update(n)
+    return warned
 
 
 # ----------------------------------------------------------------------------- output files

@@ -337,6 +337,23 @@ def test_dask_zarr_written_by_the_workers_equals_local(thesis, cluster, local_ru
             assert (a == b).all(), k
 
 
+def test_dask_runs_summarize_warnings_as_the_local_run(thesis, cluster, local_run, tmp_path):
+    """One warning per kind, the same from the workers (also writing Zarr themselves) as locally."""
+    import warnings
+
+    def warned(**kw):
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            ls.study(thesis, DASK_VARY, 0, 360, 5, metrics=DASK_METRICS, chunk_size=3, **kw)
+        return [str(w.message) for w in caught if issubclass(w.category, ls.LoopsolveWarning)]
+
+    limit = int((local_run.status.values == "limit").sum())
+    here = warned()
+    assert limit >= 2 and len(here) == 1 and here[0].startswith(f"{limit} of 18 designs"), here
+    assert warned(client=cluster) == here
+    assert warned(client=cluster, out=tmp_path / "w.zarr") == here
+
+
 def test_cli_scheduler_address_runs_on_that_cluster(cluster, local_run, tmp_path):
     from loopsolve.cli import main
 
