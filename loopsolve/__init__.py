@@ -37,6 +37,7 @@ from .results import Event, EventKind, State, Sweep  # noqa: E402
 # below, so that importing them later cannot replace ``loopsolve.solve``/``loopsolve.sweep``
 from . import solve as _solve_module  # noqa: E402, F401
 from . import sweep as _sweep_module  # noqa: E402, F401
+from . import freudenstein as _freudenstein_module  # noqa: E402, F401
 
 
 def derive(mech, input=None):
@@ -88,6 +89,12 @@ def simulate(mech, duration, **kwargs):
     return _simulate(mech, duration, **kwargs)
 
 
+def freudenstein(function, x_range, input_range, output_range, **kwargs):
+    """Four-bar function generation by Freudenstein's equation, checked by the tracker: see
+    :func:`loopsolve.freudenstein.freudenstein`."""
+    return _freudenstein_module.freudenstein(function, x_range, input_range, output_range, **kwargs)
+
+
 __all__ = [
     "__version__",
     "AssemblyError",
@@ -113,6 +120,7 @@ __all__ = [
     "dumps",
     "forces",
     "fourbar",
+    "freudenstein",
     "inverted_slider_crank",
     "load",
     "loads",

@@ -96,7 +96,7 @@ def links_from_constants(K, r1: float = 1.0) -> tuple[float, float, float, float
     --------
     >>> from loopsolve.freudenstein import links_from_constants
     >>> [round(v, 4) for v in links_from_constants((2.0, 1.5, 0.9), 1.0)]
-    [1.0, 0.5, 0.5676, 0.6667]
+    [1.0, 0.5, 1.0462, 0.6667]
     """
     k1, k2, k3 = (float(v) for v in K)
     if k1 == 0 or k2 == 0:
