@@ -38,6 +38,7 @@ from .results import Event, EventKind, State, Sweep  # noqa: E402
 from . import solve as _solve_module  # noqa: E402, F401
 from . import sweep as _sweep_module  # noqa: E402, F401
 from . import freudenstein as _freudenstein_module  # noqa: E402, F401
+from . import burmester as _burmester_module  # noqa: E402, F401
 
 
 def derive(mech, input=None):
@@ -95,6 +96,17 @@ def freudenstein(function, x_range, input_range, output_range, **kwargs):
     return _freudenstein_module.freudenstein(function, x_range, input_range, output_range, **kwargs)
 
 
+def burmester(poses, **kwargs):
+    """Five-pose motion generation by Burmester theory, every four-bar checked by the tracker: see
+    :func:`loopsolve.burmester.burmester` (four poses: :func:`loopsolve.burmester.burmester_curves`)."""
+    return _burmester_module.burmester(poses, **kwargs)
+
+
+def burmester_curves(poses, **kwargs):
+    """Centre-point and circle-point curves of four poses: see :func:`loopsolve.burmester.burmester_curves`."""
+    return _burmester_module.burmester_curves(poses, **kwargs)
+
+
 __all__ = [
     "__version__",
     "AssemblyError",
@@ -115,6 +127,8 @@ __all__ = [
     "Sweep",
     "TopologyError",
     "build_mechanism",
+    "burmester",
+    "burmester_curves",
     "compile_mechanism",
     "derive",
     "dumps",

@@ -102,7 +102,7 @@ class _Frame:
         return k
 
 
-def _pencil(fr: _Frame, idx, n: int = 1440):
+def _pencil(fr: _Frame, idx, n: int = 1440, psi=None):
     """The centre-point curve of rows ``idx`` along the lines through the pole P₀ⱼ (first of idx).
 
     Returns (psi, pts) with pts (n, 2, 2): the two curve points on each line (NaN where none).
@@ -111,7 +111,8 @@ def _pencil(fr: _Frame, idx, n: int = 1440):
     if P is None:
         raise ModelError("poses 1 and 2 have the same angle (a pure translation): put a pose with another angle "
                          "second")
-    psi = np.linspace(0.0, math.pi, n, endpoint=False)
+    psi = np.linspace(0.0, math.pi, n, endpoint=False) if psi is None else np.atleast_1d(psi)
+    n = len(psi)
     u = np.stack([np.cos(psi), np.sin(psi)], axis=-1)
     ts = np.array([1.0, -1.0, 2.0])
     f = np.stack([fr.compat(P + t * u, idx) for t in ts], axis=-1)  # f(t) = c1 t + c2 t² + c3 t³
@@ -202,12 +203,28 @@ def _dyads(poses) -> list[Dyad]:
     seeds = []
     g = np.stack([fr.compat(np.nan_to_num(pts[:, b]), idx4) for b in range(2)], axis=1)
     g = np.where(np.isfinite(pts[:, :, 0]), g, np.nan)
-    for i in range(len(psi) - 1):  # sign changes of g between nearby curve points of neighbouring lines
+    for i in range(len(psi) - 1):  # sign changes of g between curve points of neighbouring lines
         for b in range(2):
             for b2 in range(2):
                 ma, mb = pts[i, b], pts[i + 1, b2]
                 ga, gb = g[i, b], g[i + 1, b2]
-                if np.isfinite(ga) and np.isfinite(gb) and ga * gb <= 0 and np.linalg.norm(ma - mb) < 0.5:
+                if not (np.isfinite(ga) and np.isfinite(gb) and ga * gb <= 0):
+                    continue
+                if b == b2:  # the same root formula: bisect on the line's angle
+                    lo, hi = psi[i], psi[i + 1]
+                    for _ in range(48):
+                        mid = 0.5 * (lo + hi)
+                        mm = _pencil(fr, idx3, psi=mid)[1][0, b]
+                        if not np.isfinite(mm).all():
+                            break
+                        gm = fr.compat(mm, idx4)
+                        if gm * ga <= 0:
+                            hi = mid
+                        else:
+                            lo, ga = mid, gm
+                    mm = _pencil(fr, idx3, psi=0.5 * (lo + hi))[1][0, b]
+                    seeds.append(mm if np.isfinite(mm).all() else ma)
+                elif np.linalg.norm(ma - mb) < 0.5 + 0.1 * np.linalg.norm(ma):
                     w = ga / (ga - gb) if ga != gb else 0.5
                     seeds.append(ma + w * (mb - ma))
     from scipy.optimize import least_squares
@@ -221,6 +238,8 @@ def _dyads(poses) -> list[Dyad]:
     found: list[tuple[np.ndarray, np.ndarray]] = []
     poles = [fr.pole(i, j) for i, j in itertools.combinations(range(len(poses)), 2)]
     for m0 in seeds:
+        if not np.isfinite(m0).all():
+            continue
         k0 = fr.circle_point(m0, (1, 2, 3, 4))
         sol = least_squares(eqs, np.r_[m0, k0], method="lm", xtol=1e-15, ftol=1e-15, gtol=1e-15)
         m, k = sol.x[:2], sol.x[2:]
