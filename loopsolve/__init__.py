@@ -107,6 +107,14 @@ def burmester_curves(poses, **kwargs):
     return _burmester_module.burmester_curves(poses, **kwargs)
 
 
+def export_cad(mech, output, at=None, **kwargs):
+    """The linkage at one pose as a CAD drawing (``.dxf`` with ezdxf, or ``.svg``), layers by role: see
+    :func:`loopsolve.cad.export_cad`."""
+    from .cad import export_cad as _export_cad
+
+    return _export_cad(mech, output, at, **kwargs)
+
+
 __all__ = [
     "__version__",
     "AssemblyError",
@@ -132,6 +140,7 @@ __all__ = [
     "compile_mechanism",
     "derive",
     "dumps",
+    "export_cad",
     "forces",
     "fourbar",
     "freudenstein",
