@@ -345,8 +345,8 @@ def _model(da: Dyad, db: Dyad, pose0, name: str, length_unit: str):
     for n, v in (("x0", m2[0]), ("y0", m2[1]), ("r1", r1), ("t1", t1), ("r2", da.radius), ("r3", r3),
                  ("r4", db.radius), ("d3", d3), ("rp", rp), ("gp", gp)):
         b.parameter(n, round(float(v), 12))
-    b.variable("theta2", input=True, guess=round(t2, 9)).variable("phi", guess=round(a, 9))
-    b.variable("theta4", guess=round(t4, 9))
+    b.variable("theta2", input=True, guess=round(float(t2), 9)).variable("phi", guess=round(float(a), 9))
+    b.variable("theta4", guess=round(float(t4), 9))
     b.vector("r0", x="x0", y="y0").vector("r1", length="r1", angle="t1")
     b.vector("r2", length="r2", angle="theta2").vector("r3", length="r3", angle="phi", offset="d3")
     b.vector("r4", length="r4", angle="theta4").vector("rp", length="rp", angle="phi", offset="gp")

@@ -40,7 +40,7 @@ from .classic import GrashofClass, grashof
 from .errors import ModelError, SolveError
 from .linkcheck import Defect, circuit_sign, track_between
 
-__all__ = ["FunctionDesign", "chebyshev_spacing", "freudenstein", "freudenstein_constants",
+__all__ = ["FunctionDesign", "chebyshev_spacing", "freudenstein", "freudenstein_points", "freudenstein_constants",
            "links_from_constants", "fourbar_output"]
 
 
@@ -194,8 +194,8 @@ def _build(lengths_signed, offsets, z0_deg, name: str, length_unit: str):
     for n, v in (("r1", r1), ("r2", abs(r2)), ("r3", r3), ("r4", abs(r4)), ("alpha", al), ("beta", be)):
         b.parameter(n, round(float(v), 12))
     t2, t3, t4 = z0_deg
-    b.variable("theta2", input=True, guess=round(t2, 9)).variable("theta3", guess=round(t3, 9))
-    b.variable("theta4", guess=round(t4, 9))
+    b.variable("theta2", input=True, guess=round(float(t2), 9)).variable("theta3", guess=round(float(t3), 9))
+    b.variable("theta4", guess=round(float(t4), 9))
     b.vector("r1", length="r1", angle=0)
     b.vector("r2", length="r2", angle="theta2", offset="alpha + 180" if r2 < 0 else "alpha")
     b.vector("r3", length="r3", angle="theta3")
@@ -387,6 +387,55 @@ def freudenstein(function: Callable | None, x_range: Sequence[float], input_rang
                     lambda t: th4(function(x0 + (np.asarray(t) - a0) / (a1 - a0) * (x1 - x0))), (y1 - y0) / (b1 - b0))
 
 
+def freudenstein_points(inputs, outputs, *, fit: str = "exact", ground: float = 100.0, length_unit: str = "mm",
+                        name: str = "Freudenstein function generator") -> FunctionDesign:
+    """A function generator through precision points given as angles (degrees), checked by the tracker.
+
+    ``inputs``/``outputs``: the input and output angles of each target, in the order the input
+    must meet them; three (``fit="exact"``) or more (``fit="least-squares"``). The intended
+    input range is from the first to the last target; ``max_error`` is the largest output error
+    at the targets (the function between them is not known here).
+
+    Examples
+    --------
+    >>> from loopsolve.freudenstein import freudenstein_points
+    >>> d = freudenstein_points([49.019, 75.0, 100.981], [153.441, 201.633, 222.570])
+    >>> round(d.K[0], 3), [x.kind for x in d.defects]
+    (2.003, [])
+    """
+    if fit not in ("exact", "least-squares"):
+        raise ModelError(f"fit = {fit!r}: expected 'exact' or 'least-squares' for targets given as angles")
+    a = np.asarray(inputs, dtype=float).ravel()
+    b = np.asarray(outputs, dtype=float).ravel()
+    if a.shape != b.shape:
+        raise ModelError(f"{a.size} input angles but {b.size} output angles")
+    if fit == "exact" and a.size != 3:
+        raise ModelError(f"fit='exact' meets exactly three precision points (got {a.size}); use fit='least-squares' "
+                         "for more")
+    if not np.isfinite(a).all() or not np.isfinite(b).all():
+        raise ModelError("every target angle must be a finite number")
+    t2p, t4p = np.radians(a), np.radians(b)
+    K = freudenstein_constants(t2p, t4p)
+    sign = _root_sign(K, t2p[0], t4p[0])
+    if fit != "exact":
+        sign = min((1, -1), key=lambda sg: float(np.sum(np.where(
+            fourbar_output(K, t2p, sg)[1], np.abs(_wrap(fourbar_output(K, t2p, sg)[0] - t4p)), np.pi))))
+        if not fourbar_output(K, t2p[:1], sign)[1][0]:
+            raise ModelError(f"the least-squares design cannot be assembled at the first target (input {a[0]:.6g}°)")
+    K = tuple(float(v) for v in K)
+    lengths = links_from_constants(K, float(ground))
+    t4_0 = float(fourbar_output(K, t2p[:1], sign)[0][0]) if fit != "exact" else t4p[0]
+    t3 = _theta3(lengths, t2p[0], t4_0)
+    mech = _build(lengths, (0.0, 0.0), (a[0], math.degrees(t3), math.degrees(t4_0)), name, length_unit)
+    prec = tuple((float(x), float(y), float(x), float(y)) for x, y in zip(a, b))
+    if fit != "exact":
+        prec = ((prec[0][0], prec[0][1], prec[0][2], math.degrees(t4_0)),) + prec[1:]
+    cls = grashof(*(abs(v) for v in lengths))
+    return _analyse(mech, K, lengths, (0.0, 0.0), fit, prec, (float(a[0]), float(a[-1])),
+                    (float(b[0]), float(b[-1])), cls, sign,
+                    lambda t: np.degrees(fourbar_output(K, np.radians(t), sign)[0]), None, 1.0)
+
+
 def _signed_angles(lengths, t2f, t3, t4f):
     """Absolute directions of the physical vectors (positive lengths)."""
     r1, r2, r3, r4 = lengths
@@ -453,7 +502,7 @@ def _analyse(mech, K, lengths, offs, fit, prec, in_rng, out_rng, cls, sign, clos
         y = np.asarray(sw["theta4"], dtype=float)
         good = np.isfinite(y)
         x, y = x[good], y[good]
-        err = (y - desired(x) + 180.0) % 360.0 - 180.0
+        err = (y - desired(x) + 180.0) % 360.0 - 180.0 if desired is not None else np.zeros_like(x)
         xs_all.append(x[::-1] if k == 0 else x)
         err_all.append(err[::-1] if k == 0 else err)
         if lim is not None:
@@ -473,6 +522,12 @@ def _analyse(mech, K, lengths, offs, fit, prec, in_rng, out_rng, cls, sign, clos
     else:
         xe, ee = np.array([start]), np.array([0.0])
     max_err = float(np.abs(ee).max())
+    if desired is None:  # targets only: the error at each target, from the tracked design
+        max_err = 0.0
+        for _, _, a, b in prec:
+            if reach[0] - 1e-9 <= a <= reach[1] + 1e-9 or reach[1] - 1e-9 <= a <= reach[0] + 1e-9:
+                out = float(closed(np.array([a]))[0])
+                max_err = max(max_err, abs((out - b + 180.0) % 360.0 - 180.0))
     suggestion = ""
     if defects:
         suggestion = ("the exact design is defective: try fit='least-squares' with more points, or fit='minimax' "

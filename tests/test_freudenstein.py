@@ -134,3 +134,13 @@ class TestStructuralError:
     def test_points_out_of_order_and_precision_met(self):
         d = freudenstein(lambda x: x ** 1.6, (1, 4), (30, 120), (90, 180), points=[1.2, 3.5, 2.0])
         assert [x.kind for x in d.defects] == ["order"]
+
+
+def test_design_model_file_round_trip():
+    from loopsolve.freudenstein import freudenstein_points
+
+    d = freudenstein_points([49.019, 75.0, 100.981], [153.441, 201.633, 222.570])
+    mech = ls.loads(ls.dumps(d.mechanism))
+    for _, _, t2, t4 in d.precision:
+        s = mech.solve(t2, mode=d.mode)
+        assert (s["theta4"] - t4 + 180) % 360 - 180 == pytest.approx(0, abs=1e-8)
