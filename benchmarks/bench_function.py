@@ -70,6 +70,7 @@ def main() -> None:
         ("linear least squares on K, 12 Chebyshev points", dict(points=12, fit="least-squares")),
         ("minimax on K (ranges fixed)", dict(points=12, fit="minimax")),
         ("minimax on K and the reference angles alpha, beta", dict(points=12, fit="minimax", free_offsets=True)),
+        ("the same, links within 4:1", dict(points=12, fit="minimax", free_offsets=True, max_link_ratio=4)),
     ]
     base = None
     print(f"y = x^1.6, x in [{X0:g}, {X1:g}], input {A0:g}->{A1:g} deg, output {B0:g}->{B1:g} deg\n")

@@ -210,8 +210,27 @@ def _theta3(lengths_signed, t2f, t4f) -> float:
     return math.atan2(v.imag, v.real)
 
 
-def _fit_minimax(K0, sign, t2, t4, free_offsets: bool, offsets0=(0.0, 0.0)):
-    """Minimize max |θ4(θ2) − θ4_desired| over the samples (radians), the root ``sign`` fixed."""
+def _ratio_excess(K, max_ratio) -> float:
+    """How far the link ratio (longest/shortest) exceeds ``max_ratio`` (and r3² ≤ 0), 0 when within."""
+    k1, k2, k3 = K
+    if k1 == 0 or k2 == 0:
+        return 1e3
+    r2, r4 = 1.0 / k1, 1.0 / k2
+    r3sq = 1.0 + r2 * r2 + r4 * r4 - 2 * r2 * r4 * k3
+    if r3sq <= 0:
+        return 1.0 - r3sq
+    if max_ratio is None:
+        return 0.0
+    L = np.array([1.0, abs(r2), math.sqrt(r3sq), abs(r4)])
+    return max(0.0, float(L.max() / L.min()) - max_ratio)
+
+
+def _fit_minimax(K0, sign, t2, t4, free_offsets: bool, offsets0=(0.0, 0.0), max_ratio=None):
+    """Minimize max |θ4(θ2) − θ4_desired| over the samples (radians), the root ``sign`` fixed.
+
+    Returns ``(p, max error)`` or None when no design assembles over the whole range (and keeps
+    the link ratio within ``max_ratio``).
+    """
     from scipy.optimize import least_squares, minimize
 
     def errors(p):
@@ -230,25 +249,33 @@ def _fit_minimax(K0, sign, t2, t4, free_offsets: bool, offsets0=(0.0, 0.0)):
         excess = np.maximum(np.abs(c) / np.maximum(np.hypot(a, b), 1e-300) - 1.0, 0.0)
         return e + np.sign(e + 1e-300) * 10.0 * excess
 
+    def resid_all(p):
+        return np.r_[resid(p), 10.0 * _ratio_excess(p[:3], max_ratio)]
+
+    def feasible(p):
+        return errors(p)[1].all() and _ratio_excess(p[:3], max_ratio) <= 1e-9
+
     p0 = np.r_[K0, offsets0] if free_offsets else np.asarray(K0, dtype=float)
-    p = least_squares(resid, p0, method="lm", xtol=1e-14, ftol=1e-14).x
-    e, ok = errors(p)
-    if not ok.all():
+    p = least_squares(resid_all, p0, method="lm", xtol=1e-14, ftol=1e-14).x
+    if not feasible(p):
         return None
+    e = errors(p)[0]
     n = len(p)
-    cons = {"type": "ineq", "fun": lambda v: np.r_[v[n] - resid(v[:n]), v[n] + resid(v[:n])]}
-    r = minimize(lambda v: v[n], np.r_[p, np.abs(errors(p)[0]).max()], constraints=[cons], method="SLSQP",
+    cons = [{"type": "ineq", "fun": lambda v: np.r_[v[n] - resid(v[:n]), v[n] + resid(v[:n])]}]
+    if max_ratio is not None:
+        cons.append({"type": "ineq", "fun": lambda v: -_ratio_excess(v[:3], max_ratio)})
+    r = minimize(lambda v: v[n], np.r_[p, np.abs(e).max()], constraints=cons, method="SLSQP",
                  options={"maxiter": 400, "ftol": 1e-16})
     q = r.x[:n]
-    eq, okq = errors(q)
-    if okq.all() and np.abs(eq).max() < np.abs(e).max():
+    eq = errors(q)[0]
+    if feasible(q) and np.abs(eq).max() < np.abs(e).max():
         p, e = q, eq
     return p, float(np.abs(e).max())
 
 
-def _free_offset_start(t2, t4, sign_hint=None):
-    """The best (K, α, β, sign) of linear least-squares designs over a grid of reference angles."""
-    best = None
+def _free_offset_starts(t2, t4, count: int = 4, max_ratio=None):
+    """The ``count`` best (K, α, β, sign) of linear least-squares designs over a grid of reference angles."""
+    found = []
     for al in np.radians(np.arange(-180, 180, 30)):
         for be in np.radians(np.arange(-180, 180, 30)):
             try:
@@ -259,17 +286,17 @@ def _free_offset_start(t2, t4, sign_hint=None):
                 out, ok = fourbar_output(K, t2 + al, s)
                 if not ok.all():
                     continue
-                m = float(np.abs(_wrap(out - be - t4)).max())
-                if best is None or m < best[0]:
-                    best = (m, K, al, be, s)
-    return best
+                m = float(np.abs(_wrap(out - be - t4)).max()) + _ratio_excess(K, max_ratio)
+                found.append((m, tuple(K), al, be, s))
+    found.sort(key=lambda t: t[0])
+    return found[:count]
 
 
 def freudenstein(function: Callable | None, x_range: Sequence[float], input_range: Sequence[float],
                  output_range: Sequence[float], *, points: int | Sequence[float] = 3, spacing: str = "chebyshev",
                  fit: str = "exact", free_offsets: bool = False, ground: float = 100.0,
                  length_unit: str = "mm", name: str = "Freudenstein function generator",
-                 samples: int = 1201) -> FunctionDesign:
+                 samples: int = 1201, max_link_ratio: float | None = None, starts: int = 4) -> FunctionDesign:
     """Design a four-bar function generator y = f(x) and have the tracker check it.
 
     Parameters
@@ -293,6 +320,11 @@ def freudenstein(function: Callable | None, x_range: Sequence[float], input_rang
         variables too; the ranges' spans stay.
     ground : float
         Ground length r1 (model length unit).
+    max_link_ratio : float, optional
+        With ``fit="minimax"``: the longest link at most this many times the shortest.
+    starts : int
+        With ``free_offsets``: how many of the best linear least-squares designs over a 30° grid
+        of (α, β) are polished (the best polished one is kept).
 
     Returns
     -------
@@ -341,18 +373,17 @@ def freudenstein(function: Callable | None, x_range: Sequence[float], input_rang
     sign = _root_sign(K, t2p[0], t4p[0])
     if fit == "minimax":
         if free_offsets:
-            start = _free_offset_start(t2g[::10], t4g[::10])
-            if start is None:
-                raise ModelError("no least-squares four-bar is assemblable over the whole range at any reference "
-                                 "angles; try other ranges")
-            _, K, al, be, sign = start
-            fits = [(_fit_minimax(K, sign, t2g, t4g, True, (al, be)), sign)]
+            starts = _free_offset_starts(t2g[::10], t4g[::10], starts, max_link_ratio)
+            fits = [(_fit_minimax(np.array(K), sg, t2g, t4g, True, (al, be), max_link_ratio), sg)
+                    for _, K, al, be, sg in starts]
         else:
-            fits = [(_fit_minimax(K, sg, t2g, t4g, False), sg) for sg in (1, -1)]
+            fits = [(_fit_minimax(K, sg, t2g, t4g, False, max_ratio=max_link_ratio), sg) for sg in (1, -1)]
         fits = [(f, sg) for f, sg in fits if f is not None]
         if not fits:
-            raise ModelError("the minimax fit found no four-bar that assembles over the whole input range from the "
-                             "least-squares start; try free_offsets=True or other ranges")
+            raise ModelError("the minimax fit found no four-bar that assembles over the whole input range"
+                             + (f" with links within {max_link_ratio:g}:1" if max_link_ratio else "")
+                             + (" from the least-squares starts; try other ranges" if free_offsets else
+                                "; try free_offsets=True or other ranges"))
         (p, _), sign = min(fits, key=lambda t: t[0][1])
         K = p[:3]
         if free_offsets:

@@ -131,6 +131,26 @@ class TestStructuralError:
         assert d.max_error == pytest.approx(max(math.degrees(e) for e in errs), abs=1e-3)
         assert t4p  # the first point's output is defined
 
+    def test_minimax_with_free_offsets_beats_three_points_tenfold_within_a_link_ratio(self):
+        d = freudenstein(lambda x: x ** 1.6, (1, 4), (30, 120), (90, 180), points=12, fit="minimax",
+                         free_offsets=True, max_link_ratio=4)
+        assert d.certified and d.reachable == pytest.approx((30, 120))
+        assert max(d.lengths) / min(d.lengths) <= 4 + 1e-9
+        # independent: the output by circle intersection at 601 inputs, in the design's branch
+        r1, r2, r3, r4 = d.lengths
+        al, be = (math.radians(v) for v in d.offsets)
+        k1, k2, _ = d.K
+        worst, prev = 0.0, None
+        for x in np.linspace(1, 4, 601):
+            t2 = math.radians(30 + 90 * (x - 1) / 3) + al + (math.pi if k1 < 0 else 0)
+            want = math.radians(90 + 90 * (x ** 1.6 - 1) / (4 ** 1.6 - 1))
+            t4s = [fourbar_theta4(r1, r2, r3, r4, t2, o) - be - (math.pi if k2 < 0 else 0) for o in (True, False)]
+            ref = want if prev is None else prev
+            prev = min(t4s, key=lambda a: abs((a - ref + math.pi) % (2 * math.pi) - math.pi))
+            worst = max(worst, abs((prev - want + math.pi) % (2 * math.pi) - math.pi))
+        assert math.degrees(worst) == pytest.approx(d.max_error, abs=1e-4)
+        assert d.max_error < 1.30 / 10
+
     def test_points_out_of_order_and_precision_met(self):
         d = freudenstein(lambda x: x ** 1.6, (1, 4), (30, 120), (90, 180), points=[1.2, 3.5, 2.0])
         assert [x.kind for x in d.defects] == ["order"]
