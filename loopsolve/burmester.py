@@ -40,7 +40,7 @@ from .errors import ModelError
 from .linkcheck import Defect, circuit_sign, track_between
 
 __all__ = ["Dyad", "BurmesterCurves", "FourBarCandidate", "BurmesterResult", "burmester", "burmester_curves",
-           "parse_poses"]
+           "dyad_for_center", "four_bar", "parse_poses"]
 
 
 def _rot(a):
@@ -84,6 +84,14 @@ class _Frame:
             out.append(np.concatenate([a, c[..., None]], axis=-1))
         return np.stack(out, axis=-2)
 
+    def order(self, n: int) -> tuple[int, ...]:
+        """Poses 1 … n−1 with first one whose angle differs from pose 0's (its pole is finite)."""
+        turned = [j for j in range(1, n) if abs(math.remainder(self.phi[j] - self.phi[0], 2 * math.pi)) > 1e-9]
+        if not turned:
+            raise ModelError("every pose has the same angle (a pure translation): Burmester's circle points are "
+                             "at infinity; give poses that turn the coupler")
+        return (turned[0],) + tuple(j for j in range(1, n) if j != turned[0])
+
     def compat(self, m, idx):
         return np.linalg.det(self.rows(m, idx))
 
@@ -109,8 +117,7 @@ def _pencil(fr: _Frame, idx, n: int = 1440, psi=None):
     """
     P = fr.pole(0, idx[0])
     if P is None:
-        raise ModelError("poses 1 and 2 have the same angle (a pure translation): put a pose with another angle "
-                         "second")
+        raise ModelError("the first two poses of the pencil have the same angle")
     psi = np.linspace(0.0, math.pi, n, endpoint=False) if psi is None else np.atleast_1d(psi)
     n = len(psi)
     u = np.stack([np.cos(psi), np.sin(psi)], axis=-1)
@@ -161,7 +168,8 @@ def burmester_curves(poses, *, samples: int = 1440) -> BurmesterCurves:
     if len(poses) != 4:
         raise ModelError(f"centre-point and circle-point curves need exactly four poses (got {len(poses)})")
     fr = _Frame(poses)
-    psi, pts, _ = _pencil(fr, (1, 2, 3), samples)
+    idx3 = fr.order(4)
+    psi, pts, _ = _pencil(fr, idx3, samples)
     centers, circles, moving = [], [], []
     for b in range(2):
         m = pts[:, b]
@@ -169,7 +177,7 @@ def burmester_curves(poses, *, samples: int = 1440) -> BurmesterCurves:
         m = np.where(far[:, None], np.nan, m)
         ks = np.full_like(m, np.nan)
         for i in np.flatnonzero(np.isfinite(m[:, 0])):
-            ks[i] = fr.circle_point(m[i], (1, 2, 3))
+            ks[i] = fr.circle_point(m[i], idx3)
         centers.append(m)
         moving.append(ks)
         circles.append(fr.p[0] + ks @ fr.R[0].T)
@@ -198,7 +206,8 @@ class Dyad:
 
 def _dyads(poses) -> list[Dyad]:
     fr = _Frame(poses)
-    idx3, idx4 = (1, 2, 3), (1, 2, 4)
+    o = fr.order(5)
+    idx3, idx4 = o[:3], o[:2] + o[3:]
     psi, pts, P = _pencil(fr, idx3, 2880)
     seeds = []
     g = np.stack([fr.compat(np.nan_to_num(pts[:, b]), idx4) for b in range(2)], axis=1)
@@ -414,6 +423,49 @@ def _candidate(pair, da: Dyad, db: Dyad, poses, name, length_unit) -> FourBarCan
                             tuple(errors), tuple(defects))
 
 
+def dyad_for_center(poses, center) -> Dyad:
+    """The dyad whose ground pivot is ``center``: its coupler pin from the poses' equations.
+
+    Three poses: any centre point has one. Four: ``center`` must lie on the centre-point curve
+    (:func:`burmester_curves`); five: be a Ball–Burmester point. Raises :class:`ModelError` when
+    the pin's distance to ``center`` is not the same in every pose (to 1e-7 of the poses' span).
+    """
+    poses = parse_poses(poses)
+    if len(poses) < 3:
+        raise ModelError(f"a dyad through poses needs at least three poses (got {len(poses)})")
+    fr = _Frame(poses)
+    m = (np.asarray(center, dtype=float) - fr.c) / fr.s
+    k = fr.circle_point(m, tuple(range(1, len(poses))))
+    w = fr.p + np.einsum("jab,b->ja", fr.R, k)
+    d = np.hypot(*(w - m).T)
+    if d.max() - d.min() > 1e-7 * max(1.0, d.max()):
+        raise ModelError(f"centre point {tuple(float(v) for v in center)} is not a centre point of these poses: the "
+                         f"pin's distance varies by {fr.s * (d.max() - d.min()):.3g} (pick a point of the centre-point "
+                         "curve)")
+    mc, kc = fr.c + fr.s * m, fr.s * k
+    return Dyad((float(mc[0]), float(mc[1])), (float(kc[0]), float(kc[1])), float(fr.s * d[0]))
+
+
+def four_bar(poses, center_a, center_b, *, length_unit: str = "mm",
+             name: str = "Burmester four-bar") -> FourBarCandidate:
+    """The four-bar with ground pivots ``center_a`` (input) and ``center_b``, checked through the poses.
+
+    For three or four poses, where the centre points are a choice (any point, or points of the
+    centre-point curve); the candidate carries the tracker's defects like :func:`burmester`'s.
+
+    Examples
+    --------
+    >>> from loopsolve.burmester import four_bar
+    >>> poses = [(0, 0, 0), (1, 0.2, 10), (1.8, 0.7, 25)]
+    >>> c = four_bar(poses, (-1.0, -2.0), (3.0, -1.5))
+    >>> len(c.inputs), c.mechanism.name
+    (3, 'Burmester four-bar')
+    """
+    poses = parse_poses(poses)
+    da, db = dyad_for_center(poses, center_a), dyad_for_center(poses, center_b)
+    return _candidate((0, 1), da, db, poses, name, length_unit)
+
+
 def burmester(poses, *, length_unit: str = "mm", name: str = "Burmester four-bar") -> BurmesterResult:
     """Five poses → Ball–Burmester dyads → every four-bar, each with the tracker's defects.
 
@@ -432,7 +484,7 @@ def burmester(poses, *, length_unit: str = "mm", name: str = "Burmester four-bar
     Raises
     ------
     ModelError
-        Not five poses, malformed poses, or poses 1 and 2 at the same angle.
+        Not five poses, malformed poses, or poses that all have the same angle.
 
     Examples
     --------

@@ -217,7 +217,22 @@ class TestFivePoses:
         ([(0, 0)] * 5, "three numbers"),
         ([(0, 0, "a")] * 5, "three numbers"),
         ([(0, 0, float("nan"))] * 5, "finite"),
+        ([(0, 0, 5), (1, 0, 5), (2, 0, 5), (3, 1, 5), (4, 4, 5)], "same angle"),
     ])
     def test_bad_poses(self, poses, match):
         with pytest.raises(ModelError, match=match):
             ls.burmester(poses)
+
+
+def test_four_pose_design_from_chosen_centre_points():
+    # four poses: the planted pivots are centre points; the four-bar through them is the planted one
+    from loopsolve.burmester import dyad_for_center, four_bar
+
+    c = four_bar(POSES4, tuple(O2), tuple(O4))
+    assert c.lengths == pytest.approx((R1, R2, R3, R4), abs=1e-8)
+    assert c.certified and c.inputs == pytest.approx([20, 70, 120, 170], abs=1e-8)
+    _, A, B = planted_pose(20)
+    d = dyad_for_center(POSES4, tuple(O2))
+    assert np.allclose(d.pin(POSES4[0]), A, atol=1e-9) and d.radius == pytest.approx(R2)
+    with pytest.raises(ModelError, match="not a centre point"):
+        dyad_for_center(POSES4, (O2[0] + 5, O2[1]))
