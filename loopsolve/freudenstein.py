@@ -505,10 +505,13 @@ def _analyse(mech, K, lengths, offs, fit, prec, in_rng, out_rng, cls, sign, clos
             continue
         z, lim = track_between(mech, prev, a_cur, direction=d)
         if lim is not None or sig != mode:
-            where = f" at input {lim:.6g}°" if lim is not None else ""
-            defects.append(Defect("branch", f"between precision points {i} and {i + 1} the linkage reaches a limit "
-                                  f"position{where} (point {i + 1} is in mode {sig}, point 1 in {mode})",
-                                  lim if lim is not None else a_cur))
+            if lim is not None:
+                text = (f"between precision points {i} and {i + 1} the linkage reaches a limit position at input "
+                        f"{lim:.6g}° (point {i + 1} is in mode {sig}, point 1 in {mode})")
+            else:
+                text = (f"precision point {i + 1} (input {a_cur:.6g}°) is on the other branch (mode {sig}, point 1 in "
+                        f"{mode}): the linkage reaches it only through a limit position")
+            defects.append(Defect("branch", text, lim if lim is not None else a_cur))
         elif z is not None and abs(math.degrees(float(_wrap(z[2] - cur[2])))) > 1e-6:
             defects.append(Defect("branch", f"the tracked motion misses precision point {i + 1}", a_cur))
     # the whole intended range, tracked in the mode from the first precision point both ways
@@ -561,8 +564,9 @@ def _analyse(mech, K, lengths, offs, fit, prec, in_rng, out_rng, cls, sign, clos
                 max_err = max(max_err, abs((out - b + 180.0) % 360.0 - 180.0))
     suggestion = ""
     if defects:
-        suggestion = ("the exact design is defective: try fit='least-squares' with more points, or fit='minimax' "
-                      "(free_offsets=True frees the reference angles) and check its defects")
+        suggestion = ("this design is defective; alternatives: fit='least-squares' with more points (e.g. points=7), "
+                      "or fit='minimax', which keeps the whole input range assemblable (free_offsets=True also "
+                      "frees the reference angles α, β): check the new design's defects")
     return FunctionDesign(tuple(K), tuple(abs(v) for v in lengths), offs, fit, prec, tuple(in_rng),
                           tuple(out_rng), mech, mode, cls, tuple(defects), max_err, max_err * abs(y_per_deg),
                           xe, ee, (float(min(reach)), float(max(reach))), suggestion)

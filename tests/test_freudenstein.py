@@ -164,3 +164,20 @@ def test_design_model_file_round_trip():
     for _, _, t2, t4 in d.precision:
         s = mech.solve(t2, mode=d.mode)
         assert (s["theta4"] - t4 + 180) % 360 - 180 == pytest.approx(0, abs=1e-8)
+
+
+@pytest.mark.parametrize("lengths, inputs, kind", [
+    ((60, 25, 70, 45), (20, 75, 140), "circuit"),  # Grashof crank-rocker: open and crossed are two circuits
+    ((4, 3, 3.5, 5), (30, 60, 90), "branch"),  # non-Grashof: one circuit, the modes meet at limits
+])
+def test_precision_points_in_two_modes(lengths, inputs, kind):
+    from loopsolve.freudenstein import freudenstein_points
+
+    # outputs by circle intersection: the first two open, the third crossed
+    outs = [math.degrees(fourbar_theta4(*lengths, math.radians(a), o)) for a, o in zip(inputs, (True, True, False))]
+    d = freudenstein_points(inputs, outs, ground=lengths[0])
+    assert d.lengths == pytest.approx(lengths, abs=1e-9)  # K does not know the mode
+    assert [x.kind for x in d.defects] == [kind]
+    assert d.defects[0].input == pytest.approx(inputs[2])
+    outs = [math.degrees(fourbar_theta4(*lengths, math.radians(a), True)) for a in inputs]
+    assert freudenstein_points(inputs, outs, ground=lengths[0]).certified
