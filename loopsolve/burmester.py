@@ -359,7 +359,7 @@ def _model(da: Dyad, db: Dyad, pose0, name: str, length_unit: str):
     b.vector("r0", x="x0", y="y0").vector("r1", length="r1", angle="t1")
     b.vector("r2", length="r2", angle="theta2").vector("r3", length="r3", angle="phi", offset="d3")
     b.vector("r4", length="r4", angle="theta4").vector("rp", length="rp", angle="phi", offset="gp")
-    b.loop("r2 + r3 = r1 + r4")
+    b.loop("r0 + r2 + r3 = r0 + r1 + r4")  # r0 on both sides: the drawing places the pivots off the origin
     b.point("O2", "r0").point("A", "r0 + r2").point("B", "r0 + r2 + r3").point("O4", "r0 + r1")
     b.point("P", "r0 + r2 + rp")
     return b.build(), (r1, da.radius, r3, db.radius), math.radians(t1), math.radians(d3)

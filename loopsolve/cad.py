@@ -232,7 +232,25 @@ def _tracer_points(state) -> list[str]:
     from .geometry import pose_frames
 
     (frame,), _ = pose_frames([state], vectors=False)
-    return [str(name) for _, name in frame.points]
+    names = [str(name) for _, name in frame.points]
+    # a point of one moving link only (not a pin between links, not a ground pivot): a tracer too,
+    # as the coupler point of a vector model is (its coupler is drawn through it)
+    tol = 1e-9 * state.compiled.scale
+
+    def key(p):
+        return tuple(np.round(np.asarray(p, dtype=float) / tol).astype(np.int64))
+
+    count: dict = {}
+    for _, xy, _ in frame.links:
+        for k in {key(p) for p in xy}:
+            count[k] = count.get(k, 0) + 1
+    fixed = {key(p) for p, _ in frame.pivots} | {key(p) for p, _ in frame.blocks}
+    known = set(state.compiled.points)
+    for p, text, _ in frame.labels:
+        k = key(p)
+        if count.get(k) == 1 and k not in fixed and text in known and text not in names:
+            names.append(str(text))
+    return names
 
 
 def point_curves(mech, state, names, *, step=None) -> dict:

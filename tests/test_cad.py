@@ -119,3 +119,19 @@ def test_cli_errors_one_line(capsys, tmp_path, argv, text):
     status, out, err = call(capsys, "draw", COUPLER, *[a.format(o=tmp_path / "x") for a in argv])
     assert status == 2 and len(err.strip().splitlines()) == 1 and text in err, err
     assert not list(tmp_path.iterdir())
+
+
+def test_burmester_design_dxf_passes_through_the_poses(tmp_path):
+    from test_burmester import O2, O4, POSES5
+
+    res = ls.burmester(POSES5)
+    [c] = [c for c in res.candidates if np.allclose(c.lengths, (60, 25, 70, 45), atol=1e-8)]
+    out = tmp_path / "motion.dxf"
+    ls.export_cad(c.mechanism, out, 20)
+    msp = ezdxf.readfile(out).modelspace()
+    apexes = sorted(tuple(map(float, e.get_points("xy")[0])) for e in msp.query("LWPOLYLINE[layer=='GROUND']"))
+    assert np.allclose(apexes, sorted([tuple(O2), tuple(O4)]), atol=1e-9)
+    [curve] = msp.query("LWPOLYLINE[layer=='CURVES']")  # the coupler point P over a crank turn
+    verts = np.array([tuple(v) for v in curve.get_points("xy")])
+    for x, y, _ in POSES5:  # the crank angles 20°, 70°, ... are rows of the 1° sweep
+        assert np.min(np.hypot(verts[:, 0] - x, verts[:, 1] - y)) < 1e-9
