@@ -170,19 +170,26 @@ def burmester_curves(poses, *, samples: int = 1440) -> BurmesterCurves:
     fr = _Frame(poses)
     idx3 = fr.order(4)
     psi, pts, _ = _pencil(fr, idx3, samples)
+    pts = np.where((np.linalg.norm(pts, axis=2) > 50)[..., None], np.nan, pts)  # beyond 50 pose spans: cut
+    for i in range(1, len(pts)):  # keep each piece on one root: swap where that is nearer the previous line's
+        a, b = pts[i - 1], pts[i]
+        same = np.nansum(np.hypot(*(b - a).T))
+        swap = np.nansum(np.hypot(*(b[::-1] - a).T))
+        if swap < same and np.isfinite(b).all() and np.isfinite(a).all():
+            pts[i] = b[::-1]
     centers, circles, moving = [], [], []
     for b in range(2):
         m = pts[:, b]
-        far = np.linalg.norm(m, axis=1) > 50  # beyond 50 pose spans: an asymptote, cut the polyline
-        m = np.where(far[:, None], np.nan, m)
         ks = np.full_like(m, np.nan)
         for i in np.flatnonzero(np.isfinite(m[:, 0])):
             ks[i] = fr.circle_point(m[i], idx3)
-        centers.append(m)
-        moving.append(ks)
-        circles.append(fr.p[0] + ks @ fr.R[0].T)
-        for lst in (centers, moving, circles):
-            lst.append(np.full((1, 2), np.nan))
+        w = fr.p[0] + ks @ fr.R[0].T
+        # break the polylines where a piece runs off towards an asymptote (a jump between lines)
+        jump = np.r_[False, np.hypot(*(m[1:] - m[:-1]).T) > 0.25]
+        for piece in np.split(np.arange(len(m)), np.flatnonzero(jump)):
+            for lst, arr in ((centers, m), (moving, ks), (circles, w)):
+                lst.append(arr[piece])
+                lst.append(np.full((1, 2), np.nan))
     poles = [fr.pole(i, j) for i, j in itertools.combinations(range(4), 2)]
     poles = np.array([p for p in poles if p is not None])
     back = lambda a: fr.c + fr.s * a  # noqa: E731
