@@ -170,6 +170,15 @@ def burmester_curves(poses, *, samples: int = 1440) -> BurmesterCurves:
     fr = _Frame(poses)
     idx3 = fr.order(4)
     psi, pts, _ = _pencil(fr, idx3, samples)
+    for _ in range(10):  # refine the lines' angles where the curve moves fast (near the pencil's pole)
+        a, b = pts[:-1], pts[1:]
+        step = np.minimum(np.hypot(*(b - a).transpose(2, 0, 1)).max(axis=1),
+                          np.hypot(*(b[:, ::-1] - a).transpose(2, 0, 1)).max(axis=1))
+        need = np.isfinite(step) & (step > 0.01) & (np.linalg.norm(np.nan_to_num(a), axis=2).max(axis=1) < 50)
+        if not need.any() or len(psi) > 16 * samples:
+            break
+        psi = np.sort(np.r_[psi, 0.5 * (psi[:-1] + psi[1:])[need]])
+        pts = _pencil(fr, idx3, psi=psi)[1]
     pts = np.where((np.linalg.norm(pts, axis=2) > 50)[..., None], np.nan, pts)  # beyond 50 pose spans: cut
     for i in range(1, len(pts)):  # keep each piece on one root: swap where that is nearer the previous line's
         a, b = pts[i - 1], pts[i]
@@ -181,8 +190,13 @@ def burmester_curves(poses, *, samples: int = 1440) -> BurmesterCurves:
     for b in range(2):
         m = pts[:, b]
         ks = np.full_like(m, np.nan)
-        for i in np.flatnonzero(np.isfinite(m[:, 0])):
-            ks[i] = fr.circle_point(m[i], idx3)
+        good = np.flatnonzero(np.isfinite(m[:, 0]))
+        if len(good):  # the three equations agree on the curve: least squares by the normal equations
+            r = fr.rows(m[good], idx3)
+            A, c = r[..., :2], -r[..., 2]
+            AtA = np.einsum("nji,njk->nik", A, A)
+            ok = np.abs(np.linalg.det(AtA)) > 1e-14 * np.einsum("nii->n", AtA) ** 2
+            ks[good[ok]] = np.linalg.solve(AtA[ok], np.einsum("nji,nj->ni", A[ok], c[ok])[..., None])[..., 0]
         w = fr.p[0] + ks @ fr.R[0].T
         # break the polylines where a piece runs off towards an asymptote (a jump between lines)
         jump = np.r_[False, np.hypot(*(m[1:] - m[:-1]).T) > 0.25]

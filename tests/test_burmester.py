@@ -84,6 +84,23 @@ class TestCurves:
         for piv in (O2, O4):
             assert np.min(np.hypot(*(curves.center[ok] - piv).T)) < 0.02 * span
 
+    def test_the_six_poles_lie_on_the_centre_point_curve(self, curves):
+        # pole P_ij: the coupler point with the same world position in poses i and j, from
+        # (R_i - R_j) q = p_j - p_i (written here); the centre-point curve passes through all six
+        span = max(math.dist(a[:2], b[:2]) for a, b in itertools.combinations(POSES4, 2))
+        ok = np.isfinite(curves.center[:, 0])
+        centroid = np.mean([p[:2] for p in POSES4], axis=0)
+        checked = 0
+        for (pi, pj) in itertools.combinations(POSES4, 2):
+            Ri, Rj = rot(math.radians(pi[2])), rot(math.radians(pj[2]))
+            q = np.linalg.solve(Ri - Rj, np.array(pj[:2]) - np.array(pi[:2]))
+            pole = np.array(pi[:2]) + Ri @ q
+            if np.hypot(*(pole - centroid)) > 20 * span:
+                continue  # far out along an asymptote, beyond the drawn curve
+            assert np.min(np.hypot(*(curves.center[ok] - pole).T)) < 0.01 * span, pole
+            checked += 1
+        assert checked >= 4
+
     def test_circle_points_are_the_pins_in_the_first_pose(self, curves):
         ok = np.isfinite(curves.center[:, 0])
         p0 = np.array(POSES4[0][:2])
