@@ -407,8 +407,11 @@ def _candidate(pair, da: Dyad, db: Dyad, poses, name, length_unit) -> FourBarCan
     d = 1 if steps[0] >= 0 else -1
     crank = cls in (GrashofClass.CRANK_ROCKER, GrashofClass.DOUBLE_CRANK)
     defects: list[Defect] = []
-    if crank:
-        total = sum(s % 360.0 if d > 0 else (-s) % 360.0 for s in steps)
+    if crank:  # the crank may turn either way: the way that meets the poses within one turn
+        totals = {dd: sum((dd * s) % 360.0 for s in steps) for dd in (d, -d)}
+        if totals[d] >= 360.0 and totals[-d] < 360.0:
+            d = -d
+        total = totals[d]
         if total >= 360.0:
             defects.append(Defect("order", f"the crank meets the poses in another order: it turns {total:.1f}° "
                                   "(more than one turn) to visit them in the given order", inputs[-1]))

@@ -533,6 +533,11 @@ def _analyse(mech, K, lengths, offs, fit, prec, in_rng, out_rng, cls, sign, clos
                 continue
         lim = next((e.input for e in sw.events if e.kind.value == "limit"), None)
         x = np.asarray(sw["theta2"], dtype=float)
+        if lim is None and (len(x) == 0 or abs(x[-1] - end) > 1e-6 * max(1.0, abs(end))):
+            stop = float(x[-1]) if len(x) else start
+            defects.append(Defect("range", f"the tracked motion stops at theta2 = {stop:.6g}° before the end of the "
+                                  f"intended input range at {end:g}° ("
+                                  + "; ".join(e.message for e in sw.events[:1]) + ")", stop))
         y = np.asarray(sw["theta4"], dtype=float)
         good = np.isfinite(y)
         x, y = x[good], y[good]

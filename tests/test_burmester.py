@@ -195,9 +195,10 @@ class TestFivePoses:
             lim = limit_angles(*geo)
             steps = [(c.inputs[j + 1] - c.inputs[j] + 180) % 360 - 180 for j in range(4)]
             d = 1 if steps[0] > 0 else -1
-            if not lim:  # the crank turns fully: one side (circuit), one turn
-                total = sum((d * s) % 360 for s in steps)
-                want_order = total >= 360
+            if not lim:  # the crank turns fully (either way): one side (circuit), within one turn
+                want_order = min(sum((dd * s) % 360 for s in steps) for dd in (1, -1)) >= 360
+                if not want_order:
+                    assert sum((c.direction * s) % 360 for s in steps) < 360
                 want_circuit = len(set(sides)) > 1 and not want_order
                 assert ("order" in kinds) == want_order, c
                 assert ("circuit" in kinds) == want_circuit, c
