@@ -300,7 +300,9 @@ class FourBarCandidate:
     """A four-bar from two dyads: the driving dyad's pivot is O2 (``theta2``), the other's O4.
 
     ``lengths`` = (ground, crank, coupler, rocker); ``inputs`` the crank angle (degrees) at each
-    pose; ``defects`` empty means certified: one motion of the input, in ``mode``, crossing no
+    pose; ``pose_errors`` √(|P − T|² + (L·Δφ)²) at each pose where the tracked motion arrives
+    (L the largest distance between two poses, Δφ in radians: the synthesis contract's motion
+    objective is the sum of their squares; NaN where it does not arrive); ``defects`` empty means certified: one motion of the input, in ``mode``, crossing no
     limit, meets the poses in order. ``certificate`` is the synthesis contract's dict.
     """
 
@@ -402,6 +404,7 @@ def _candidate(pair, da: Dyad, db: Dyad, poses, name, length_unit) -> FourBarCan
         zs.append(np.array([t2, math.radians(pose[2]), t4]))
         inputs.append(math.degrees(t2))
     sigs = [ck.signature(z) for z in zs]
+    span = max(math.dist(a[:2], b[:2]) for a in poses for b in poses)
     circ = [circuit_sign(lengths, (t1, z[0], z[1] + d3, z[2])) for z in zs]
     steps = [_wrap_deg(inputs[j + 1] - inputs[j]) for j in range(len(inputs) - 1)]
     d = 1 if steps[0] >= 0 else -1
@@ -437,7 +440,9 @@ def _candidate(pair, da: Dyad, db: Dyad, poses, name, length_unit) -> FourBarCan
                 continue
             pt = ck.point_values(0, z)
             P = np.asarray(pt[ck.points.index("P")], dtype=float)
-            e = math.hypot(*(P - poses[j][:2])) + abs(math.radians(_wrap_deg(math.degrees(z[1]) - poses[j][2])))
+            # the motion objective's term: |P - T|² + (L·Δφ)², L the largest distance between two poses
+            e = math.hypot(math.hypot(*(P - poses[j][:2])),
+                           span * math.radians(_wrap_deg(math.degrees(z[1]) - poses[j][2])))
             errors.append(e)
             if e > 1e-6 * (1 + max(lengths)):
                 defects.append(Defect("branch", f"the tracked motion misses pose {j + 1}", inputs[j]))

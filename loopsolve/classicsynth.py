@@ -38,6 +38,18 @@ def read_table(source, columns: tuple[str, ...], *, what: str = "targets") -> np
     >>> read_table("x,y,angle\\n1,2,30\\n3,4,45\\n", ("x", "y", "angle")).tolist()
     [[1.0, 2.0, 30.0], [3.0, 4.0, 45.0]]
     """
+    if not isinstance(source, (str, Path)):  # rows of numbers already (an array or a list of rows)
+        try:
+            arr = np.array(source, dtype=float)
+        except (TypeError, ValueError):
+            raise ModelError(f"{what}: expected a file, CSV text or rows of {len(columns)} numbers "
+                             f"({','.join(columns)})") from None
+        if arr.ndim != 2 or arr.shape[1] != len(columns) or len(arr) == 0:
+            raise ModelError(f"{what}: expected rows of {len(columns)} numbers ({','.join(columns)}), got shape "
+                             f"{arr.shape}")
+        if not np.isfinite(arr).all():
+            raise ModelError(f"{what}: every value must be a finite number")
+        return arr
     if isinstance(source, Path) or (isinstance(source, str) and "\n" not in source and "," not in source):
         where = str(source)
         from .files import read_regular

@@ -88,3 +88,11 @@ def test_not_a_fourbar(poses_file):
 def test_read_table_text():
     assert read_table("input,output\n1,2\n# note\n3,4\n", ("input", "output")).tolist() == [[1, 2], [3, 4]]
     assert np.isfinite(read_table("x,y,angle\n1,2,3\n", ("x", "y", "angle"))).all()
+
+
+def test_read_table_rows():
+    assert read_table([[1, 2, 3]], ("x", "y", "angle")).shape == (1, 3)
+    with pytest.raises(ModelError, match="rows of 3 numbers"):
+        read_table([[1, 2]], ("x", "y", "angle"))
+    with pytest.raises(ModelError, match="finite"):
+        read_table([[1, 2, float("inf")]], ("x", "y", "angle"))
