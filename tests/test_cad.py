@@ -96,9 +96,11 @@ def test_figure_svg_unchanged_without_cad(tmp_path, capsys):
 
 
 def test_synthesized_design_exports_the_same_way(tmp_path):
-    # the Freudenstein log10 generator: pivots at (0, 0) and (r1, 0), curves of the joints asked for
-    d = ls.freudenstein(np.log10, (1, 10), (45, 105), (135, 225), points=7, fit="minimax", free_offsets=True)
+    # a Freudenstein generator (the log10 points as angles): pivots at (0, 0) and (r1, 0), the curve asked for
     from loopsolve.cad import export_cad
+    from loopsolve.freudenstein import freudenstein_points
+
+    d = freudenstein_points([49.019, 75.0, 100.981], [153.441, 201.633, 222.570])
 
     out = tmp_path / "gen.dxf"
     export_cad(d.mechanism, out, 75, curves=["B"])
