@@ -480,7 +480,11 @@ def cmd_draw(args) -> int:
 
 def _draw_cad(args) -> int:
     from .cad import check_cad_output, export_cad
+    from .errors import ModelError
 
+    if args.vectors:
+        raise ModelError("--vectors draws the loop vectors on a figure (.png, .svg or .pdf without --cad), not in "
+                         "a CAD drawing")
     check_cad_output(args.output)
     _check_output(args.output)
     mech = _load(args.model)

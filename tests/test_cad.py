@@ -116,6 +116,8 @@ def test_synthesized_design_exports_the_same_way(tmp_path):
     (["--at", "60", "--curve", "Q", "-o", "{o}.dxf"], "'Q'"),
     (["--at", "60", "--cad", "-o", "{o}.png"], ".dxf or .svg"),
     (["--at", "60", "--curve", "P", "-o", "{o}.png"], "CAD drawings"),
+    (["--at", "60", "--vectors", "-o", "{o}.dxf"], "--vectors"),
+    (["--at", "400x", "-o", "{o}.dxf"], "400x"),
 ])
 def test_cli_errors_one_line(capsys, tmp_path, argv, text):
     status, out, err = call(capsys, "draw", COUPLER, *[a.format(o=tmp_path / "x") for a in argv])
