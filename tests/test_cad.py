@@ -139,3 +139,12 @@ def test_burmester_design_dxf_passes_through_the_poses(tmp_path):
     verts = np.array([tuple(v) for v in curve.get_points("xy")])
     for x, y, _ in POSES5:  # the crank angles 20°, 70°, ... are rows of the 1° sweep
         assert np.min(np.hypot(verts[:, 0] - x, verts[:, 1] - y)) < 1e-9
+
+
+def test_dxf_without_ezdxf_is_a_one_line_error(capsys, tmp_path, monkeypatch):
+    import sys
+
+    monkeypatch.setitem(sys.modules, "ezdxf", None)  # import ezdxf now raises ImportError
+    status, _, err = call(capsys, "draw", COUPLER, "--at", "60", "-o", tmp_path / "x.dxf")
+    assert status == 2 and len(err.strip().splitlines()) == 1 and "loopsolve[cad]" in err, err
+    assert not list(tmp_path.iterdir())
