@@ -32,7 +32,7 @@ from __future__ import annotations
 import math
 import warnings
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -168,10 +168,30 @@ class FunctionDesign:
     error: np.ndarray = field(repr=False)
     reachable: tuple[float, float] | None = None
     suggestion: str = ""
+    redesign: Callable | None = field(default=None, repr=False, compare=False)
 
     @property
     def certified(self) -> bool:
         return not self.defects
+
+    def alternative(self, **changes) -> "FunctionDesign":
+        """The same job designed another way: by default ``fit="minimax", points=7, free_offsets=True``.
+
+        ``changes`` override any option of :func:`freudenstein` (``fit``, ``points``,
+        ``free_offsets``, ``max_link_ratio``, ...); the function and the ranges stay.
+
+        Examples
+        --------
+        >>> d = ls.freudenstein(np.log10, (1, 10), (45, 105), (135, 225))
+        >>> alt = d.alternative()
+        >>> d.certified, alt.certified, round(alt.max_error, 2)
+        (False, True, 0.08)
+        """
+        if self.redesign is None:
+            raise ModelError("this design was made from precision points alone (no function): call "
+                             "freudenstein(...) with the function to design it another way")
+        options = {"fit": "minimax", "points": 7, "free_offsets": True, **changes}
+        return self.redesign(**options)
 
     def to_dict(self) -> dict:
         """A JSON-ready summary (the numbers and the defects)."""
@@ -413,9 +433,18 @@ def freudenstein(function: Callable | None, x_range: Sequence[float], input_rang
     xs, ys = np.r_[xs[i0:], xs[:i0]], np.r_[ys[i0:], ys[:i0]]
     prec = tuple((float(x), float(y), float(math.degrees(a)), float(math.degrees(b)))
                  for x, y, a, b in zip(xs, ys, t2p, t4p))
-    return _analyse(mech, K, lengths, offs_deg, fit, prec, (a0, a1), (b0, b1), cls, sign,
-                    lambda t: np.degrees(fourbar_output(K, np.radians(t) + offsets[0], sign)[0]) - offs_deg[1],
-                    lambda t: th4(function(x0 + (np.asarray(t) - a0) / (a1 - a0) * (x1 - x0))), (y1 - y0) / (b1 - b0))
+    design = _analyse(mech, K, lengths, offs_deg, fit, prec, (a0, a1), (b0, b1), cls, sign,
+                      lambda t: np.degrees(fourbar_output(K, np.radians(t) + offsets[0], sign)[0]) - offs_deg[1],
+                      lambda t: th4(function(x0 + (np.asarray(t) - a0) / (a1 - a0) * (x1 - x0))),
+                      (y1 - y0) / (b1 - b0))
+    keep = {"spacing": spacing, "ground": ground, "length_unit": length_unit, "name": name, "samples": samples,
+            "max_link_ratio": max_link_ratio, "starts": starts, "points": points, "fit": fit,
+            "free_offsets": free_offsets}
+
+    def redesign(**changes):
+        return freudenstein(function, x_range, input_range, output_range, **{**keep, **changes})
+
+    return replace(design, redesign=redesign)
 
 
 def freudenstein_points(inputs, outputs, *, fit: str = "exact", ground: float = 100.0, length_unit: str = "mm",
@@ -569,9 +598,9 @@ def _analyse(mech, K, lengths, offs, fit, prec, in_rng, out_rng, cls, sign, clos
                 max_err = max(max_err, abs((out - b + 180.0) % 360.0 - 180.0))
     suggestion = ""
     if defects:
-        suggestion = ("this design is defective; alternatives: fit='least-squares' with more points (e.g. points=7), "
-                      "or fit='minimax', which keeps the whole input range assemblable (free_offsets=True also "
-                      "frees the reference angles α, β): check the new design's defects")
+        suggestion = ("this design is defective; alternatives: design.alternative() (a minimax fit over the whole "
+                      "input range, which keeps it assemblable, with the reference angles α, β free), or "
+                      "fit='least-squares' with more points (e.g. points=7): check the new design's defects")
     return FunctionDesign(tuple(K), tuple(abs(v) for v in lengths), offs, fit, prec, tuple(in_rng),
                           tuple(out_rng), mech, mode, cls, tuple(defects), max_err, max_err * abs(y_per_deg),
                           xe, ee, (float(min(reach)), float(max(reach))), suggestion)

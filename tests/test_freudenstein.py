@@ -103,8 +103,9 @@ class TestLog10:
             diff = (s["theta4"] - (135 + 90 * math.log10(x)) + 180) % 360 - 180  # a single solve wraps
             assert diff == pytest.approx(0, abs=1e-8)
 
-    def test_alternative_free_offsets_is_certified(self):
-        d = freudenstein(np.log10, (1, 10), (45, 105), (135, 225), points=7, fit="minimax", free_offsets=True)
+    def test_alternative_free_offsets_is_certified(self, design):
+        d = design.alternative()  # the minimax fit with the reference angles free
+        assert (d.fit, len(d.precision), d.input_range, d.output_range) == ("minimax", 7, (45, 105), (135, 225))
         assert d.certified and d.reachable == pytest.approx((45, 105))
         assert d.max_error < 0.2  # vs 5.7° where the exact design reaches
 
