@@ -27,7 +27,7 @@ import numpy as np
 
 from .classic import GrashofClass, grashof
 
-__all__ = ["Defect", "circuit_sign", "signature_at", "track_between"]
+__all__ = ["Defect", "circuit_sign", "track_between"]
 
 
 @dataclass(frozen=True, slots=True)
@@ -76,11 +76,6 @@ def circuit_sign(lengths, angles) -> int:
     else:  # shortest coupler, opposite the ground: the input pivot
         s = math.sin(t2 - t1)
     return 1 if s > 0 else -1
-
-
-def signature_at(ck, z) -> str:
-    """The assembly-mode signature of the compiled model at ``z`` (internal units)."""
-    return ck.signature(np.asarray(z, dtype=float))
 
 
 def track_between(mech, z_from, x_to_deg: float, *, direction: int, steps: int = 24):
