@@ -38,6 +38,8 @@ from .results import Event, EventKind, State, Sweep  # noqa: E402
 # below, so that importing them later cannot replace ``loopsolve.solve``/``loopsolve.sweep``
 from . import solve as _solve_module  # noqa: E402, F401
 from . import sweep as _sweep_module  # noqa: E402, F401
+from . import freudenstein as _freudenstein_module  # noqa: E402, F401
+from . import burmester as _burmester_module  # noqa: E402, F401
 
 
 def derive(mech, input=None):
@@ -115,6 +117,31 @@ def simulate(mech, duration, **kwargs):
     return _simulate(mech, duration, **kwargs)
 
 
+def freudenstein(function, x_range, input_range, output_range, **kwargs):
+    """Four-bar function generation by Freudenstein's equation, checked by the tracker: see
+    :func:`loopsolve.freudenstein.freudenstein`."""
+    return _freudenstein_module.freudenstein(function, x_range, input_range, output_range, **kwargs)
+
+
+def burmester(poses, **kwargs):
+    """Five-pose motion generation by Burmester theory, every four-bar checked by the tracker: see
+    :func:`loopsolve.burmester.burmester` (four poses: :func:`loopsolve.burmester.burmester_curves`)."""
+    return _burmester_module.burmester(poses, **kwargs)
+
+
+def burmester_curves(poses, **kwargs):
+    """Centre-point and circle-point curves of four poses: see :func:`loopsolve.burmester.burmester_curves`."""
+    return _burmester_module.burmester_curves(poses, **kwargs)
+
+
+def export_cad(mech, output, at=None, **kwargs):
+    """The linkage at one pose as a CAD drawing (``.dxf`` with ezdxf, or ``.svg``), layers by role: see
+    :func:`loopsolve.cad.export_cad`."""
+    from .cad import export_cad as _export_cad
+
+    return _export_cad(mech, output, at, **kwargs)
+
+
 __all__ = [
     "__version__",
     "AssemblyError",
@@ -136,12 +163,16 @@ __all__ = [
     "Sweep",
     "TopologyError",
     "build_mechanism",
+    "burmester",
+    "burmester_curves",
     "compile_mechanism",
     "derive",
     "derive_dynamics",
     "dumps",
+    "export_cad",
     "forces",
     "fourbar",
+    "freudenstein",
     "guessed_mode",
     "inverted_slider_crank",
     "load",

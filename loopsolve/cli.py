@@ -244,7 +244,13 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--input", metavar="NAME", help="drive this variable instead of the declared input")
     p.add_argument("--mode", metavar="SIGNATURE", help="assembly mode")
     p.add_argument("--vectors", action="store_true", help="draw the loop vectors with their names")
-    p.add_argument("-o", "--output", required=True, help="image file: .png, .svg or .pdf")
+    p.add_argument("--cad", action="store_true", help="with .svg: a CAD drawing in model units (layers by role, "
+                   "as the .dxf) instead of a figure")
+    p.add_argument("--curve", action="append", metavar="POINT", help="CAD drawing: draw this point's path over a "
+                   "sweep (repeat for more; default: the tracer points such as a coupler point)")
+    p.add_argument("--no-curves", action="store_true", help="CAD drawing: no point paths")
+    p.add_argument("-o", "--output", required=True, help="image file: .png, .svg or .pdf; CAD drawing: .dxf "
+                   "(needs ezdxf: pip install 'loopsolve[cad]'), or .svg with --cad")
     p.set_defaults(func=cmd_draw)
 
     p = sub.add_parser("animate", help="the linkage moving over a sweep (GIF, or MP4 with ffmpeg)")
@@ -477,11 +483,34 @@ def cmd_plot(args) -> int:
 def cmd_draw(args) -> int:
     from .plotting import check_output, draw
 
+    if str(args.output).lower().endswith(".dxf") or args.cad:
+        return _draw_cad(args)
+    if args.curve or args.no_curves:
+        from .errors import ModelError
+
+        raise ModelError("--curve and --no-curves are for CAD drawings (-o FILE.dxf, or .svg with --cad)")
     check_output(args.output, "figure")
     _check_output(args.output)
     mech = _load(args.model)
     with _output(args.output) as tmp:
         draw(mech, args.at, input=args.input, mode=args.mode, vectors=args.vectors, output=tmp)
+    print(f"wrote {_one_line(args.output)}", file=sys.stderr)
+    return EXIT_OK
+
+
+def _draw_cad(args) -> int:
+    from .cad import check_cad_output, export_cad
+    from .errors import ModelError
+
+    if args.vectors:
+        raise ModelError("--vectors draws the loop vectors on a figure (.png, .svg or .pdf without --cad), not in "
+                         "a CAD drawing")
+    check_cad_output(args.output)
+    _check_output(args.output)
+    mech = _load(args.model)
+    curves = [] if args.no_curves else args.curve
+    with _output(args.output) as tmp:
+        export_cad(mech, tmp, args.at, input=args.input, mode=args.mode, curves=curves)
     print(f"wrote {_one_line(args.output)}", file=sys.stderr)
     return EXIT_OK
 
