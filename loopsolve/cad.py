@@ -68,6 +68,15 @@ class Entity:
     text: str = ""
     name: str = ""
 
+    def __repr__(self) -> str:
+        # a curve has hundreds of vertices: name the count, so that the list export_cad returns
+        # reads as a summary at a prompt or in a notebook
+        pts = (repr(self.points) if len(self.points) <= 3 else
+               f"<{len(self.points)} points from ({self.points[0][0]:.6g}, {self.points[0][1]:.6g})>")
+        extra = "".join(f", {k}={v!r}" for k, v in (("size", self.size), ("closed", self.closed), ("text", self.text),
+                                                   ("name", self.name)) if v)
+        return f"Entity(layer={self.layer!r}, kind={self.kind!r}, points={pts}{extra})"
+
 
 def _xy(p) -> tuple[float, float]:
     return float(p[0]), float(p[1])

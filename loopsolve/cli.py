@@ -453,9 +453,17 @@ def cmd_modes(args) -> int:
 
 
 def cmd_latex(args) -> int:
+    from .errors import ModelError
     from .latex import to_latex, write_pdf
 
     out = args.output or (Path(args.model).stem + ".pdf") if args.pdf else args.output
+    suffix = Path(out).suffix.lower() if out else ""
+    if args.pdf and suffix == ".tex":  # a PDF named .tex, or TeX named .pdf, opens as neither
+        raise ModelError(f"--pdf writes a PDF, not LaTeX source, to {_one_line(out)}: name it .pdf "
+                         f"(-o {_one_line(Path(out).with_suffix('.pdf').name)}), or leave out --pdf for the .tex")
+    if not args.pdf and suffix == ".pdf":
+        raise ModelError(f"-o {_one_line(out)}: without --pdf the output is LaTeX source; add --pdf to compile "
+                         "it, or name it .tex")
     _check_output(out)
     mech = _load(args.model)
     tex = to_latex(mech, input=args.input, at=args.at, snippet=args.snippet)

@@ -552,6 +552,9 @@ class Tracer:
                                         "limit position (toggle/fold): the input cannot go further on mode "
                                         f"{self._label(a.sig)}; the rows stop here"))
                 break
+            if not natural and any((xb - xa) * out > 0 and (xa - bound) * out >= 0
+                                   for bound, out in ((self.g.lo, -1.0), (self.g.hi, 1.0))):
+                break  # a node on an end of the range (a one-row sweep's start) and the step leaves it
             if not natural:
                 for bound, out in ((self.g.lo, -1.0), (self.g.hi, 1.0)):
                     if (xb - xa) * out > 0 and ((xa - bound) * (xb - bound) < 0 or (xb == bound and xa != bound)):

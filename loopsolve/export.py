@@ -262,7 +262,7 @@ def sweep_table(sweep: Sweep, *, columns: list[str] | None = None) -> str:
         labels = {m: mode_label(ck.mechanism, m) for m in set(sweep.modes)}
         text.append([labels[m] for m in sweep.modes])
     rows = [list(r) for r in zip(*text)] if text else []
-    out = (f"{printable(ck.mechanism.name)}: sweep of {ck.inputs[0]} ({len(sweep)} rows, mode "
+    out = (f"{printable(ck.mechanism.name)}: sweep of {ck.inputs[0]} ({len(sweep)} row{'' if len(sweep) == 1 else 's'}, mode "
            f"{mode_label(ck.mechanism, sweep.mode)})\n" + _grid(headers, rows))
     for e in sweep.events:
         out += f"\n{e.kind.value} at {ck.inputs[0]} = {e.input:.10g}: {printable(e.message)}"

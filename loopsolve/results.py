@@ -250,6 +250,15 @@ class State:
         except KeyError:
             raise ModelError(f"no column {key!r}; the columns are {', '.join(row)}") from None
 
+    def __repr__(self) -> str:
+        # the positions in display units, as indexing and the tables give them (the fields z, z1…
+        # are internal units: radians in a degree model, which read wrongly at a prompt)
+        ck, row, units = self.compiled, self.row(), self.units()
+        inputs = set(ck.inputs)
+        names = list(ck.inputs) + [n for n in ck.variables if n not in inputs]
+        pos = ", ".join(f"{n}={row[n]:.6g} {units.get(n, '')}".rstrip() for n in names)
+        return f"State({ck.mechanism.name!r}, {pos}, mode={self.mode!r}, residual={self.residual:.1e})"
+
     def units(self) -> dict[str, str]:
         return column_units(self.compiled)
 

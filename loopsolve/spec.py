@@ -10,6 +10,7 @@ inferred and checked, their size bounded (:mod:`loopsolve.exprcheck`).
 
 from __future__ import annotations
 
+import difflib
 import keyword
 import math
 import re
@@ -116,8 +117,7 @@ def parse_point(pname: str, text: Any, key: str, problems: _Problems, *, vec_nam
             return None
         bad = [n for _, n in terms if n not in vec_names]
         for n in bad:
-            problems.add(key, f"{text!r} names the undeclared vector {n!r}; declared vectors: "
-                         + ", ".join(sorted(vec_names)))
+            problems.add(key, f"{text!r} names the undeclared vector {n!r}; {_declared_vectors(sorted(vec_names))}")
         return None if bad else Point(pname, terms, text)
     if not isinstance(text, str):
         problems.add(key, f"expected a string such as \"r2 + 0.5*r3\", got {text!r}")
@@ -145,7 +145,7 @@ def parse_point(pname: str, text: Any, key: str, problems: _Problems, *, vec_nam
                 ok = False
             elif nm not in param_names:
                 problems.add(key, f"{text!r} names {nm!r}, which is neither a declared vector nor a "
-                             "parameter; declared vectors: " + ", ".join(sorted(vec_names)))
+                             f"parameter; {_declared_vectors(sorted(vec_names))}")
                 ok = False
         for n in _expr.walk(factor):
             if isinstance(n, _expr.Num) and n.unit is not None:
@@ -249,6 +249,12 @@ def _parse_expr(value: Any, key: str, problems: _Problems, moving: frozenset | N
     return node
 
 
+def _declared_vectors(names) -> str:
+    """The tail of an 'undeclared vector' message (no empty list: a misspelt [vectors] leaves none)."""
+    names = [str(n) for n in names]
+    return ("declared vectors: " + ", ".join(names)) if names else "no vectors are declared ([vectors] table)"
+
+
 def _short(value: Any, limit: int = 60) -> str:
     text = str(value)
     return text if len(text) <= limit else text[: limit - 3] + "..."
@@ -317,7 +323,9 @@ def build_mechanism(spec: Mapping[str, Any], *, source: str | None = None) -> Me
                  "gravity", "bodies", "loads"}
     for k in spec:
         if k not in known_top:
-            problems.add(str(k), f"unknown key {k!r} (expected one of: {', '.join(sorted(known_top))})")
+            near = difflib.get_close_matches(str(k), known_top, n=1)
+            hint = f"did you mean {near[0]!r}? " if near else ""
+            problems.add(str(k), f"unknown key {k!r} ({hint}expected one of: {', '.join(sorted(known_top))})")
 
     name, units = _name_and_units(spec, problems)
     length_unit, angle_unit = units.length, units.angle
@@ -580,8 +588,8 @@ def build_mechanism(spec: Mapping[str, Any], *, source: str | None = None) -> Me
             continue
         bad = [n for _, n in lhs + rhs if n not in vec_names]
         for n in bad:
-            problems.add(f"{key}.equation", f"{text!r} names the undeclared vector {n!r}; declared "
-                         "vectors: " + ", ".join(vec_spec))
+            problems.add(f"{key}.equation", f"{text!r} names the undeclared vector {n!r}; "
+                         f"{_declared_vectors(vec_spec)}")
         if bad:
             continue
         terms = lhs + tuple((-s, n) for s, n in rhs)

@@ -148,3 +148,14 @@ def test_dxf_without_ezdxf_is_a_one_line_error(capsys, tmp_path, monkeypatch):
     status, _, err = call(capsys, "draw", COUPLER, "--at", "60", "-o", tmp_path / "x.dxf")
     assert status == 2 and len(err.strip().splitlines()) == 1 and "loopsolve[cad]" in err, err
     assert not list(tmp_path.iterdir())
+
+
+def test_entities_read_as_a_summary(tmp_path):
+    # ls.export_cad returns the entities; at a prompt a 361-vertex curve printed every vertex
+    ents = ls.export_cad(ls.load(COUPLER), tmp_path / "d.svg", 60, step=1)
+    curve = next(e for e in ents if e.layer == "CURVES")
+    assert len(curve.points) == 361  # the full turn at 1°, both ends
+    text = repr(curve)
+    assert "<361 points from (" in text and len(text) < 150 and "name='P'" in text
+    pin = next(e for e in ents if e.layer == "PINS")
+    assert repr(pin).startswith("Entity(layer='PINS', kind='circle', points=((0.0, 0.0),), size=")

@@ -129,6 +129,14 @@ def test_units_in_headers(capsys):
     assert units["x_acc"] == "mm/s^2" and units["theta3_jerk"] == "rad/s^3"
 
 
+def test_sweep_table_title_counts_rows(capsys):
+    # a one-row sweep said "(1 rows, ...)"
+    path = ls.models_dir() / "thesis_crank_rocker.toml"
+    for to, title in (("0", "(1 row, mode - (open))"), ("30", "(2 rows, mode - (open))")):
+        _, out, _ = call(capsys, "sweep", path, "--from", "0", "--to", to, "--step", "30")
+        assert out.splitlines()[0] == f"Crank-rocker four-bar: sweep of theta2 {title}"
+
+
 def test_solve_options(capsys):
     path = ls.models_dir() / "thesis_crank_rocker.toml"
     _, out, _ = call(capsys, "solve", path, "--at", "1.2rad", "--speed", "2rad/s", "--accel", "0.5", "--format", "json")

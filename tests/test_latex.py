@@ -468,6 +468,16 @@ class TestCli:
         assert out.read_bytes()[:5] == b"%PDF-"
         assert "wrote" in capsys.readouterr().err
 
+    @pytest.mark.parametrize("args, name", [(["--pdf"], "d.tex"), ([], "d.pdf"), ([], "D.PDF")])
+    def test_pdf_and_tex_names_do_not_cross(self, tmp_path, capsys, args, name):
+        # `latex -o thesis.tex --pdf` wrote a PDF named thesis.tex (and `-o x.pdf` TeX named .pdf)
+        out = tmp_path / name
+        model = str(ls.models_dir() / "prob1_fourbar.toml")
+        assert cli.main(["latex", model, *args, "-o", str(out)]) == 2
+        err = capsys.readouterr().err
+        assert len(err.splitlines()) == 1 and err.startswith("loopsolve: ModelError:") and "--pdf" in err
+        assert not out.exists()
+
     def test_pdf_without_tex(self, tmp_path, monkeypatch, capsys):
         monkeypatch.setenv("PATH", str(tmp_path))
         model = str(ls.models_dir() / "prob1_fourbar.toml")

@@ -239,6 +239,25 @@ def test_unknown_count_is_reported_with_the_other_problems(tmp_path):
     assert "3 unknown variable(s) (theta3, theta4, theta5) but 2 scalar loop equations" in msg
 
 
+def test_misspelt_section_suggests_the_name_and_lists_no_empty_vectors(tmp_path):
+    # a new user's `[vector]` gave "unknown key 'vector'" and then, for every loop term and point,
+    # "... names the undeclared vector 'r2'; declared vectors: " with nothing after the colon
+    path = tmp_path / "typo.toml"
+    path.write_text(edit(("[vectors]", "[vector]")))
+    with pytest.raises(ModelFileError) as info:
+        ls.load(path)
+    problems = info.value.problems
+    assert "unknown key 'vector' (did you mean 'vectors'? expected one of:" in problems[0]
+    undeclared = [p for p in problems if "undeclared vector" in p]
+    assert len(undeclared) == 6  # r2, r3, r1, r4 in the loop; r2, r3 in the point C
+    assert all(p.endswith("no vectors are declared ([vectors] table)") for p in undeclared)
+    path.write_text(edit(('"r2 + r3 = r1 + r4"', '"r2 + r3 = r1 + r5"'), ("[points]", "[pionts]")))
+    with pytest.raises(ModelFileError) as info:
+        ls.load(path)
+    msg = str(info.value)
+    assert "did you mean 'points'?" in msg and "declared vectors: r1, r2, r3, r4" in msg
+
+
 def test_huge_file_is_refused_before_parsing(tmp_path):
     path = tmp_path / "huge.toml"
     path.write_text(GOOD + "# " + "x" * (MAX_FILE_SIZE + 10) + "\n")

@@ -304,3 +304,15 @@ def test_running_out_of_iterations_where_nothing_exists_is_an_assembly_error():
     for at in (0.0, -360.0, 5.0):
         with pytest.raises(ls.AssemblyError, match="cannot be assembled"):
             mech.solve(at, settings=Newton(max_iter=2))
+
+
+def test_state_repr_is_in_display_units():
+    # `mech.solve(90)` at a prompt showed the internal arrays (radians in a degree model); the
+    # repr gives the positions as indexing and the tables do. A square four-bar at 90°:
+    # the coupler is horizontal and the rocker vertical (θ3 = 0°, θ4 = 90°) by construction.
+    text = repr(ls.fourbar(10, 10, 10, 10, theta2=80).solve(90))
+    assert text.startswith("State('four-bar', theta2=90 deg, theta3=")
+    vals = dict(part.split("=") for part in text[len("State('four-bar', "):].split(", ")[:3])
+    assert float(vals["theta3"].split()[0]) == pytest.approx(0, abs=1e-9)
+    assert vals["theta4"] == "90 deg"
+    assert "array" not in text and "mode='-'" in text

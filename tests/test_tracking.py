@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import math
+import warnings
 
 import numpy as np
 import pytest
@@ -273,6 +274,20 @@ class TestOutsideTheRange:
                                                r"\+\+, \+-.*--mode"):
             mech.solve(60)
         assert mech.solve(60, mode="+-").mode == "+-"
+
+    @pytest.mark.parametrize("mode", ["open", "crossed"])
+    @pytest.mark.parametrize("x", [341.4266, 341.4, 341.0, 340.0, 335.0])
+    def test_one_row_sweep_reports_nothing_beyond_its_input(self, x, mode):
+        # a one-row sweep (start = stop) near a limit: the tracer's first arclength step (steep
+        # tangent) left the one-point range and went on to the limit, reported at 341.42665 although
+        # the sweep covers x only. The limit (law of cosines) lies beyond x: no event, one row.
+        tog = fold_angles(4, 3, 3.5, 5)[0]
+        assert 360 - tog == pytest.approx(341.42665028, abs=1e-8) and x < 360 - tog
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")  # no "the sweep stops at a limit" warning either
+            sw = ls.fourbar(4, 3, 3.5, 5).sweep(x, x, 1, mode=mode)
+        assert kinds(sw) == [] and list(sw["theta2"]) == [x]
+        assert closure(sw) < 1e-12
 
     def test_start_on_a_singular_position(self):
         with pytest.raises(ls.SingularPositionError):
