@@ -49,7 +49,7 @@ class DynamicsModel:
     ``evaluate(z, z1, z2)`` takes ``(nvar, N)`` arrays and returns a dict of arrays (model length
     units for positions, radians for angles): ``G`` ``(B, 2, N)`` and ``vG``, ``aG``; ``th``,
     ``om``, ``al`` ``(B, N)`` (zeros for bodies without an angle); ``P``, ``vP`` ``(K, 2, N)`` for
-    the points in ``point_names``; ``phi`` ``(V, N)`` guide directions for ``guide_vectors``;
+    the points in ``point_names`` (and ``aP``); ``phi`` ``(V, N)`` guide directions for ``guide_vectors``;
     ``load`` ``(L, N)`` the load values in ``load_slots`` order.
     """
 
@@ -93,7 +93,8 @@ class DynamicsModel:
         out, pos = {}, 0
         for name, size, shape in (("G", nb * 2, (nb, 2)), ("vG", nb * 2, (nb, 2)), ("aG", nb * 2, (nb, 2)),
                                   ("th", nb, (nb,)), ("om", nb, (nb,)), ("al", nb, (nb,)),
-                                  ("P", nk * 2, (nk, 2)), ("vP", nk * 2, (nk, 2)), ("phi", ng, (ng,)),
+                                  ("P", nk * 2, (nk, 2)), ("vP", nk * 2, (nk, 2)), ("aP", nk * 2, (nk, 2)),
+                                  ("phi", ng, (ng,)),
                                   ("load", nl, (nl,))):
             out[name] = flat[pos:pos + size].reshape(shape + (n,))
             pos += size
@@ -185,6 +186,9 @@ def compile_dynamics(mech: Mechanism, input=None, *, compiled: CompiledKinematic
         for p in ((ld.at,) if ld.at else ()) + tuple(ld.ends):
             if p not in points:
                 points.append(p)
+    for pt in mech.points:  # every other point too: the declaration checks look for joints left out
+        if pt.name not in points:
+            points.append(pt.name)
     guides = []
     for b in dyn.bodies:
         if b.guide is not None and b.guide not in guides:
@@ -231,11 +235,13 @@ def _derive_function(mech, inputs, dyn, points, guides, slots):
             th += [sp.Integer(0)]
             om += [sp.Integer(0)]
             al += [sp.Integer(0)]
-    P, vP = [], []
+    P, vP, aP = [], [], []
     for name in points:
         pe = _point_expr(kin, by_point[name], conv)
+        ve = pe.applyfunc(D)
         P += list(pe)
-        vP += list(pe.applyfunc(D))
+        vP += list(ve)
+        aP += list(ve.applyfunc(D))
     phi = []
     for vn in guides:
         length, angle = kin.vectors[vn]
@@ -244,7 +250,7 @@ def _derive_function(mech, inputs, dyn, points, guides, slots):
             angle = sp.atan2(xy[1], xy[0])
         phi.append(angle)
     loads = [_sym_value(dyn.loads[i].values[c], conv) for i, c in slots]
-    exprs = G + vG + aG + th + om + al + P + vP + phi + loads
+    exprs = G + vG + aG + th + om + al + P + vP + aP + phi + loads
     args = [sp.Matrix(kin.z), sp.Matrix(kin.z1), sp.Matrix(kin.z2), sp.Matrix(kin.params) if kin.params else []]
     vector = sp.lambdify(args, exprs, modules="numpy", cse=True)
     scalar = sp.lambdify(args, exprs, modules="math", cse=True)

@@ -74,12 +74,13 @@ class ForceSweep:
     ``joint_forces`` {``F_<joint>``: (N, 2)}, ``guide_reactions`` {``<body>_guide``: (N, 3): force x,
     y and couple}, ``shaking_force`` (N, 2), ``shaking_moment``, ``kinetic_energy``,
     ``potential_energy``, ``power_residual`` (W), ``singular`` (bool: the Newton–Euler system is
-    singular there, the forces are NaN), ``events``.
+    singular there, the forces are NaN), ``condition`` (the condition number of the Newton–Euler
+    system per row: large near a dead centre, where a warning is issued), ``events``.
     """
 
     __slots__ = ("sweep", "drive", "drive_name", "joint_forces", "guide_reactions", "shaking_force",
                  "shaking_moment", "kinetic_energy", "potential_energy", "power_residual", "singular",
-                 "events", "_cache")
+                 "condition", "events", "_cache")
 
     def __init__(self, sweep, data: Mapping):
         put = object.__setattr__
@@ -92,6 +93,7 @@ class ForceSweep:
             a = np.array(data[name])
             a.setflags(write=False)
             put(self, name, a)
+        put(self, "condition", _ro(data.get("kappa", np.ones(len(self.drive)))))
         put(self, "joint_forces", {k: _ro(v) for k, v in data["pins"].items()})
         put(self, "guide_reactions", {k: _ro(v) for k, v in data["guides"].items()})
         events = list(sweep.events)
@@ -162,8 +164,8 @@ class ForceSweep:
     def rows(self) -> list[dict]:
         cols = self.columns
         keys = list(cols)
-        lists = [np.asarray(cols[k], dtype=float).tolist() for k in keys]
-        return [{k: _clean(v) for k, v in zip(keys, vals)} for vals in zip(*lists)]
+        lists = [list(cols[k]) if k == "mode" else np.asarray(cols[k], dtype=float).tolist() for k in keys]
+        return [{k: (str(v) if k == "mode" else _clean(v)) for k, v in zip(keys, vals)} for vals in zip(*lists)]
 
     def units(self) -> dict[str, str]:
         return {**column_units(self.sweep.compiled), **force_units(self.drive_name, self.force_columns)}
@@ -187,7 +189,7 @@ class ForceSweep:
         w = csv.writer(buf, lineterminator="\n")
         w.writerow([f"{k} [{units[k]}]" if units.get(k) else k for k in keys])
         for r in rows:
-            w.writerow(["" if r[k] is None else repr(float(r[k])) for k in keys])
+            w.writerow([r[k] if k == "mode" else "" if r[k] is None else repr(float(r[k])) for k in keys])
         return buf.getvalue()
 
     def table(self) -> str:

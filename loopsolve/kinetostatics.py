@@ -32,6 +32,7 @@ __all__ = ["Layout", "layout", "inverse_dynamics", "generalized_force", "virtual
 #: singular (a dead centre for the forces: the joint forces are undetermined)
 SINGULAR_RATIO = 1e-12
 _CHUNK = 4096
+_RUIZ = 8
 
 
 def _cross(dx, dy, fx, fy):
@@ -217,7 +218,7 @@ def _solve_stacked(M: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray
     return x, ratio
 
 
-def inverse_dynamics(dm: DynamicsModel, z, xd, xdd, *, rates=None) -> dict:
+def inverse_dynamics(dm: DynamicsModel, z, xd, xdd, *, rates=None, check: bool = True) -> dict:
     """Newton–Euler at every point: ``z`` ``(N, nvar)`` positions, ``xd``/``xdd`` input speed and acceleration.
 
     ``xd``, ``xdd`` are in internal units (rad/s, rad/s² or length unit/s, /s²). Returns SI arrays:
@@ -229,10 +230,21 @@ def inverse_dynamics(dm: DynamicsModel, z, xd, xdd, *, rates=None) -> dict:
     0 = singular), ``z1``, ``z2``,
     ``residual`` (N, bodies, 3) the Newton–Euler residuals of the solution, ``force_scale``.
     ``rates`` = ``(z1, z2)``, the ``(N, nvar)`` velocities and accelerations of this motion when
-    already known (a sweep's), skips solving for them.
+    already known (a sweep's), skips solving for them. ``kappa`` is the condition number of each
+    row's Newton–Euler matrix (rows and columns equilibrated; inf where singular) and ``spurious``
+    {constraint or load: (N,) W} the power each pin, guide, driver and point load does on the bodies
+    beyond what it should (zero for a consistent declaration).
+
+    With ``check`` (default), the declarations are first checked against the kinematics
+    (:func:`loopsolve.declcheck.check_carriers`: raises :class:`ModelError` for a joint left out of
+    a body, a load on a body that does not carry its point).
     """
     z = np.atleast_2d(np.asarray(z, dtype=float))
     n = z.shape[0]
+    if check and n:
+        from .declcheck import check_carriers
+
+        check_carriers(dm, z)
     xd = np.broadcast_to(np.asarray(xd, dtype=float), (n,))
     xdd = np.broadcast_to(np.asarray(xdd, dtype=float), (n,))
     lay = layout(dm)
@@ -290,6 +302,7 @@ def inverse_dynamics(dm: DynamicsModel, z, xd, xdd, *, rates=None) -> dict:
     u = np.empty((n, lay.n_unknowns))
     residual = np.empty((n, ne))
     ratio = np.empty(n)
+    kappa = np.full(n, np.inf)
     nonfinite = np.zeros(n, dtype=bool)
     eye = np.eye(ne)
     for lo in range(0, n, _CHUNK):  # chunks that stay in cache
@@ -302,6 +315,7 @@ def inverse_dynamics(dm: DynamicsModel, z, xd, xdd, *, rates=None) -> dict:
         if not finite.all():
             Mt[:, :, ~finite] = eye[:, :, None]
             nonfinite[lo:hi] = ~finite
+        kappa[lo:hi] = _condition(Mt, finite)
         uc, had = _solve_stacked(Mt, np.ascontiguousarray(np.where(finite[:, None], b_, 0.0).T))
         had[~finite] = 0.0
         bad = ~(had > SINGULAR_RATIO)
@@ -316,7 +330,18 @@ def inverse_dynamics(dm: DynamicsModel, z, xd, xdd, *, rates=None) -> dict:
     residual = residual.reshape(n, nb, 3)
     cond = ratio
 
-    out: dict = {"singular": singular, "nonfinite": nonfinite, "cond": cond, "z1": z1, "z2": z2, "layout": lay}
+    kappa[singular] = np.inf
+    out: dict = {"singular": singular, "nonfinite": nonfinite, "cond": cond, "kappa": kappa, "z1": z1, "z2": z2,
+                 "layout": lay}
+    om = e["om"]
+
+    def rigid_v(body, px, py):
+        """Velocity (SI) of the material point of ``body`` at (px, py); the frame's is zero."""
+        if body < 0:
+            return np.zeros(n), np.zeros(n)
+        return vG[body, 0] - om[body] * (py - G[body, 1]), vG[body, 1] + om[body] * (px - G[body, 0])
+
+    spurious: dict = {}
     pins, guides = {}, {}
     col = 0
     sf = np.zeros((n, 2))
@@ -324,6 +349,9 @@ def inverse_dynamics(dm: DynamicsModel, z, xd, xdd, *, rates=None) -> dict:
     for name, j, a, o in lay.pins:
         f = u[:, col:col + 2]
         pins[name] = f
+        va, vo = rigid_v(a, P[j, 0], P[j, 1]), rigid_v(o, P[j, 0], P[j, 1])
+        spurious[f"the pin {dm.point_names[j]!r} between {_body(dm, a)} and {_body(dm, o)}"] = (
+            f[:, 0] * (va[0] - vo[0]) + f[:, 1] * (va[1] - vo[1]))
         if o < 0:
             sf -= f
             sm -= _cross(P[j, 0], P[j, 1], f[:, 0], f[:, 1])
@@ -333,6 +361,10 @@ def inverse_dynamics(dm: DynamicsModel, z, xd, xdd, *, rates=None) -> dict:
         N, C = u[:, col], u[:, col + 1]
         f = np.stack([-np.sin(phi) * N, np.cos(phi) * N], axis=1)
         guides[name] = np.column_stack([f, C])
+        vo = rigid_v(o, G[b, 0], G[b, 1])
+        spurious[f"the guide of {_body(dm, b)} (guide = {dm.bodies[b].guide!r} on {_body(dm, o)})"] = (
+            f[:, 0] * (vG[b, 0] - vo[0]) + f[:, 1] * (vG[b, 1] - vo[1])
+            + C * (om[b] - (om[o] if o >= 0 else 0.0)))
         if o < 0:
             sf -= f
             sm -= _cross(G[b, 0], G[b, 1], f[:, 0], f[:, 1]) + C
@@ -341,11 +373,24 @@ def inverse_dynamics(dm: DynamicsModel, z, xd, xdd, *, rates=None) -> dict:
     if ex is None:
         sm -= drive
         p_drive = drive * xd
+        spurious[f"the driver on {_body(dm, drv)}"] = drive * (om[drv] - xd)
     else:
         f = np.stack([ex * drive, ey * drive], axis=1)
         sf -= f
         sm -= _cross(G[drv, 0], G[drv, 1], f[:, 0], f[:, 1])
         p_drive = drive * xd * lf
+        spurious[f"the driver on {_body(dm, drv)}"] = f[:, 0] * vG[drv, 0] + f[:, 1] * vG[drv, 1] - p_drive
+    vPs = e["vP"] * lf
+    slot = 0
+    for ld in dm.dynamics.loads:
+        vals = e["load"][slot:slot + len(ld.values)]
+        slot += len(ld.values)
+        if ld.kind is LoadKind.FORCE and ld.body != FRAME:
+            j = dm.point_names.index(ld.at)
+            b = [bb.name for bb in dm.bodies].index(ld.body)
+            vb = rigid_v(b, P[j, 0], P[j, 1])
+            spurious[f"the load {ld.name!r} (loads[{ld.index}], at {ld.at!r} on {ld.body!r})"] = (
+                vals[0] * (vb[0] - vPs[j, 0]) + vals[1] * (vb[1] - vPs[j, 1]))
     ke = 0.5 * np.sum(m[:, None] * np.sum(vG**2, axis=1) + inertia[:, None] * e["om"] ** 2, axis=0)
     dke = np.sum(m[:, None] * np.sum(vG * aG, axis=1) + inertia[:, None] * e["om"] * e["al"], axis=0)
     scale = np.abs(p_drive) + np.abs(dke) + np.abs(dpot) + np.abs(p_loads)
@@ -353,8 +398,30 @@ def inverse_dynamics(dm: DynamicsModel, z, xd, xdd, *, rates=None) -> dict:
               + np.abs(u).sum(axis=1))
     out.update(drive=drive, pins=pins, guides=guides, shaking_force=sf, shaking_moment=sm,
                kinetic_energy=ke, potential_energy=pot, power_residual=p_drive - (dke + dpot - p_loads),
-               power_scale=scale, residual=residual, force_scale=fscale, d1=d1, d2=d2)
+               power_scale=scale, residual=residual, force_scale=fscale, d1=d1, d2=d2, spurious=spurious)
     return out
+
+
+def _body(dm: DynamicsModel, i: int) -> str:
+    return "the frame" if i < 0 else repr(dm.bodies[i].name)
+
+
+def _condition(Mt: np.ndarray, finite: np.ndarray) -> np.ndarray:
+    """2-norm condition numbers of a ``(rows, columns, N)`` stack, rows and columns equilibrated."""
+    A = np.moveaxis(Mt, -1, 0).copy()  # (N, rows, columns)
+    kappa = np.full(A.shape[0], np.inf)
+    if not finite.any():
+        return kappa
+    A = A[finite]
+    for _ in range(_RUIZ):  # Ruiz equilibration: rows and columns of unit largest entry
+        for axis in (2, 1):
+            s = np.sqrt(np.max(np.abs(A), axis=axis, keepdims=True))
+            A = A / np.where(s > 0, s, 1.0)
+    sv = np.linalg.svd(A, compute_uv=False)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        k = np.where(sv[:, -1] > 0, sv[:, 0] / sv[:, -1], np.inf)
+    kappa[finite] = k
+    return kappa
 
 
 def generalized_force(dm: DynamicsModel, z, xd, d1) -> np.ndarray:
@@ -441,7 +508,19 @@ def force_analysis(sweep, *, dynamics: DynamicsModel | None = None):
         data = inverse_dynamics(dm, np.zeros((0, len(ck.variables))), np.zeros(0), np.zeros(0))
     else:
         data = inverse_dynamics(dm, sweep.z, sweep.z1[:, ix], sweep.z2[:, ix], rates=(sweep.z1, sweep.z2))
+        _checks(dm, data, sweep)
     return ForceSweep(sweep, data)
+
+
+def _checks(dm: DynamicsModel, data: dict, sweep) -> None:
+    """The power balance as a check, and the dead-centre warning (see :mod:`loopsolve.declcheck`)."""
+    from .declcheck import check_power_balance, warn_ill_conditioned
+    from .solve import _input_unit
+
+    ck = sweep.compiled
+    xs = np.asarray(sweep[ck.inputs[0]], dtype=float)
+    check_power_balance(dm, data, xs, spurious=data["spurious"])
+    warn_ill_conditioned(dm, data["kappa"], xs, _input_unit(ck))
 
 
 def forces(mech, at=None, stop=None, step=None, *, speed=None, accel=None, input=None, mode=None,
