@@ -52,18 +52,15 @@ def _where(dm) -> str:
     return str(mech.source or mech.name)
 
 
-def rides(dm, z) -> tuple[np.ndarray, np.ndarray, list[str], list[str]] | None:
-    """``(rides, fixed, bodies, points)``: ``rides[b, k]`` is True when point ``k`` of
-    ``dm.point_names`` moves rigidly with body ``b`` at every sampled pose of ``z`` ``(N, nvar)``;
-    ``fixed[k]`` when the point does not move. ``None`` when no pose has finite coefficients.
-    """
+def _sample(dm, z):
+    """``dm.evaluate`` at the kinematic coefficients of up to :data:`_SAMPLE` poses of ``z`` (None if none)."""
     from .dynamics import kinematic_coefficients
 
     z = np.atleast_2d(np.asarray(z, dtype=float))
     z = z[np.all(np.isfinite(z), axis=1)]
     if len(z) > _SAMPLE:
         z = z[np.unique(np.linspace(0, len(z) - 1, _SAMPLE).round().astype(int))]
-    if not len(z) or not dm.point_names:
+    if not len(z):
         return None
     with np.errstate(all="ignore"):
         d1, d2 = kinematic_coefficients(dm.ck, z)
@@ -71,7 +68,55 @@ def rides(dm, z) -> tuple[np.ndarray, np.ndarray, list[str], list[str]] | None:
         if not ok.any():
             return None
         z, d1, d2 = z[ok], d1[ok], d2[ok]
-        e = dm.evaluate(z.T, d1.T, d2.T)
+        return dm.evaluate(z.T, d1.T, d2.T)
+
+
+def guide_faults(dm, z) -> list[str]:
+    """Guided bodies whose motion relative to the guide's carrier is not a slide along the guide.
+
+    A body that slides along ``guide`` on ``guide_body`` moves, relative to that body (or the frame),
+    along the guide's direction and does not turn relative to it.
+    """
+    e = _sample(dm, z)
+    if e is None:
+        return []
+    names = [b.name for b in dm.bodies]
+    out = []
+    floor = 1e-12 * dm.ck.scale
+    for b, body in enumerate(dm.bodies):
+        if body.guide is None:
+            continue
+        o = -1 if body.guide_body == FRAME else names.index(body.guide_body)
+        phi = e["phi"][dm.guide_vectors.index(body.guide)]
+        nx, ny = -np.sin(phi), np.cos(phi)
+        if o >= 0:
+            rx, ry = e["G"][b, 0] - e["G"][o, 0], e["G"][b, 1] - e["G"][o, 1]
+            vox, voy = e["vG"][o, 0] - e["om"][o] * ry, e["vG"][o, 1] + e["om"][o] * rx
+            wo = e["om"][o]
+        else:
+            vox = voy = wo = np.zeros_like(phi)
+        vx, vy = e["vG"][b, 0] - vox, e["vG"][b, 1] - voy
+        scale = np.hypot(e["vG"][b, 0], e["vG"][b, 1]) + np.hypot(vox, voy) + floor
+        carrier = "the frame" if o < 0 else repr(body.guide_body)
+        if not np.all(np.abs(nx * vx + ny * vy) <= RIDE_RTOL * scale):
+            out.append(f"bodies.{body.name}.guide: {body.name!r} does not slide along {body.guide!r} relative to "
+                       f"{carrier} (its motion there has a component across the guide): name the vector the body "
+                       "slides along, and with guide_body the body that carries it")
+        elif not np.all(np.abs(e["om"][b] - wo) <= RIDE_RTOL * (np.abs(e["om"][b]) + np.abs(wo) + 1e-12)):
+            out.append(f"bodies.{body.name}: {body.name!r} slides on {carrier} along {body.guide!r} but turns "
+                       f"relative to it: a sliding block turns with its guide (give it the guide's angle, "
+                       f"angle = \"...\", or check guide_body)")
+    return out
+
+
+def rides(dm, z) -> tuple[np.ndarray, np.ndarray, list[str], list[str]] | None:
+    """``(rides, fixed, bodies, points)``: ``rides[b, k]`` is True when point ``k`` of
+    ``dm.point_names`` moves rigidly with body ``b`` at every sampled pose of ``z`` ``(N, nvar)``;
+    ``fixed[k]`` when the point does not move. ``None`` when no pose has finite coefficients.
+    """
+    e = _sample(dm, z)
+    if e is None or not dm.point_names:
+        return None
     G, vG, aG = e["G"], e["vG"], e["aG"]  # (B, 2, N)
     om, al = e["om"], e["al"]  # (B, N)
     P, vP, aP = e["P"], e["vP"], e["aP"]  # (K, 2, N)
@@ -177,6 +222,7 @@ def check_carriers(dm, z) -> None:
                 problems.append(f"{key}: {what} {ld.name!r} at {p!r} is declared on {b!r}, which does not carry "
                                 f"{p} ({hint}): a point load acts on a body that carries its point (one of its "
                                 "joints, or a point that moves with it)")
+    problems += guide_faults(dm, z)
     if problems:
         raise ModelError(f"{where}: " + "; ".join(problems), problems=problems)
 

@@ -324,8 +324,25 @@ def compile_drive(mech: Mechanism, text, inputs) -> object:
     """
     from . import expr as _expr
 
+    from .bodies import parse_mech_quantity
+
     (name,) = inputs
-    node = _expr.parse(text) if not isinstance(text, _expr.Name) else text
+    kind = "torque" if mech.variable(name).kind is Kind.ANGLE else "force"
+    if isinstance(text, str) and any(c.isalpha() for c in text):
+        try:  # a constant with a unit: "0.05N*m", "2 lbf"
+            value = parse_mech_quantity(text, kind)
+        except ModelError:
+            pass
+        else:
+            return lambda x, xd, t: value
+    try:
+        node = _expr.parse(text) if not isinstance(text, _expr.Name) else text
+    except _expr.ExpressionError as exc:
+        si, example = ("N*m", "0.05N*m") if kind == "torque" else ("N", "20N")
+        why = "units are not allowed inside an expression" if "unknown unit" in str(exc) else str(exc)
+        raise ModelError(f"--torque {text!r}: {why}; the driving {kind} is a number in SI ({si}), a quantity "
+                         f"such as \"{example}\", or an expression of {name!r}, {name + '_vel'!r} and 't' whose "
+                         "value is in SI (no units inside)") from None
     allowed = {name, name + "_vel", "t"} | {p.name for p in mech.parameters}
     bad = sorted(_expr.names(node) - allowed)
     if bad:

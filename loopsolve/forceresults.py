@@ -239,7 +239,10 @@ class ForceSweep:
     def flywheel(self, cs: float) -> Flywheel:
         """Size a flywheel for the coefficient of speed fluctuation ``cs`` (see :class:`Flywheel`).
 
-        The sweep must cover one full cycle of an angle input at constant nonzero speed.
+        The sweep must cover one full cycle (360°, or 720° for a four-stroke engine) of an angle
+        input at constant nonzero speed. The energy fluctuation is that of the continuous torque
+        curve (a periodic cubic spline through the rows, the extrema of ∫(T − T_mean) located where
+        it crosses T_mean), not of the output grid.
         """
         return flywheel(self, cs)
 
@@ -297,16 +300,30 @@ def flywheel(fs: ForceSweep, cs: float) -> Flywheel:
     if np.ptp(w) > 1e-9 * max(abs(w[0]), 1e-300) or w[0] == 0:
         raise ModelError("flywheel sizing needs a sweep at constant nonzero speed (--speed, no --accel)")
     span = abs(x[-1] - x[0])
-    if abs(span - 2 * math.pi) > 1e-6:
-        raise ModelError(f"flywheel sizing needs one full cycle of {inp!r} (e.g. --from 0 --to 360), "
-                         f"this sweep spans {math.degrees(span):.6g} degrees")
-    T = fs.drive
-    seg = 0.5 * (T[1:] + T[:-1]) * np.diff(x)
-    work = np.concatenate([[0.0], np.cumsum(seg)])
-    mean = work[-1] / (x[-1] - x[0])
-    energy = work - mean * (x - x[0])
+    if min(abs(span - 2 * math.pi), abs(span - 4 * math.pi)) > 1e-6:
+        raise ModelError(f"flywheel sizing needs one full cycle of {inp!r}: one turn (e.g. --from 0 --to 360) or "
+                         f"two for a four-stroke engine (--to 720); this sweep spans {math.degrees(span):.6g} degrees")
+    from scipy.interpolate import CubicSpline
+
+    T = np.array(fs.drive, dtype=float)
+    order = np.argsort(x)
+    xo, To = x[order], T[order]
+    # the torque is periodic over the cycle: a periodic cubic spline through the rows is the
+    # continuous curve (error O(h^4)); its antiderivative is the work, exactly integrated, and the
+    # extrema of the energy E = ∫(T − T_mean) are located where the curve crosses T_mean
+    To[-1] = To[0] = 0.5 * (To[0] + To[-1])
+    spline = CubicSpline(xo, To, bc_type="periodic")
+    work = spline.antiderivative()
+    mean = float((work(xo[-1]) - work(xo[0])) / (xo[-1] - xo[0]))
+    roots = spline.solve(mean, extrapolate=False)
+    cand = np.unique(np.concatenate([xo, roots[np.isfinite(roots)]]))
+    energy = work(cand) - work(xo[0]) - mean * (cand - xo[0])
     dE = float(energy.max() - energy.min())
     omega = abs(float(w[0]))
-    xs = fs.sweep[inp]
-    return Flywheel(float(mean), dE, dE / (cs * omega**2), omega, float(cs),
-                    float(xs[int(np.argmax(energy))]), float(xs[int(np.argmin(energy))]))
+    from .results import _display
+
+    def shown(v):
+        return float(_display(ck, inp, 0, v, wrap=False))
+
+    return Flywheel(mean, dE, dE / (cs * omega**2), omega, float(cs),
+                    shown(cand[int(np.argmax(energy))]), shown(cand[int(np.argmin(energy))]))

@@ -402,6 +402,44 @@ def inverse_dynamics(dm: DynamicsModel, z, xd, xdd, *, rates=None, check: bool =
     return out
 
 
+#: scaled condition number of Φ_q below which a pose is regular for the kinematics: there a
+#: singular Newton–Euler system is a declaration fault, not a dead centre
+_KIN_REGULAR = 1e6
+
+
+def _check_determined(dm: DynamicsModel, data: dict, sweep, xs) -> None:
+    """A Newton–Euler system singular where the kinematics are regular is a declaration fault.
+
+    For a one-degree-of-freedom mechanism whose bodies, joints and guides are declared consistently,
+    the joint forces and the driver are determined wherever Φ_q is regular (the forces' dead centres
+    are the kinematic ones); a singular system at a regular pose means the constraints do not match
+    the motion (a guide on the wrong vector or body, a body sliding on a turning guide declared on
+    the frame, ...). Raises :class:`ModelError`.
+    """
+    from .errors import ModelError
+
+    ck = sweep.compiled
+    rows = np.flatnonzero(np.asarray(data["singular"]) & ~np.asarray(data["nonfinite"]))
+    col = np.array([1.0 if k is Kind.ANGLE else float(ck.scale) for k in ck.kinds])[ck.unknown_idx]
+    for i in rows[:8]:
+        z = sweep.z[i]
+        if not np.all(np.isfinite(z)) or not np.all(np.isfinite(sweep.z1[i])):
+            continue
+        J = ck.jac(z)
+        if not np.all(np.isfinite(J)):
+            continue
+        sv = np.linalg.svd(J * col, compute_uv=False)
+        if sv[-1] > 0 and sv[0] / sv[-1] < _KIN_REGULAR:
+            mech = ck.mechanism
+            guided = [f"bodies.{b.name}.guide = {b.guide!r} (on {b.guide_body!r})" for b in dm.bodies if b.guide]
+            raise ModelError(
+                f"{mech.source or mech.name}: the joint forces are undetermined at {ck.inputs[0]} = {xs[i]:.10g} "
+                f"although the mechanism is far from a dead centre there (condition of the loops' Jacobian "
+                f"{sv[0] / sv[-1]:.3g}): the bodies' joints and guides do not match the motion"
+                + (f"; check {', '.join(guided)}: a body slides along its guide relative to the body (or frame) "
+                   "carrying it, and turns with it" if guided else "; check each body's `joints` and `angle`"))
+
+
 def _body(dm: DynamicsModel, i: int) -> str:
     return "the frame" if i < 0 else repr(dm.bodies[i].name)
 
@@ -519,6 +557,7 @@ def _checks(dm: DynamicsModel, data: dict, sweep) -> None:
 
     ck = sweep.compiled
     xs = np.asarray(sweep[ck.inputs[0]], dtype=float)
+    _check_determined(dm, data, sweep, xs)
     check_power_balance(dm, data, xs, spurious=data["spurious"])
     warn_ill_conditioned(dm, data["kappa"], xs, _input_unit(ck))
 

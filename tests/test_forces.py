@@ -380,7 +380,7 @@ class TestSimulate:
 
         sim = ls.simulate(mech, 0.5, step=0.05, at=30, speed0=w, torque=torque)
         np.testing.assert_allclose(sim.xd, w, rtol=1e-8)
-        np.testing.assert_allclose(sim.x, math.radians(30) + w * sim.t, rtol=1e-8)
+        np.testing.assert_allclose(sim.x, 30 + math.degrees(w) * sim.t, rtol=1e-8)  # degrees, as the CLI
 
 
 class TestFlywheel:
