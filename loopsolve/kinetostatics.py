@@ -531,7 +531,7 @@ def virtual_work_drive(dm: DynamicsModel, z, xd, xdd) -> np.ndarray:
     return M * np.asarray(xdd) * s + 0.5 * dM * (np.asarray(xd) * s) ** 2 - Q
 
 
-def force_analysis(sweep, *, dynamics: DynamicsModel | None = None):
+def force_analysis(sweep, *, dynamics: DynamicsModel | None = None, scalar: bool = False):
     """Force analysis along an existing kinematic sweep (its input speed and acceleration).
 
     Returns a :class:`~loopsolve.forceresults.ForceSweep`.
@@ -547,7 +547,7 @@ def force_analysis(sweep, *, dynamics: DynamicsModel | None = None):
     else:
         data = inverse_dynamics(dm, sweep.z, sweep.z1[:, ix], sweep.z2[:, ix], rates=(sweep.z1, sweep.z2))
         _checks(dm, data, sweep)
-    return ForceSweep(sweep, data)
+    return ForceSweep(sweep, data, scalar=scalar)
 
 
 def _checks(dm: DynamicsModel, data: dict, sweep) -> None:
@@ -573,6 +573,8 @@ def forces(mech, at=None, stop=None, step=None, *, speed=None, accel=None, input
     Returns
     -------
     ForceSweep
+        At one input its attributes are scalars (``float(f.drive)``) and ``(2,)`` vectors; along
+        a sweep, arrays over the rows.
 
     Raises
     ------
@@ -583,8 +585,8 @@ def forces(mech, at=None, stop=None, step=None, *, speed=None, accel=None, input
     --------
     >>> mech = ls.load(ls.models_dir() / "thesis_crank_rocker_dynamics.toml")
     >>> f = ls.forces(mech, 90, speed="60rpm")
-    >>> round(float(f["input_torque"][0]), 5)
-    0.03015
+    >>> round(float(f.drive), 5), round(f["input_torque"], 5), f.units()["drive"]
+    (0.03015, 0.03015, 'N*m')
     """
     from .dynamics import compile_dynamics
 
@@ -602,4 +604,4 @@ def forces(mech, at=None, stop=None, step=None, *, speed=None, accel=None, input
             raise ModelError("a force sweep needs start, stop and step: forces(mech, 0, 360, 5)")
         sweep = mech.sweep(at, stop, step, speed=speed, accel=accel, input=input, mode=mode,
                            through_limits=through_limits, progress=progress, method=method)
-    return force_analysis(sweep, dynamics=dm)
+    return force_analysis(sweep, dynamics=dm, scalar=stop is None)
