@@ -78,8 +78,12 @@ class DynamicsModel:
         if z.ndim == 1:  # one pose: the scalar (math) code, no array overhead
             try:
                 flat = np.array(self._fn_scalar(z, z1, z2, self.ck.p), dtype=float)[:, None]
-            except (ArithmeticError, ValueError):
-                flat = np.array(self._fn(z[:, None], z1[:, None], z2[:, None], self.ck.p), dtype=float)
+            except (ArithmeticError, ValueError):  # outside a load's domain: numpy gives NaN there
+                with np.errstate(all="ignore"):
+                    raw = self._fn(z[:, None], z1[:, None], z2[:, None], self.ck.p)
+                flat = np.empty((len(raw), 1))
+                for i, r in enumerate(raw):  # constants come back as scalars, the rest as (1,) arrays
+                    flat[i] = r
             return self._split(flat, 1)
         n = z.shape[1]
         raw = self._fn(z, z1, z2, self.ck.p)

@@ -345,7 +345,7 @@ def simulate(mech, duration: float, *, step: float = 0.01, torque=0.0, speed0=No
         max_steps = MAX_STEPS + 200 * len(t_eval)
     h_min = MIN_STEP * t_end
     try:
-        solver = solvers[method](rhs, 0.0, y0, t_end, rtol=rtol, atol=atol)
+        solver = solvers[method](rhs, 0.0, y0, t_end, rtol=rtol, atol=atol, max_step=step)
     except NonFiniteError as exc:  # at the start: nothing to keep
         raise NonFiniteError(str(exc)) from None
     except _Stop:  # the start itself is at (or within round-off of) a limit position

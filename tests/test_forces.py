@@ -341,13 +341,15 @@ class TestJointForces:
         assert np.all(np.isfinite(f.shaking_force))
 
 
-class TestSimulate:
-    @pytest.fixture(scope="class")
-    def free_fourbar(self):
-        spec = ls.model._deep_copy(fourbar_dynamics().spec)
-        spec.pop("loads")
-        return ls.build_mechanism(spec)
+@pytest.fixture(scope="module")
+def free_fourbar():
+    """The four-bar without loads (a module-level fixture: pytest deprecates class-scoped fixture methods)."""
+    spec = ls.model._deep_copy(fourbar_dynamics().spec)
+    spec.pop("loads")
+    return ls.build_mechanism(spec)
 
+
+class TestSimulate:
     def test_free_motion_conserves_energy(self, free_fourbar):
         sim = ls.simulate(free_fourbar, 2.0, step=0.1, at=60, speed0=2.0)
         e = sim.total_energy
