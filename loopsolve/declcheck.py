@@ -42,7 +42,7 @@ RIDE_RTOL = 1e-7
 #: relative power residual (of the largest power term of the row) above which the balance fails
 POWER_RTOL = 1e-7
 #: condition number of the Newton–Euler system above which the forces are flagged (dead centre)
-COND_WARN = 300.0
+COND_WARN = 1e3
 _EPS = np.finfo(float).eps
 _SAMPLE = 8
 

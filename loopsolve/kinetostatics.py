@@ -32,7 +32,6 @@ __all__ = ["Layout", "layout", "inverse_dynamics", "generalized_force", "virtual
 #: singular (a dead centre for the forces: the joint forces are undetermined)
 SINGULAR_RATIO = 1e-12
 _CHUNK = 4096
-_RUIZ = 8
 
 
 def _cross(dx, dy, fx, fy):
@@ -231,7 +230,7 @@ def inverse_dynamics(dm: DynamicsModel, z, xd, xdd, *, rates=None, check: bool =
     ``residual`` (N, bodies, 3) the Newton–Euler residuals of the solution, ``force_scale``.
     ``rates`` = ``(z1, z2)``, the ``(N, nvar)`` velocities and accelerations of this motion when
     already known (a sweep's), skips solving for them. ``kappa`` is the condition number of each
-    row's Newton–Euler matrix (rows and columns equilibrated; inf where singular) and ``spurious``
+    row's Newton–Euler matrix (1-norm, rows and columns scaled; inf where singular) and ``spurious``
     {constraint or load: (N,) W} the power each pin, guide, driver and point load does on the bodies
     beyond what it should (zero for a consistent declaration).
 
@@ -445,11 +444,33 @@ def _body(dm: DynamicsModel, i: int) -> str:
 
 
 def _condition(Mt: np.ndarray, finite: np.ndarray) -> np.ndarray:
-    """2-norm condition numbers of a ``(rows, columns, N)`` stack, rows and columns equilibrated."""
-    A = np.moveaxis(Mt, -1, 0).copy()  # (N, rows, columns)
+    """1-norm condition numbers ``‖A‖₁ ‖A⁻¹‖₁`` of a ``(rows, columns, N)`` stack, rows then columns
+    scaled to a largest entry of 1 (so that the units of forces and moments do not count)."""
+    A = np.moveaxis(Mt, -1, 0)  # (N, rows, columns)
     kappa = np.full(A.shape[0], np.inf)
     if not finite.any():
         return kappa
+    A = A[finite]
+    B = np.abs(A)
+    for axis in (2, 1):
+        s = np.max(B, axis=axis, keepdims=True)
+        s[s == 0] = 1.0
+        A /= s
+        B /= s
+    try:
+        inv = np.linalg.inv(A)
+    except np.linalg.LinAlgError:  # an exactly singular one: one at a time
+        inv = np.empty_like(A)
+        for i, a in enumerate(A):
+            try:
+                inv[i] = np.linalg.inv(a)
+            except np.linalg.LinAlgError:
+                inv[i] = np.inf
+    with np.errstate(invalid="ignore", over="ignore"):
+        np.abs(inv, out=inv)
+        k = np.max(np.sum(B, axis=1), axis=1) * np.max(np.sum(inv, axis=1), axis=1)
+    kappa[finite] = np.where(np.isfinite(k), k, np.inf)
+    return kappa
     A = A[finite]
     for _ in range(_RUIZ):  # Ruiz equilibration: rows and columns of unit largest entry
         for axis in (2, 1):

@@ -169,7 +169,7 @@ class TestDeadCentreWarning:
             assert dr.sweep(30, 80, 0.5).events[0].input == pytest.approx(DR_LIMIT, abs=1e-9)
         with pytest.warns(ls.LoopsolveWarning, match=r"near a dead centre.*condition"):
             fs = ls.forces(dr, DR_LIMIT - 5.7e-9)
-        assert fs.condition > 300
+        assert fs.condition > 1e3
 
     def test_engine_driven_by_its_slider_near_tdc(self):
         with pytest.warns(ls.LoopsolveWarning, match=r"r1 = 179\.9999999 mm.*condition"):
