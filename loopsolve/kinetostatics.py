@@ -32,6 +32,8 @@ __all__ = ["Layout", "layout", "inverse_dynamics", "generalized_force", "virtual
 #: singular (a dead centre for the forces: the joint forces are undetermined)
 SINGULAR_RATIO = 1e-12
 _CHUNK = 4096
+#: a fixed right-hand side with no structure (probes the inverse of the Newton–Euler matrix)
+_PROBE = 1.0 + 0.5 * np.sin(1.7 * np.arange(1, 200) + 0.3)
 
 
 def _cross(dx, dy, fx, fy):
@@ -181,8 +183,11 @@ def solve_batched(A: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]
 
 
 def _solve_stacked(M: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """:func:`solve_batched` on ``(n, n, N)`` / ``(n, N)`` arrays (overwritten); returns ``(n, N)``."""
-    n, N = y.shape
+    """:func:`solve_batched` on ``(n, n, N)`` / ``(n, N)`` arrays (overwritten); returns ``(n, N)``.
+
+    ``y`` may also be ``(n, m, N)``: m right-hand sides per system, the solution of the same shape.
+    """
+    n, N = y.shape[0], y.shape[-1]
     norms = np.prod(np.sqrt(np.einsum("ijk,ijk->ik", M, M)), axis=0)
     absdet = np.ones(N)
     for k in range(n):
@@ -196,9 +201,9 @@ def _solve_stacked(M: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray
                 row = M[k, :, moved].copy()
                 M[k, :, moved] = M[pk, :, moved]
                 M[pk, :, moved] = row
-                yk = y[k, moved].copy()
-                y[k, moved] = y[pk, moved]
-                y[pk, moved] = yk
+                yk = y[k, ..., moved].copy()
+                y[k, ..., moved] = y[pk, ..., moved]
+                y[pk, ..., moved] = yk
         p = M[k, k, :]
         absdet *= np.abs(p)
         below = k + 1 + np.flatnonzero(np.any(M[k + 1:, k, :] != 0, axis=1))  # rows to eliminate
@@ -206,10 +211,10 @@ def _solve_stacked(M: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray
             f = M[below, k, :] / np.where(p == 0, 1.0, p)
             nzc = k + np.flatnonzero(np.any(M[k, k:, :] != 0, axis=1))  # nonzero columns of the pivot row
             M[np.ix_(below, nzc)] -= f[:, None, :] * M[k, nzc, :][None]
-            y[below] -= f * y[k]
-    x = np.empty((n, N))
+            y[below] -= (f if y.ndim == 2 else f[:, None, :]) * y[k]
+    x = np.empty(y.shape)
     for k in range(n - 1, -1, -1):
-        acc = y[k] - np.einsum("jn,jn->n", M[k, k + 1:, :], x[k + 1:]) if k + 1 < n else y[k]
+        acc = y[k] - np.einsum("jn,j...n->...n", M[k, k + 1:, :], x[k + 1:]) if k + 1 < n else y[k]
         p = M[k, k, :]
         x[k] = acc / np.where(p == 0, 1.0, p)
     with np.errstate(invalid="ignore", divide="ignore"):
@@ -230,7 +235,8 @@ def inverse_dynamics(dm: DynamicsModel, z, xd, xdd, *, rates=None, check: bool =
     ``residual`` (N, bodies, 3) the Newton–Euler residuals of the solution, ``force_scale``.
     ``rates`` = ``(z1, z2)``, the ``(N, nvar)`` velocities and accelerations of this motion when
     already known (a sweep's), skips solving for them. ``kappa`` is the condition number of each
-    row's Newton–Euler matrix (1-norm, rows and columns scaled; inf where singular) and ``spurious``
+    row's Newton–Euler matrix (1-norm, rows and columns scaled to a largest entry of 1, the norm of
+    the inverse estimated from below with one probe right-hand side; inf where singular) and ``spurious``
     {constraint or load: (N,) W} the power each pin, guide, driver and point load does on the bodies
     beyond what it should (zero for a consistent declaration).
 
@@ -314,8 +320,21 @@ def inverse_dynamics(dm: DynamicsModel, z, xd, xdd, *, rates=None, check: bool =
         if not finite.all():
             Mt[:, :, ~finite] = eye[:, :, None]
             nonfinite[lo:hi] = ~finite
-        kappa[lo:hi] = _condition(Mt, finite)
-        uc, had = _solve_stacked(Mt, np.ascontiguousarray(np.where(finite[:, None], b_, 0.0).T))
+        # the condition of the matrix scaled to rows and columns of largest entry 1 (units do not count):
+        # ‖S‖₁ and a lower estimate of ‖S⁻¹‖₁ from one more right-hand side, solved with the same elimination
+        absM = np.abs(Mt)
+        rmax = absM.max(axis=1)
+        rmax[rmax == 0] = 1.0
+        absM /= rmax[:, None, :]
+        cmax = absM.max(axis=0)
+        cmax[cmax == 0] = 1.0
+        norm_s = (absM.sum(axis=0) / cmax).max(axis=0)
+        rhs2 = np.stack([np.where(finite[:, None], b_, 0.0).T, rmax * _PROBE[:ne, None]], axis=1)
+        uc2, had = _solve_stacked(Mt, rhs2)
+        uc = uc2[:, 0]
+        with np.errstate(invalid="ignore", over="ignore"):
+            inv_s = np.sum(np.abs(uc2[:, 1] * cmax), axis=0) / np.sum(np.abs(_PROBE[:ne]))
+            kappa[lo:hi] = np.where(finite & np.isfinite(inv_s), norm_s * inv_s, np.inf)
         had[~finite] = 0.0
         bad = ~(had > SINGULAR_RATIO)
         uc[:, bad] = np.nan
@@ -441,15 +460,6 @@ def _check_determined(dm: DynamicsModel, data: dict, sweep, xs) -> None:
 
 def _body(dm: DynamicsModel, i: int) -> str:
     return "the frame" if i < 0 else repr(dm.bodies[i].name)
-
-
-def _condition(Mt: np.ndarray, finite: np.ndarray) -> np.ndarray:
-    """1-norm condition numbers ``‖A‖₁ ‖A⁻¹‖₁`` of a ``(rows, columns, N)`` stack, rows then columns
-    scaled to a largest entry of 1 (so that the units of forces and moments do not count)."""
-    A = np.moveaxis(Mt, -1, 0)  # (N, rows, columns)
-    kappa = np.full(A.shape[0], np.inf)
-    if not finite.any():
-        return kappa
     A = A[finite]
     B = np.abs(A)
     for axis in (2, 1):

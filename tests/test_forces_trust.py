@@ -140,6 +140,21 @@ class TestPowerBalanceCheck:
         assert exc.value.input_value == 30.0 and abs(exc.value.residual) > 1e3
         assert isinstance(exc.value, ls.ModelError) and exc.value.exit_code == 2
 
+    def test_a_small_residual_with_no_spurious_work_is_a_warning(self):
+        from loopsolve.declcheck import check_power_balance
+
+        dm = compile_dynamics(ls.load(THESIS))
+        data = {"power_residual": np.array([0.0, 1e-6]), "power_scale": np.array([1.0, 1.0]),
+                "kappa": np.array([10.0, 10.0])}
+        with pytest.warns(ls.LoopsolveWarning, match="not smooth there"):
+            check_power_balance(dm, data, [0.0, 5.0], spurious={"the pin 'B'": np.zeros(2)})
+        data["power_residual"] = np.array([0.0, 1e-2])
+        with pytest.raises(ls.PowerBalanceError, match=r"fails at theta2 = 5 \(1 of 2 rows\)"):
+            check_power_balance(dm, data, [0.0, 5.0], spurious={"the pin 'B'": np.zeros(2)})
+        data["power_residual"] = np.array([0.0, 1e-6])  # small, but a pin does the work: an error
+        with pytest.raises(ls.PowerBalanceError, match="the likely fault: the pin 'B'"):
+            check_power_balance(dm, data, [0.0, 5.0], spurious={"the pin 'B'": np.array([0.0, 1e-6])})
+
     def test_no_false_alarm_near_limits_or_with_non_smooth_loads(self):
         dr = double_rocker()
         with warnings.catch_warnings():
@@ -169,7 +184,7 @@ class TestDeadCentreWarning:
             assert dr.sweep(30, 80, 0.5).events[0].input == pytest.approx(DR_LIMIT, abs=1e-9)
         with pytest.warns(ls.LoopsolveWarning, match=r"near a dead centre.*condition"):
             fs = ls.forces(dr, DR_LIMIT - 5.7e-9)
-        assert fs.condition > 1e3
+        assert fs.condition > 1e4
 
     def test_engine_driven_by_its_slider_near_tdc(self):
         with pytest.warns(ls.LoopsolveWarning, match=r"r1 = 179\.9999999 mm.*condition"):
