@@ -45,6 +45,11 @@ class Flywheel:
         return {k: _clean(getattr(self, k)) for k in ("mean_torque", "energy_fluctuation", "inertia", "speed",
                                                        "cs", "at_max", "at_min")}
 
+    def units(self, angle_unit: str = "deg") -> dict[str, str]:
+        """The unit of every field (``at_max``/``at_min`` in the model's angle unit)."""
+        return {"mean_torque": "N*m", "energy_fluctuation": "J", "inertia": "kg*m^2", "speed": "rad/s", "cs": "1",
+                "at_max": angle_unit, "at_min": angle_unit}
+
     def __str__(self) -> str:
         return (f"flywheel for C_s = {self.cs:g} at {self.speed:.6g} rad/s: mean torque {self.mean_torque:.6g} N*m, "
                 f"energy fluctuation {self.energy_fluctuation:.6g} J (between inputs {self.at_min:g} and "

@@ -293,6 +293,9 @@ def simulate(mech, duration: float, *, step: float = 0.01, torque=0.0, speed0=No
         drive = compile_drive(mech, str(torque), ck.inputs)
     state0 = mech.solve(at, input=input, mode=mode, compiled=ck)
     dm = compile_dynamics(mech, compiled=ck)
+    from .declcheck import check_carriers
+
+    check_carriers(dm, state0.z[None, :])  # a declaration slip is an error before any integration
     ix = ck.input_idx[0]
     if speed0 is None:
         declared = mech.variable(ck.inputs[0]).speed

@@ -213,6 +213,11 @@ class TestUnits:
         u = fs.units()
         assert u["drive"] == "N*m" and u["joint_forces"] == "N" and u["theta2"] == "deg" and u["F_B_x"] == "N"
 
+    def test_simulate_refuses_a_declaration_slip_before_integrating(self):
+        bad = mutated(ENGINE, lambda s: s["bodies"]["crank"].update(joints=["O2"]))
+        with pytest.raises(ls.ModelError, match="left out by 'crank'"):
+            ls.simulate(bad, 10.0)
+
     def test_one_input_gives_scalars(self):
         """Before: one-element arrays (float(fs.drive) fails on numpy 2.4)."""
         fs = ls.forces(ls.load(ENGINE), 30)
