@@ -261,6 +261,7 @@ def simulate(mech, duration: float, *, step: float = 0.01, torque=0.0, speed0=No
         Bound on the integrator's steps (default ``MAX_STEPS`` + 200 per output row). The
         integration also stops when a step falls below ``MIN_STEP`` times the duration; either way
         the rows so far are kept, with a ``singular`` event and a warning (no wall clock involved).
+        No step is longer than ``step`` (the output step).
 
     Returns
     -------
