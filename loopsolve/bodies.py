@@ -335,9 +335,15 @@ def parse_dynamics(spec: Mapping[str, Any], *, problems, parse_point: Callable, 
                 gb = FRAME
             else:
                 cands = [o.name for o in bodies if o.name != b.name and o.angle_text == text]
-                if len(cands) != 1:
-                    problems.add(key, f"cannot tell which body carries the guide {b.guide!r} (angle {text!r}): "
-                                 "name it with guide_body = \"...\"")
+                if not cands:
+                    problems.add(key, f"the guide {b.guide!r} turns (angle {text!r}) but no other declared body "
+                                 f"turns with it: declare the body that carries the guide in [bodies] (e.g. the "
+                                 f"rocker: {{ mass = ..., inertia = ..., com = ..., angle = \"{text}\", joints = "
+                                 "[...] })")
+                    continue
+                if len(cands) > 1:
+                    problems.add(key, f"the guide {b.guide!r} (angle {text!r}) turns with {', '.join(cands)}: name "
+                                 "the one that carries it with guide_body = \"...\"")
                     continue
                 gb = cands[0]
         resolved.append(Body(b.name, b.mass, b.inertia, b.com, b.angle, b.joints, b.guide, gb, b.angle_text))
@@ -382,6 +388,16 @@ def parse_dynamics(spec: Mapping[str, Any], *, problems, parse_point: Callable, 
         kinds = [k for k in ("force", "torque", "spring", "damper") if k in ldef]
         if not kinds and body is not None and ("stiffness" in ldef or "damping" in ldef):
             kinds = ["torsion"]
+        all_keys = {"at", "body", "force", "torque", "spring", "damper", "stiffness", "damping", "free_length",
+                    "free_angle", "bodies", "name"}
+        unknown = sorted(str(k) for k in set(ldef) - all_keys)
+        if unknown:
+            import difflib
+
+            hints = [f"{k!r}" + (f" (did you mean {m[0]!r}?)" if (m := difflib.get_close_matches(k, all_keys, 1)) else "")
+                     for k in unknown]
+            problems.add(key, f"unknown key(s) {', '.join(hints)}; a load's keys are {', '.join(sorted(all_keys))}")
+            continue
         if len(kinds) != 1:
             problems.add(key, "a load is one of: a force (at, force = [fx, fy]), a torque (body, torque), a spring "
                          "(spring = [\"A\", \"B\"], stiffness, free_length), a damper (damper = [\"A\", \"B\"], "

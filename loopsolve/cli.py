@@ -317,7 +317,8 @@ def _force_parsers(sub) -> None:
     _rate_args(p)
     p.add_argument("--through-limits", action="store_true", help="continue around limit positions")
     p.add_argument("--flywheel", metavar="CS", type=float, help="size a flywheel for this coefficient of speed "
-                   "fluctuation (a full-turn sweep at constant speed; e.g. 0.02)")
+                   "fluctuation (e.g. 0.02) over a cycle at constant speed: the --from/--to range (360 or 720 "
+                   "degrees), else one turn from --at (default 0)")
     p.add_argument("--plot", metavar="FILE", help="also write the driving torque (and joint-force and "
                    "shaking-force polar plots for a sweep) to this image file (.png/.svg/.pdf)")
     p.add_argument("--format", choices=("table", "csv", "json"), default="table")
@@ -331,6 +332,8 @@ def _force_parsers(sub) -> None:
     p.add_argument("--torque", default="0", help="driving torque (N*m) or force (N): a number or an expression "
                    "of the input, <input>_vel and t (default 0)")
     p.add_argument("--speed0", help="initial input speed (default: the model's, else 0)")
+    p.add_argument("--max-steps", type=int, metavar="N", help="bound on the integrator's steps (default 20000 + "
+                   "200 per output row); the rows so far are kept when it is reached")
     p.add_argument("--at", help="initial input value (default: the input's guess)")
     p.add_argument("--input", metavar="NAME", help="drive this variable instead of the declared input")
     p.add_argument("--mode", metavar="SIGNATURE", help="assembly mode")
@@ -351,6 +354,21 @@ def cmd_forces(args) -> int:
         _check_output(args.plot)
     mech = _load(args.model)
     sweep_args = (args.start, args.stop, args.step)
+    if args.flywheel is not None and all(a is None for a in sweep_args):
+        # one cycle of the input by default (from --at, else 0), 360 rows
+        import math
+
+        from .units import Kind, parse_quantity
+
+        turn = 360.0 if mech.units.angle == "deg" else 2 * math.pi
+        x0 = 0.0
+        if args.at is not None:
+            x0 = parse_quantity(args.at, Kind.ANGLE, angle_unit=mech.units.angle, length_unit=mech.units.length,
+                                where="--at")
+            x0 = math.degrees(x0) if mech.units.angle == "deg" else x0
+            args.at = None
+        sweep_args = (x0, x0 + turn, turn / 360)
+        args.start, args.stop, args.step = sweep_args
     if any(a is not None for a in sweep_args):
         if args.at is not None or any(a is None for a in sweep_args):
             raise ModelError("give either --at, or --from, --to and --step")
@@ -383,7 +401,7 @@ def cmd_simulate(args) -> int:
     _check_output(args.output)
     mech = _load(args.model)
     sim = simulate(mech, args.duration, step=args.step, torque=args.torque, speed0=args.speed0, at=args.at,
-                   input=args.input, mode=args.mode)
+                   input=args.input, mode=args.mode, max_steps=args.max_steps)
     _write(sim.to_json() + "\n" if args.format == "json" else sim.to_csv() if args.format == "csv"
            else sim.table(), args.output)
     return EXIT_OK

@@ -50,7 +50,7 @@ class DynamicsModel:
     ``evaluate(z, z1, z2)`` takes ``(nvar, N)`` arrays and returns a dict of arrays (model length
     units for positions, radians for angles): ``G`` ``(B, 2, N)`` and ``vG``, ``aG``; ``th``,
     ``om``, ``al`` ``(B, N)`` (zeros for bodies without an angle); ``P``, ``vP`` ``(K, 2, N)`` for
-    the points in ``point_names``; ``phi`` ``(V, N)`` guide directions for ``guide_vectors``;
+    the points in ``point_names`` (and ``aP``); ``phi`` ``(V, N)`` guide directions for ``guide_vectors``;
     ``load`` ``(L, N)`` the load values in ``load_slots`` order.
     """
 
@@ -79,8 +79,12 @@ class DynamicsModel:
         if z.ndim == 1:  # one pose: the scalar (math) code, no array overhead
             try:
                 flat = np.array(self._fn_scalar(z, z1, z2, self.ck.p), dtype=float)[:, None]
-            except (ArithmeticError, ValueError):
-                flat = np.array(self._fn(z[:, None], z1[:, None], z2[:, None], self.ck.p), dtype=float)
+            except (ArithmeticError, ValueError):  # outside a load's domain: numpy gives NaN there
+                with np.errstate(all="ignore"):
+                    raw = self._fn(z[:, None], z1[:, None], z2[:, None], self.ck.p)
+                flat = np.empty((len(raw), 1))
+                for i, r in enumerate(raw):  # constants come back as scalars, the rest as (1,) arrays
+                    flat[i] = r
             return self._split(flat, 1)
         n = z.shape[1]
         raw = self._fn(z, z1, z2, self.ck.p)
@@ -94,7 +98,8 @@ class DynamicsModel:
         out, pos = {}, 0
         for name, size, shape in (("G", nb * 2, (nb, 2)), ("vG", nb * 2, (nb, 2)), ("aG", nb * 2, (nb, 2)),
                                   ("th", nb, (nb,)), ("om", nb, (nb,)), ("al", nb, (nb,)),
-                                  ("P", nk * 2, (nk, 2)), ("vP", nk * 2, (nk, 2)), ("phi", ng, (ng,)),
+                                  ("P", nk * 2, (nk, 2)), ("vP", nk * 2, (nk, 2)), ("aP", nk * 2, (nk, 2)),
+                                  ("phi", ng, (ng,)),
                                   ("load", nl, (nl,))):
             out[name] = flat[pos:pos + size].reshape(shape + (n,))
             pos += size
@@ -186,6 +191,9 @@ def compile_dynamics(mech: Mechanism, input=None, *, compiled: CompiledKinematic
         for p in ((ld.at,) if ld.at else ()) + tuple(ld.ends):
             if p not in points:
                 points.append(p)
+    for pt in mech.points:  # every other point too: the declaration checks look for joints left out
+        if pt.name not in points:
+            points.append(pt.name)
     guides = []
     for b in dyn.bodies:
         if b.guide is not None and b.guide not in guides:
@@ -232,11 +240,13 @@ def _derive_function(mech, inputs, dyn, points, guides, slots):
             th += [sp.Integer(0)]
             om += [sp.Integer(0)]
             al += [sp.Integer(0)]
-    P, vP = [], []
+    P, vP, aP = [], [], []
     for name in points:
         pe = _point_expr(kin, by_point[name], conv)
+        ve = pe.applyfunc(D)
         P += list(pe)
-        vP += list(pe.applyfunc(D))
+        vP += list(ve)
+        aP += list(ve.applyfunc(D))
     phi = []
     for vn in guides:
         length, angle = kin.vectors[vn]
@@ -245,7 +255,7 @@ def _derive_function(mech, inputs, dyn, points, guides, slots):
             angle = sp.atan2(xy[1], xy[0])
         phi.append(angle)
     loads = [_sym_value(dyn.loads[i].values[c], conv) for i, c in slots]
-    exprs = G + vG + aG + th + om + al + P + vP + phi + loads
+    exprs = G + vG + aG + th + om + al + P + vP + aP + phi + loads
     args = [sp.Matrix(kin.z), sp.Matrix(kin.z1), sp.Matrix(kin.z2), sp.Matrix(kin.params) if kin.params else []]
     vector = sp.lambdify(args, exprs, modules="numpy", cse=True)
     scalar = sp.lambdify(args, exprs, modules="math", cse=True)
@@ -324,11 +334,19 @@ def compile_drive(mech: Mechanism, text, inputs) -> object:
     from . import expr as _expr
 
     (name,) = inputs
+    kind = Kind.TORQUE if mech.variable(name).kind is Kind.ANGLE else Kind.FORCE
     if isinstance(text, str) and _QUANTITY_RE.match(text):  # "0.05N*m", "0.4 in*lbf", "20N": a constant
-        kind = Kind.TORQUE if mech.variable(name).kind is Kind.ANGLE else Kind.FORCE
         value = parse_quantity(text, kind, length_unit="m", where="--torque")
         return lambda x, xd, t: value
-    node = _expr.parse(text) if not isinstance(text, _expr.Name) else text
+    try:
+        node = _expr.parse(text) if not isinstance(text, _expr.Name) else text
+    except _expr.ExpressionError as exc:
+        label = "torque" if kind is Kind.TORQUE else "force"
+        si, example = ("N*m", "0.05N*m") if kind is Kind.TORQUE else ("N", "20N")
+        why = "units are not allowed inside an expression" if "unknown unit" in str(exc) else str(exc)
+        raise ModelError(f"--torque {text!r}: {why}; the driving {label} is a number in SI ({si}), a quantity "
+                         f"such as \"{example}\", or an expression of {name!r}, {name + '_vel'!r} and 't' whose "
+                         "value is in SI (no units inside)") from None
     allowed = {name, name + "_vel", "t"} | {p.name for p in mech.parameters}
     bad = sorted(_expr.names(node) - allowed)
     if bad:

@@ -22,6 +22,7 @@ __all__ = [
     "SingularPositionError",
     "BranchError",
     "MissingDependencyError",
+    "PowerBalanceError",
     "LoopsolveWarning",
 ]
 
@@ -158,3 +159,19 @@ def warn(message: str) -> None:
     while frame is not None and os.path.abspath(frame.f_code.co_filename).startswith(here):
         frame, level = frame.f_back, level + 1
     warnings.warn(message, LoopsolveWarning, stacklevel=level)
+
+
+class PowerBalanceError(ModelError):
+    """The power balance of a force result fails: the declarations do not describe one mechanism.
+
+    Driving power − (dE/dt − loads' power) is above round-off (exit status 2, as a model error:
+    the cause is a declaration, not the solver). ``residual`` (W), ``scale`` (W, the largest power
+    term of that row), ``input_value`` (display units), ``model``.
+    """
+
+    def __init__(self, message: str, *, residual: float, scale: float, input_value: float, model: str = ""):
+        super().__init__(message)
+        self.residual = residual
+        self.scale = scale
+        self.input_value = input_value
+        self.model = model

@@ -45,6 +45,11 @@ class Flywheel:
         return {k: _clean(getattr(self, k)) for k in ("mean_torque", "energy_fluctuation", "inertia", "speed",
                                                        "cs", "at_max", "at_min")}
 
+    def units(self, angle_unit: str = "deg") -> dict[str, str]:
+        """The unit of every field (``at_max``/``at_min`` in the model's angle unit)."""
+        return {"mean_torque": "N*m", "energy_fluctuation": "J", "inertia": "kg*m^2", "speed": "rad/s", "cs": "1",
+                "at_max": angle_unit, "at_min": angle_unit}
+
     def __str__(self) -> str:
         return (f"flywheel for C_s = {self.cs:g} at {self.speed:.6g} rad/s: mean torque {self.mean_torque:.6g} N*m, "
                 f"energy fluctuation {self.energy_fluctuation:.6g} J (between inputs {self.at_min:g} and "
@@ -73,31 +78,44 @@ class ForceSweep:
     Attributes: ``sweep`` (the kinematic :class:`~loopsolve.results.Sweep`), ``drive`` (N·m or N),
     ``joint_forces`` {``F_<joint>``: (N, 2)}, ``guide_reactions`` {``<body>_guide``: (N, 3): force x,
     y and couple}, ``shaking_force`` (N, 2), ``shaking_moment``, ``kinetic_energy``,
-    ``potential_energy``, ``power_residual`` (W), ``singular`` (bool: the Newton–Euler system is
-    singular there, the forces are NaN), ``events``.
+    ``potential_energy``, ``power_residual`` (W) — arrays over the rows, or for a result at one
+    input (``ls.forces(mech, 30)``: ``scalar`` is True) scalars and ``(2,)`` vectors, as
+    :class:`~loopsolve.results.State` gives; ``units()`` names every unit; ``singular`` (bool: the Newton–Euler system is
+    singular there, the forces are NaN), ``condition`` (the condition number of the Newton–Euler
+    system per row: large near a dead centre, where a warning is issued), ``events``.
     """
 
     __slots__ = ("sweep", "drive", "drive_name", "joint_forces", "guide_reactions", "shaking_force",
                  "shaking_moment", "kinetic_energy", "potential_energy", "power_residual", "singular",
-                 "events", "_cache")
+                 "condition", "events", "scalar", "_arrays", "_cache")
 
-    def __init__(self, sweep, data: Mapping):
+    def __init__(self, sweep, data: Mapping, *, scalar: bool = False):
         put = object.__setattr__
         ck = sweep.compiled
         put(self, "sweep", sweep)
         kind = ck.kinds[ck.index(ck.inputs[0])]
         put(self, "drive_name", "input_torque" if kind is Kind.ANGLE else "input_force")
+        scalar = bool(scalar) and len(sweep) == 1
+        put(self, "scalar", scalar)
+        arrays: dict = {}
         for name in ("drive", "shaking_force", "shaking_moment", "kinetic_energy", "potential_energy",
                      "power_residual", "singular"):
-            a = np.array(data[name])
-            a.setflags(write=False)
-            put(self, name, a)
-        put(self, "joint_forces", {k: _ro(v) for k, v in data["pins"].items()})
-        put(self, "guide_reactions", {k: _ro(v) for k, v in data["guides"].items()})
+            arrays[name] = _ro(data[name])
+        arrays["condition"] = _ro(data.get("kappa", np.ones(len(arrays["drive"]))))
+        arrays["joint_forces"] = {k: _ro(v) for k, v in data["pins"].items()}
+        arrays["guide_reactions"] = {k: _ro(v) for k, v in data["guides"].items()}
+        put(self, "_arrays", arrays)
+        for name, a in arrays.items():  # one input: scalars (and (2,) vectors), as State gives
+            if isinstance(a, dict):
+                put(self, name, {k: (_ro(v[0]) if scalar else v) for k, v in a.items()})
+            elif scalar:
+                put(self, name, a[0] if a.ndim == 1 else _ro(a[0]))
+            else:
+                put(self, name, a)
         events = list(sweep.events)
-        sing = np.flatnonzero(self.singular)
+        sing = np.flatnonzero(arrays["singular"])
         xs = sweep[ck.inputs[0]] if sing.size else None
-        nonfinite = np.asarray(data.get("nonfinite", np.zeros(len(self.singular), dtype=bool)))
+        nonfinite = np.asarray(data.get("nonfinite", np.zeros(len(arrays["singular"]), dtype=bool)))
         for i in sing[:20]:
             if nonfinite[i]:
                 why = ("a load, mass property or rate is not a finite number here (NaN or infinite: check the "
@@ -134,15 +152,16 @@ class ForceSweep:
     def force_columns(self) -> Mapping[str, np.ndarray]:
         """The force columns only (SI), in contract order."""
         if "force" not in self._cache:
-            out: dict[str, np.ndarray] = {self.drive_name: self.drive}
-            for name, f in self.joint_forces.items():
+            a = self._arrays
+            out: dict[str, np.ndarray] = {self.drive_name: a["drive"]}
+            for name, f in a["joint_forces"].items():
                 out[f"{name}_x"], out[f"{name}_y"] = f[:, 0], f[:, 1]
-            for name, f in self.guide_reactions.items():
+            for name, f in a["guide_reactions"].items():
                 out[f"F_{name}_x"], out[f"F_{name}_y"], out[f"M_{name}"] = f[:, 0], f[:, 1], f[:, 2]
-            out["shaking_force_x"], out["shaking_force_y"] = self.shaking_force[:, 0], self.shaking_force[:, 1]
-            out["shaking_moment"] = self.shaking_moment
-            out["kinetic_energy"], out["potential_energy"] = self.kinetic_energy, self.potential_energy
-            out["power_residual"] = self.power_residual
+            out["shaking_force_x"], out["shaking_force_y"] = a["shaking_force"][:, 0], a["shaking_force"][:, 1]
+            out["shaking_moment"] = a["shaking_moment"]
+            out["kinetic_energy"], out["potential_energy"] = a["kinetic_energy"], a["potential_energy"]
+            out["power_residual"] = a["power_residual"]
             self._cache["force"] = out
         return self._cache["force"]
 
@@ -152,21 +171,30 @@ class ForceSweep:
         return {**self.sweep.columns, **self.force_columns}
 
     def __getitem__(self, key: str) -> np.ndarray:
+        """A column (array), or for a result at one input (``scalar``) its value, as ``State[key]``."""
         cols = self.columns
         try:
-            return cols[key]
+            col = cols[key]
         except KeyError:
             raise ModelError(f"no column {key!r}; the columns are {', '.join(cols)}") from None
+        if self.scalar:
+            return col[0] if key == "mode" else float(col[0])
+        return col
 
     @property
     def rows(self) -> list[dict]:
         cols = self.columns
         keys = list(cols)
-        lists = [np.asarray(cols[k], dtype=float).tolist() for k in keys]
-        return [{k: _clean(v) for k, v in zip(keys, vals)} for vals in zip(*lists)]
+        lists = [list(cols[k]) if k == "mode" else np.asarray(cols[k], dtype=float).tolist() for k in keys]
+        return [{k: (str(v) if k == "mode" else _clean(v)) for k, v in zip(keys, vals)} for vals in zip(*lists)]
 
     def units(self) -> dict[str, str]:
-        return {**column_units(self.sweep.compiled), **force_units(self.drive_name, self.force_columns)}
+        """Unit of every column, and of the attributes (``drive``, ``joint_forces``, ...): SI."""
+        drive = "N*m" if self.drive_name == "input_torque" else "N"
+        attrs = {"drive": drive, "joint_forces": "N", "guide_reactions": "N, N, N*m", "shaking_force": "N",
+                 "shaking_moment": "N*m", "kinetic_energy": "J", "potential_energy": "J", "power_residual": "W",
+                 "condition": "1"}
+        return {**column_units(self.sweep.compiled), **force_units(self.drive_name, self.force_columns), **attrs}
 
     # ------------------------------------------------------------------ outputs
     def to_json(self, *, indent: int | None = 1, flywheel: Flywheel | None = None) -> str:
@@ -187,7 +215,7 @@ class ForceSweep:
         w = csv.writer(buf, lineterminator="\n")
         w.writerow([f"{k} [{units[k]}]" if units.get(k) else k for k in keys])
         for r in rows:
-            w.writerow(["" if r[k] is None else repr(float(r[k])) for k in keys])
+            w.writerow([r[k] if k == "mode" else "" if r[k] is None else repr(float(r[k])) for k in keys])
         return buf.getvalue()
 
     def table(self) -> str:
@@ -207,10 +235,10 @@ class ForceSweep:
                      f"driving {'torque' if self.drive_name == 'input_torque' else 'force'}: "
                      f"{_f(row[self.drive_name])} {units[self.drive_name]}", "",
                      f"{'joint force (on first body, from other)':<42}{'F_x [N]':>14}{'F_y [N]':>14}{'|F| [N]':>14}"]
-            for name, f in self.joint_forces.items():
+            for name, f in self._arrays["joint_forces"].items():
                 fx, fy = f[0]
                 lines.append(f"{name:<42}{_f(fx):>14}{_f(fy):>14}{_f(math.hypot(fx, fy)):>14}")
-            for name, f in self.guide_reactions.items():
+            for name, f in self._arrays["guide_reactions"].items():
                 lines.append(f"{'F_' + name:<42}{_f(f[0, 0]):>14}{_f(f[0, 1]):>14}{_f(math.hypot(f[0, 0], f[0, 1])):>14}"
                              f"   couple {_f(f[0, 2])} N*m")
             lines += ["", f"shaking force: ({_f(row['shaking_force_x'])}, {_f(row['shaking_force_y'])}) N, "
@@ -237,7 +265,10 @@ class ForceSweep:
     def flywheel(self, cs: float) -> Flywheel:
         """Size a flywheel for the coefficient of speed fluctuation ``cs`` (see :class:`Flywheel`).
 
-        The sweep must cover one full cycle of an angle input at constant nonzero speed.
+        The sweep must cover one full cycle (360°, or 720° for a four-stroke engine) of an angle
+        input at constant nonzero speed. The energy fluctuation is that of the continuous torque
+        curve (a periodic cubic spline through the rows, the extrema of ∫(T − T_mean) located where
+        it crosses T_mean), not of the output grid.
         """
         return flywheel(self, cs)
 
@@ -289,22 +320,36 @@ def flywheel(fs: ForceSweep, cs: float) -> Flywheel:
     i = ck.index(inp)
     x = fs.sweep.z[:, i]
     w = fs.sweep.z1[:, i]
-    if len(x) < 3 or not np.all(np.isfinite(fs.drive)):
+    if len(x) < 3 or not np.all(np.isfinite(fs._arrays["drive"])):
         raise ModelError("flywheel sizing needs the driving torque at every point of a full cycle "
                          "(the sweep has singular points or too few rows)")
     if np.ptp(w) > 1e-9 * max(abs(w[0]), 1e-300) or w[0] == 0:
         raise ModelError("flywheel sizing needs a sweep at constant nonzero speed (--speed, no --accel)")
     span = abs(x[-1] - x[0])
-    if abs(span - 2 * math.pi) > 1e-6:
-        raise ModelError(f"flywheel sizing needs one full cycle of {inp!r} (e.g. --from 0 --to 360), "
-                         f"this sweep spans {math.degrees(span):.6g} degrees")
-    T = fs.drive
-    seg = 0.5 * (T[1:] + T[:-1]) * np.diff(x)
-    work = np.concatenate([[0.0], np.cumsum(seg)])
-    mean = work[-1] / (x[-1] - x[0])
-    energy = work - mean * (x - x[0])
+    if min(abs(span - 2 * math.pi), abs(span - 4 * math.pi)) > 1e-6:
+        raise ModelError(f"flywheel sizing needs one full cycle of {inp!r}: one turn (e.g. --from 0 --to 360) or "
+                         f"two for a four-stroke engine (--to 720); this sweep spans {math.degrees(span):.6g} degrees")
+    from scipy.interpolate import CubicSpline
+
+    T = np.array(fs._arrays["drive"], dtype=float)
+    order = np.argsort(x)
+    xo, To = x[order], T[order]
+    # the torque is periodic over the cycle: a periodic cubic spline through the rows is the
+    # continuous curve (error O(h^4)); its antiderivative is the work, exactly integrated, and the
+    # extrema of the energy E = ∫(T − T_mean) are located where the curve crosses T_mean
+    To[-1] = To[0] = 0.5 * (To[0] + To[-1])
+    spline = CubicSpline(xo, To, bc_type="periodic")
+    work = spline.antiderivative()
+    mean = float((work(xo[-1]) - work(xo[0])) / (xo[-1] - xo[0]))
+    roots = spline.solve(mean, extrapolate=False)
+    cand = np.unique(np.concatenate([xo, roots[np.isfinite(roots)]]))
+    energy = work(cand) - work(xo[0]) - mean * (cand - xo[0])
     dE = float(energy.max() - energy.min())
     omega = abs(float(w[0]))
-    xs = fs.sweep[inp]
-    return Flywheel(float(mean), dE, dE / (cs * omega**2), omega, float(cs),
-                    float(xs[int(np.argmax(energy))]), float(xs[int(np.argmin(energy))]))
+    from .results import _display
+
+    def shown(v):
+        return float(_display(ck, inp, 0, v, wrap=False))
+
+    return Flywheel(mean, dE, dE / (cs * omega**2), omega, float(cs),
+                    shown(cand[int(np.argmax(energy))]), shown(cand[int(np.argmin(energy))]))

@@ -32,6 +32,8 @@ __all__ = ["Layout", "layout", "inverse_dynamics", "generalized_force", "virtual
 #: singular (a dead centre for the forces: the joint forces are undetermined)
 SINGULAR_RATIO = 1e-12
 _CHUNK = 4096
+#: a fixed right-hand side with no structure (probes the inverse of the Newton–Euler matrix)
+_PROBE = 1.0 + 0.5 * np.sin(1.7 * np.arange(1, 200) + 0.3)
 
 
 def _cross(dx, dy, fx, fy):
@@ -181,8 +183,11 @@ def solve_batched(A: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]
 
 
 def _solve_stacked(M: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """:func:`solve_batched` on ``(n, n, N)`` / ``(n, N)`` arrays (overwritten); returns ``(n, N)``."""
-    n, N = y.shape
+    """:func:`solve_batched` on ``(n, n, N)`` / ``(n, N)`` arrays (overwritten); returns ``(n, N)``.
+
+    ``y`` may also be ``(n, m, N)``: m right-hand sides per system, the solution of the same shape.
+    """
+    n, N = y.shape[0], y.shape[-1]
     norms = np.prod(np.sqrt(np.einsum("ijk,ijk->ik", M, M)), axis=0)
     absdet = np.ones(N)
     for k in range(n):
@@ -196,9 +201,9 @@ def _solve_stacked(M: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray
                 row = M[k, :, moved].copy()
                 M[k, :, moved] = M[pk, :, moved]
                 M[pk, :, moved] = row
-                yk = y[k, moved].copy()
-                y[k, moved] = y[pk, moved]
-                y[pk, moved] = yk
+                yk = y[k, ..., moved].copy()
+                y[k, ..., moved] = y[pk, ..., moved]
+                y[pk, ..., moved] = yk
         p = M[k, k, :]
         absdet *= np.abs(p)
         below = k + 1 + np.flatnonzero(np.any(M[k + 1:, k, :] != 0, axis=1))  # rows to eliminate
@@ -206,10 +211,10 @@ def _solve_stacked(M: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray
             f = M[below, k, :] / np.where(p == 0, 1.0, p)
             nzc = k + np.flatnonzero(np.any(M[k, k:, :] != 0, axis=1))  # nonzero columns of the pivot row
             M[np.ix_(below, nzc)] -= f[:, None, :] * M[k, nzc, :][None]
-            y[below] -= f * y[k]
-    x = np.empty((n, N))
+            y[below] -= (f if y.ndim == 2 else f[:, None, :]) * y[k]
+    x = np.empty(y.shape)
     for k in range(n - 1, -1, -1):
-        acc = y[k] - np.einsum("jn,jn->n", M[k, k + 1:, :], x[k + 1:]) if k + 1 < n else y[k]
+        acc = y[k] - np.einsum("jn,j...n->...n", M[k, k + 1:, :], x[k + 1:]) if k + 1 < n else y[k]
         p = M[k, k, :]
         x[k] = acc / np.where(p == 0, 1.0, p)
     with np.errstate(invalid="ignore", divide="ignore"):
@@ -217,7 +222,7 @@ def _solve_stacked(M: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray
     return x, ratio
 
 
-def inverse_dynamics(dm: DynamicsModel, z, xd, xdd, *, rates=None) -> dict:
+def inverse_dynamics(dm: DynamicsModel, z, xd, xdd, *, rates=None, check: bool = True) -> dict:
     """Newton–Euler at every point: ``z`` ``(N, nvar)`` positions, ``xd``/``xdd`` input speed and acceleration.
 
     ``xd``, ``xdd`` are in internal units (rad/s, rad/s² or length unit/s, /s²). Returns SI arrays:
@@ -229,10 +234,22 @@ def inverse_dynamics(dm: DynamicsModel, z, xd, xdd, *, rates=None) -> dict:
     0 = singular), ``z1``, ``z2``,
     ``residual`` (N, bodies, 3) the Newton–Euler residuals of the solution, ``force_scale``.
     ``rates`` = ``(z1, z2)``, the ``(N, nvar)`` velocities and accelerations of this motion when
-    already known (a sweep's), skips solving for them.
+    already known (a sweep's), skips solving for them. ``kappa`` is the condition number of each
+    row's Newton–Euler matrix (1-norm, rows and columns scaled to a largest entry of 1, the norm of
+    the inverse estimated from below with one probe right-hand side; inf where singular) and ``spurious``
+    {constraint or load: (N,) W} the power each pin, guide, driver and point load does on the bodies
+    beyond what it should (zero for a consistent declaration).
+
+    With ``check`` (default), the declarations are first checked against the kinematics
+    (:func:`loopsolve.declcheck.check_carriers`: raises :class:`ModelError` for a joint left out of
+    a body, a load on a body that does not carry its point).
     """
     z = np.atleast_2d(np.asarray(z, dtype=float))
     n = z.shape[0]
+    if check and n:
+        from .declcheck import check_carriers
+
+        check_carriers(dm, z)
     xd = np.broadcast_to(np.asarray(xd, dtype=float), (n,))
     xdd = np.broadcast_to(np.asarray(xdd, dtype=float), (n,))
     lay = layout(dm)
@@ -290,6 +307,7 @@ def inverse_dynamics(dm: DynamicsModel, z, xd, xdd, *, rates=None) -> dict:
     u = np.empty((n, lay.n_unknowns))
     residual = np.empty((n, ne))
     ratio = np.empty(n)
+    kappa = np.full(n, np.inf)
     nonfinite = np.zeros(n, dtype=bool)
     eye = np.eye(ne)
     for lo in range(0, n, _CHUNK):  # chunks that stay in cache
@@ -302,7 +320,21 @@ def inverse_dynamics(dm: DynamicsModel, z, xd, xdd, *, rates=None) -> dict:
         if not finite.all():
             Mt[:, :, ~finite] = eye[:, :, None]
             nonfinite[lo:hi] = ~finite
-        uc, had = _solve_stacked(Mt, np.ascontiguousarray(np.where(finite[:, None], b_, 0.0).T))
+        # the condition of the matrix scaled to rows and columns of largest entry 1 (units do not count):
+        # ‖S‖₁ and a lower estimate of ‖S⁻¹‖₁ from one more right-hand side, solved with the same elimination
+        absM = np.abs(Mt)
+        rmax = absM.max(axis=1)
+        rmax[rmax == 0] = 1.0
+        absM /= rmax[:, None, :]
+        cmax = absM.max(axis=0)
+        cmax[cmax == 0] = 1.0
+        norm_s = (absM.sum(axis=0) / cmax).max(axis=0)
+        rhs2 = np.stack([np.where(finite[:, None], b_, 0.0).T, rmax * _PROBE[:ne, None]], axis=1)
+        uc2, had = _solve_stacked(Mt, rhs2)
+        uc = uc2[:, 0]
+        with np.errstate(invalid="ignore", over="ignore"):
+            inv_s = np.sum(np.abs(uc2[:, 1] * cmax), axis=0) / np.sum(np.abs(_PROBE[:ne]))
+            kappa[lo:hi] = np.where(finite & np.isfinite(inv_s), norm_s * inv_s, np.inf)
         had[~finite] = 0.0
         bad = ~(had > SINGULAR_RATIO)
         uc[:, bad] = np.nan
@@ -316,7 +348,18 @@ def inverse_dynamics(dm: DynamicsModel, z, xd, xdd, *, rates=None) -> dict:
     residual = residual.reshape(n, nb, 3)
     cond = ratio
 
-    out: dict = {"singular": singular, "nonfinite": nonfinite, "cond": cond, "z1": z1, "z2": z2, "layout": lay}
+    kappa[singular] = np.inf
+    out: dict = {"singular": singular, "nonfinite": nonfinite, "cond": cond, "kappa": kappa, "z1": z1, "z2": z2,
+                 "layout": lay}
+    om = e["om"]
+
+    def rigid_v(body, px, py):
+        """Velocity (SI) of the material point of ``body`` at (px, py); the frame's is zero."""
+        if body < 0:
+            return np.zeros(n), np.zeros(n)
+        return vG[body, 0] - om[body] * (py - G[body, 1]), vG[body, 1] + om[body] * (px - G[body, 0])
+
+    spurious: dict = {}
     pins, guides = {}, {}
     col = 0
     sf = np.zeros((n, 2))
@@ -324,6 +367,9 @@ def inverse_dynamics(dm: DynamicsModel, z, xd, xdd, *, rates=None) -> dict:
     for name, j, a, o in lay.pins:
         f = u[:, col:col + 2]
         pins[name] = f
+        va, vo = rigid_v(a, P[j, 0], P[j, 1]), rigid_v(o, P[j, 0], P[j, 1])
+        spurious[f"the pin {dm.point_names[j]!r} between {_body(dm, a)} and {_body(dm, o)}"] = (
+            f[:, 0] * (va[0] - vo[0]) + f[:, 1] * (va[1] - vo[1]))
         if o < 0:
             sf -= f
             sm -= _cross(P[j, 0], P[j, 1], f[:, 0], f[:, 1])
@@ -333,6 +379,10 @@ def inverse_dynamics(dm: DynamicsModel, z, xd, xdd, *, rates=None) -> dict:
         N, C = u[:, col], u[:, col + 1]
         f = np.stack([-np.sin(phi) * N, np.cos(phi) * N], axis=1)
         guides[name] = np.column_stack([f, C])
+        vo = rigid_v(o, G[b, 0], G[b, 1])
+        spurious[f"the guide of {_body(dm, b)} (guide = {dm.bodies[b].guide!r} on {_body(dm, o)})"] = (
+            f[:, 0] * (vG[b, 0] - vo[0]) + f[:, 1] * (vG[b, 1] - vo[1])
+            + C * (om[b] - (om[o] if o >= 0 else 0.0)))
         if o < 0:
             sf -= f
             sm -= _cross(G[b, 0], G[b, 1], f[:, 0], f[:, 1]) + C
@@ -341,11 +391,24 @@ def inverse_dynamics(dm: DynamicsModel, z, xd, xdd, *, rates=None) -> dict:
     if ex is None:
         sm -= drive
         p_drive = drive * xd
+        spurious[f"the driver on {_body(dm, drv)}"] = drive * (om[drv] - xd)
     else:
         f = np.stack([ex * drive, ey * drive], axis=1)
         sf -= f
         sm -= _cross(G[drv, 0], G[drv, 1], f[:, 0], f[:, 1])
         p_drive = drive * xd * lf
+        spurious[f"the driver on {_body(dm, drv)}"] = f[:, 0] * vG[drv, 0] + f[:, 1] * vG[drv, 1] - p_drive
+    vPs = e["vP"] * lf
+    slot = 0
+    for ld in dm.dynamics.loads:
+        vals = e["load"][slot:slot + len(ld.values)]
+        slot += len(ld.values)
+        if ld.kind is LoadKind.FORCE and ld.body != FRAME:
+            j = dm.point_names.index(ld.at)
+            b = [bb.name for bb in dm.bodies].index(ld.body)
+            vb = rigid_v(b, P[j, 0], P[j, 1])
+            spurious[f"the load {ld.name!r} (loads[{ld.index}], at {ld.at!r} on {ld.body!r})"] = (
+                vals[0] * (vb[0] - vPs[j, 0]) + vals[1] * (vb[1] - vPs[j, 1]))
     ke = 0.5 * np.sum(m[:, None] * np.sum(vG**2, axis=1) + inertia[:, None] * e["om"] ** 2, axis=0)
     dke = np.sum(m[:, None] * np.sum(vG * aG, axis=1) + inertia[:, None] * e["om"] * e["al"], axis=0)
     scale = np.abs(p_drive) + np.abs(dke) + np.abs(dpot) + np.abs(p_loads)
@@ -353,8 +416,81 @@ def inverse_dynamics(dm: DynamicsModel, z, xd, xdd, *, rates=None) -> dict:
               + np.abs(u).sum(axis=1))
     out.update(drive=drive, pins=pins, guides=guides, shaking_force=sf, shaking_moment=sm,
                kinetic_energy=ke, potential_energy=pot, power_residual=p_drive - (dke + dpot - p_loads),
-               power_scale=scale, residual=residual, force_scale=fscale, d1=d1, d2=d2)
+               power_scale=scale, residual=residual, force_scale=fscale, d1=d1, d2=d2, spurious=spurious)
     return out
+
+
+#: scaled condition number of Φ_q below which a pose is regular for the kinematics: there a
+#: singular Newton–Euler system is a declaration fault, not a dead centre
+_KIN_REGULAR = 1e6
+
+
+def _check_determined(dm: DynamicsModel, data: dict, sweep, xs) -> None:
+    """A Newton–Euler system singular where the kinematics are regular is a declaration fault.
+
+    For a one-degree-of-freedom mechanism whose bodies, joints and guides are declared consistently,
+    the joint forces and the driver are determined wherever Φ_q is regular (the forces' dead centres
+    are the kinematic ones); a singular system at a regular pose means the constraints do not match
+    the motion (a guide on the wrong vector or body, a body sliding on a turning guide declared on
+    the frame, ...). Raises :class:`ModelError`.
+    """
+    from .errors import ModelError
+
+    ck = sweep.compiled
+    rows = np.flatnonzero(np.asarray(data["singular"]) & ~np.asarray(data["nonfinite"]))
+    col = np.array([1.0 if k is Kind.ANGLE else float(ck.scale) for k in ck.kinds])[ck.unknown_idx]
+    for i in rows[:8]:
+        z = sweep.z[i]
+        if not np.all(np.isfinite(z)) or not np.all(np.isfinite(sweep.z1[i])):
+            continue
+        J = ck.jac(z)
+        if not np.all(np.isfinite(J)):
+            continue
+        sv = np.linalg.svd(J * col, compute_uv=False)
+        if sv[-1] > 0 and sv[0] / sv[-1] < _KIN_REGULAR:
+            mech = ck.mechanism
+            guided = [f"bodies.{b.name}.guide = {b.guide!r} (on {b.guide_body!r})" for b in dm.bodies if b.guide]
+            raise ModelError(
+                f"{mech.source or mech.name}: the joint forces are undetermined at {ck.inputs[0]} = {xs[i]:.10g} "
+                f"although the mechanism is far from a dead centre there (condition of the loops' Jacobian "
+                f"{sv[0] / sv[-1]:.3g}): the bodies' joints and guides do not match the motion"
+                + (f"; check {', '.join(guided)}: a body slides along its guide relative to the body (or frame) "
+                   "carrying it, and turns with it" if guided else "; check each body's `joints` and `angle`"))
+
+
+def _body(dm: DynamicsModel, i: int) -> str:
+    return "the frame" if i < 0 else repr(dm.bodies[i].name)
+    A = A[finite]
+    B = np.abs(A)
+    for axis in (2, 1):
+        s = np.max(B, axis=axis, keepdims=True)
+        s[s == 0] = 1.0
+        A /= s
+        B /= s
+    try:
+        inv = np.linalg.inv(A)
+    except np.linalg.LinAlgError:  # an exactly singular one: one at a time
+        inv = np.empty_like(A)
+        for i, a in enumerate(A):
+            try:
+                inv[i] = np.linalg.inv(a)
+            except np.linalg.LinAlgError:
+                inv[i] = np.inf
+    with np.errstate(invalid="ignore", over="ignore"):
+        np.abs(inv, out=inv)
+        k = np.max(np.sum(B, axis=1), axis=1) * np.max(np.sum(inv, axis=1), axis=1)
+    kappa[finite] = np.where(np.isfinite(k), k, np.inf)
+    return kappa
+    A = A[finite]
+    for _ in range(_RUIZ):  # Ruiz equilibration: rows and columns of unit largest entry
+        for axis in (2, 1):
+            s = np.sqrt(np.max(np.abs(A), axis=axis, keepdims=True))
+            A = A / np.where(s > 0, s, 1.0)
+    sv = np.linalg.svd(A, compute_uv=False)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        k = np.where(sv[:, -1] > 0, sv[:, 0] / sv[:, -1], np.inf)
+    kappa[finite] = k
+    return kappa
 
 
 def generalized_force(dm: DynamicsModel, z, xd, d1) -> np.ndarray:
@@ -426,7 +562,7 @@ def virtual_work_drive(dm: DynamicsModel, z, xd, xdd) -> np.ndarray:
     return M * np.asarray(xdd) * s + 0.5 * dM * (np.asarray(xd) * s) ** 2 - Q
 
 
-def force_analysis(sweep, *, dynamics: DynamicsModel | None = None):
+def force_analysis(sweep, *, dynamics: DynamicsModel | None = None, scalar: bool = False):
     """Force analysis along an existing kinematic sweep (its input speed and acceleration).
 
     Returns a :class:`~loopsolve.forceresults.ForceSweep`.
@@ -441,7 +577,20 @@ def force_analysis(sweep, *, dynamics: DynamicsModel | None = None):
         data = inverse_dynamics(dm, np.zeros((0, len(ck.variables))), np.zeros(0), np.zeros(0))
     else:
         data = inverse_dynamics(dm, sweep.z, sweep.z1[:, ix], sweep.z2[:, ix], rates=(sweep.z1, sweep.z2))
-    return ForceSweep(sweep, data)
+        _checks(dm, data, sweep)
+    return ForceSweep(sweep, data, scalar=scalar)
+
+
+def _checks(dm: DynamicsModel, data: dict, sweep) -> None:
+    """The power balance as a check, and the dead-centre warning (see :mod:`loopsolve.declcheck`)."""
+    from .declcheck import check_power_balance, warn_ill_conditioned
+    from .solve import _input_unit
+
+    ck = sweep.compiled
+    xs = np.asarray(sweep[ck.inputs[0]], dtype=float)
+    _check_determined(dm, data, sweep, xs)
+    check_power_balance(dm, data, xs, spurious=data["spurious"])
+    warn_ill_conditioned(dm, data["kappa"], xs, _input_unit(ck))
 
 
 def forces(mech, at=None, stop=None, step=None, *, speed=None, accel=None, input=None, mode=None,
@@ -455,6 +604,8 @@ def forces(mech, at=None, stop=None, step=None, *, speed=None, accel=None, input
     Returns
     -------
     ForceSweep
+        At one input its attributes are scalars (``float(f.drive)``) and ``(2,)`` vectors; along
+        a sweep, arrays over the rows.
 
     Raises
     ------
@@ -465,8 +616,8 @@ def forces(mech, at=None, stop=None, step=None, *, speed=None, accel=None, input
     --------
     >>> mech = ls.load(ls.models_dir() / "thesis_crank_rocker_dynamics.toml")
     >>> f = ls.forces(mech, 90, speed="60rpm")
-    >>> round(float(f["input_torque"][0]), 5)
-    0.03015
+    >>> round(float(f.drive), 5), round(f["input_torque"], 5), f.units()["drive"]
+    (0.03015, 0.03015, 'N*m')
     """
     from .dynamics import compile_dynamics
 
@@ -484,4 +635,4 @@ def forces(mech, at=None, stop=None, step=None, *, speed=None, accel=None, input
             raise ModelError("a force sweep needs start, stop and step: forces(mech, 0, 360, 5)")
         sweep = mech.sweep(at, stop, step, speed=speed, accel=accel, input=input, mode=mode,
                            through_limits=through_limits, progress=progress, method=method)
-    return force_analysis(sweep, dynamics=dm)
+    return force_analysis(sweep, dynamics=dm, scalar=stop is None)

@@ -87,9 +87,9 @@ class TestPowerBalance:
         w, h = 3.0, 1e-4  # rad/s; step in degrees
         for at in (20.0, 145.0, 260.0):
             f = [ls.forces(mech, at + d, speed=w) for d in (-h, 0.0, h)]
-            e = [float(r.kinetic_energy[0] + r.potential_energy[0]) for r in f]
+            e = [float(r.kinetic_energy + r.potential_energy) for r in f]
             dedx = (e[2] - e[0]) / (2 * math.radians(h))
-            t = float(f[1].drive[0])
+            t = float(f[1].drive)
             assert t * w == pytest.approx(dedx * w, rel=1e-6, abs=1e-9 * abs(w * t) + 1e-12)
 
 
@@ -113,7 +113,7 @@ class TestStatics:
         h = 1e-3
         for at in (0.0, 70.0, 180.0, 290.0):
             dv = (potential(at + h) - potential(at - h)) / (2 * math.radians(h))
-            t = float(ls.forces(mech, at, speed=0, accel=0).drive[0])
+            t = float(ls.forces(mech, at, speed=0, accel=0).drive)
             assert t == pytest.approx(dv, rel=1e-7)
 
 
@@ -251,11 +251,11 @@ class TestClosedForms:
             for w, a in ((0.0, 0.0), (5.0, 0.0), (3.0, 7.0)):
                 f = ls.forces(mech, th, speed=w, accel=a)
                 want = (i_g + m * e**2) * a + m * G * e * math.cos(th)
-                assert float(f.drive[0]) == pytest.approx(want, rel=1e-12, abs=1e-14)
+                assert float(f.drive) == pytest.approx(want, rel=1e-12, abs=1e-14)
                 # the pin carries the weight and the centripetal and tangential forces
                 fx = m * (-e * w**2 * math.cos(th) - e * a * math.sin(th))
                 fy = m * (-e * w**2 * math.sin(th) + e * a * math.cos(th)) + m * G
-                np.testing.assert_allclose(f.joint_forces["F_O"][0], [fx, fy], rtol=1e-12, atol=1e-12)
+                np.testing.assert_allclose(f.joint_forces["F_O"], [fx, fy], rtol=1e-12, atol=1e-12)
 
     def test_slider_crank_exact(self):
         """In-line slider-crank with masses: T = M(θ) α + ½ M′(θ) ω² − Q(θ), exact kinematics, M′ by complex step."""
@@ -290,7 +290,7 @@ class TestClosedForms:
             Q = -inertia_and_potential(th + 1j * hc)[1].imag / hc
             for w, al in ((0.0, 0.0), (40.0, 0.0), (25.0, -300.0)):
                 want = M * al + 0.5 * dM * w**2 - Q
-                got = float(ls.forces(mech, deg, speed=w, accel=al).drive[0])
+                got = float(ls.forces(mech, deg, speed=w, accel=al).drive)
                 assert got == pytest.approx(want, rel=1e-10, abs=1e-12 * (abs(M * al) + abs(dM * w**2) + abs(Q)))
 
 
@@ -311,12 +311,12 @@ class TestJointForces:
         # (body, com, com acceleration, [(point, force on the body)], angular acceleration, extra torque)
         links = [
             (0, 0.5 * (P["O2"] + P["B"]), 0.5 * (A["O2"] + A["B"]), [("O2", F["O2"]), ("B", F["B"])], "theta2",
-             float(f.drive[0])),
+             float(f.drive)),
             (1, 0.5 * (P["B"] + P["C"]), 0.5 * (A["B"] + A["C"]), [("B", -F["B"]), ("C", F["C"])], "theta3", 0.0),
             (2, 0.5 * (P["C"] + P["O4"]), 0.5 * (A["C"] + A["O4"]), [("C", -F["C"]), ("O4", F["O4"])], "theta4",
              TAU4),
         ]
-        scale = max(np.abs(list(F.values())).max(), abs(float(f.drive[0])) / 0.01)
+        scale = max(np.abs(list(F.values())).max(), abs(float(f.drive)) / 0.01)
         for k, gpos, acc, forces_, ang, tq in links:
             res_f = sum(fv for _, fv in forces_) + MASS[k] * g - MASS[k] * acc
             res_m = sum(cross(P[p] - gpos, fv) for p, fv in forces_) + tq - INERTIA[k] * alpha[ang]
@@ -341,13 +341,15 @@ class TestJointForces:
         assert np.all(np.isfinite(f.shaking_force))
 
 
-class TestSimulate:
-    @pytest.fixture(scope="class")
-    def free_fourbar(self):
-        spec = ls.model._deep_copy(fourbar_dynamics().spec)
-        spec.pop("loads")
-        return ls.build_mechanism(spec)
+@pytest.fixture(scope="module")
+def free_fourbar():
+    """The four-bar without loads (a module-level fixture: pytest deprecates class-scoped fixture methods)."""
+    spec = ls.model._deep_copy(fourbar_dynamics().spec)
+    spec.pop("loads")
+    return ls.build_mechanism(spec)
 
+
+class TestSimulate:
     def test_free_motion_conserves_energy(self, free_fourbar):
         sim = ls.simulate(free_fourbar, 2.0, step=0.1, at=60, speed0=2.0)
         e = sim.total_energy
@@ -380,7 +382,7 @@ class TestSimulate:
 
         sim = ls.simulate(mech, 0.5, step=0.05, at=30, speed0=w, torque=torque)
         np.testing.assert_allclose(sim.xd, w, rtol=1e-8)
-        np.testing.assert_allclose(sim.x, math.radians(30) + w * sim.t, rtol=1e-8)
+        np.testing.assert_allclose(sim.x, 30 + math.degrees(w) * sim.t, rtol=1e-8)  # degrees, as the CLI
 
 
 class TestFlywheel:

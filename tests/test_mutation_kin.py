@@ -109,9 +109,9 @@ class TestInclinedSliderDrivenByItsPosition:
         assert f.drive_name == "input_force"
         assert float(f.sweep["theta2"][0]) == pytest.approx(slider_pose(x)[3][0].real, abs=1e-10)
         scale = abs(ref["force"]) + 1.0
-        assert float(f.drive[0]) == pytest.approx(ref["force"], rel=1e-6, abs=1e-7 * scale)
-        np.testing.assert_allclose(f.shaking_force[0], ref["shaking"], rtol=1e-6, atol=1e-7 * scale)
-        assert float(f.shaking_moment[0]) == pytest.approx(ref["moment"], rel=1e-6, abs=1e-8 * scale)
+        assert float(f.drive) == pytest.approx(ref["force"], rel=1e-6, abs=1e-7 * scale)
+        np.testing.assert_allclose(f.shaking_force, ref["shaking"], rtol=1e-6, atol=1e-7 * scale)
+        assert float(f.shaking_moment) == pytest.approx(ref["moment"], rel=1e-6, abs=1e-8 * scale)
 
     def test_static_slider_holds_the_weight(self, slider):
         """At rest the frame carries the weight: shaking force Σ m g, moment Σ r_G × m g (about O2).
@@ -122,9 +122,9 @@ class TestInclinedSliderDrivenByItsPosition:
         pos = slider_pose(x).real
         f = ls.forces(slider, x, speed=0, accel=0)
         weight = -G * sum(MASS)
-        np.testing.assert_allclose(f.shaking_force[0], [0.0, weight], atol=1e-10)
+        np.testing.assert_allclose(f.shaking_force, [0.0, weight], atol=1e-10)
         want = sum(_cross(pos[k], (0.0, -G * MASS[k])) for k in range(3))
-        assert float(f.shaking_moment[0]) == pytest.approx(want, rel=1e-9)
+        assert float(f.shaking_moment) == pytest.approx(want, rel=1e-9)
 
     def test_inverse_dynamics_power_terms_and_coefficients(self):
         """``power_scale`` = |F ẋ| + |dE_k/dt| + |dV/dt| + |P_loads|; ``d1``/``d2`` are ∂q/∂x, ∂²q/∂x².
@@ -215,10 +215,10 @@ def test_spring_to_the_frame_energy_and_torque():
         dl = ((px - d) * -py + py * px) / length  # dL/dθ = (P − A)·∂P/∂θ / L
         f = ls.forces(mech, th, speed=w, accel=al)
         v_pot = M_C * G * py + 0.5 * k * (length - free) ** 2
-        assert float(f.potential_energy[0]) == pytest.approx(v_pot, rel=1e-12)
-        assert float(f.kinetic_energy[0]) == pytest.approx(0.5 * (I_C + M_C * E_C**2) * w**2, rel=1e-12, abs=1e-15)
+        assert float(f.potential_energy) == pytest.approx(v_pot, rel=1e-12)
+        assert float(f.kinetic_energy) == pytest.approx(0.5 * (I_C + M_C * E_C**2) * w**2, rel=1e-12, abs=1e-15)
         want = (I_C + M_C * E_C**2) * al + M_C * G * px + k * (length - free) * dl
-        assert float(f.drive[0]) == pytest.approx(want, rel=1e-11, abs=1e-13)
+        assert float(f.drive) == pytest.approx(want, rel=1e-11, abs=1e-13)
 
 
 def test_nan_load_rows_are_flagged():
