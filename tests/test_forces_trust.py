@@ -348,8 +348,14 @@ class TestMessages:
         assert "declare the body that carries the guide" in msg and "guide_body" not in msg
 
     def test_speed0_errors_are_attributed_to_speed0(self, capsys):
-        code, out, err = run(capsys, "simulate", THESIS, "--duration", 0.02, "--speed0", "120 rev/min")
+        # a unit of the wrong dimension is an error under --speed0, never under --speed
+        code, out, err = run(capsys, "simulate", THESIS, "--duration", 0.02, "--speed0", "120 mm/s")
         assert code == 2 and "--speed0" in err and "--speed:" not in err
+        # with units by dimension (issue 23) "120 rev/min" is a speed: 4*pi rad/s at t = 0
+        code, out, err = run(capsys, "simulate", THESIS, "--duration", 0.02, "--speed0", "120 rev/min",
+                             "--format", "json")
+        assert code == 0, err
+        assert json.loads(out)["rows"][0]["theta2_vel"] == pytest.approx(4 * math.pi, rel=1e-12)
 
     def test_torque_quantity_and_advice(self, capsys):
         code, out, err = run(capsys, "simulate", THESIS, "--duration", 0.02, "--torque", "0.05N*m", "--format", "json")
