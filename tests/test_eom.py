@@ -232,7 +232,7 @@ class TestLatexSection:
         sec = tex[tex.index(r"\section*{Equation of motion at the given input}"):]
         value = float(re.search(r"- Q &= (-?[0-9.]+(?: \\times 10\^\{-?\d+\})?)", sec).group(1)
                       .replace(r" \times 10^{", "e").replace("}", ""))
-        want = float(ls.forces(mech, 60)["input_torque"][0])  # Newton–Euler, at the model's 10 rpm
+        want = float(ls.forces(mech, 60)["input_torque"])  # Newton–Euler, at the model's 10 rpm
         assert value == pytest.approx(want, rel=1e-5)
         for head in ("M &= ", "M' &= ", "Q &= "):
             assert head in sec

@@ -374,7 +374,7 @@ def test_second_process_does_not_import_pint(tmp_path):
     cache = tmp_path / "cache"
     cache.mkdir(mode=0o700)
     code = ("import sys, loopsolve as ls; m = ls.load(sys.argv[1]); "
-            "print(round(float(ls.forces(m, 30, speed='10rpm').drive[0]), 9), 'pint' in sys.modules)")
+            "print(round(float(ls.forces(m, 30, speed='10rpm').drive), 9), 'pint' in sys.modules)")
     env = dict(os.environ, LOOPSOLVE_CACHE_DIR=str(cache), PYTHONPATH=os.pathsep.join(sys.path))
     first = subprocess.run([sys.executable, "-c", code, str(THESIS_DYN)], capture_output=True, text=True, env=env)
     second = subprocess.run([sys.executable, "-c", code, str(THESIS_DYN)], capture_output=True, text=True, env=env)
