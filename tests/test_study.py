@@ -389,3 +389,55 @@ def test_cli_study_errors_exit_2(tmp_path, capsys):
                  "-o", str(tmp_path / "x.txt")]) == 2
     err = capsys.readouterr().err
     assert "nope" in err and ".txt" in err
+
+
+# ----------------------------------------------------------------------------- hand-offs (issue 21)
+
+
+def _mixed_box(n=500, seed=21):
+    """The issue's box (r1 = 60; r2, r3, r4 uniform in [15, 30], [62, 75], [40, 50]), a few designs
+    from its corner where θ2 = 0 cannot be assembled, and a few triple rockers that jam at a limit."""
+    rng = np.random.default_rng(seed)
+    box = np.column_stack([rng.uniform(15, 30, n), rng.uniform(62, 75, n), rng.uniform(40, 50, n)])
+    gap = np.column_stack([rng.uniform(28, 30, 8), rng.uniform(73, 75, 8), rng.uniform(40, 41, 8)])
+    jam = np.column_stack([rng.uniform(35, 45, 6), rng.uniform(30, 40, 6), rng.uniform(40, 50, 6)])
+    return np.vstack([box, gap, jam])
+
+
+@pytest.mark.filterwarnings("ignore:.*limit position")
+def test_handed_off_designs_equal_their_single_sweep_and_the_closed_form(thesis):
+    """Status, stop and nearest assemblable inputs of the non-assemblable and limit designs of a
+    seeded mixed box of 514 designs: those of the design's own sweep, and the closed form
+    (the crank angle where |B O4| = |r3 − r4| or r3 + r4: cos θ2 = (r1² + r2² − d²) / (2 r1 r2))."""
+    from loopsolve.designs import Designs
+
+    v = _mixed_box()
+    d = Designs(("r2", "r3", "r4"), {"r2": v[:, 0], "r3": v[:, 1], "r4": v[:, 2]})
+    ds = ls.study(thesis, d, 0, 360, 5, derivatives=1, progress=False)
+    status = ds.status.values
+    r1 = 60.0
+    r2, r3, r4 = v.T
+    # closed form: assemblable at θ2 = 0 when |r3 − r4| <= r1 − r2 <= r3 + r4
+    closed_na = (np.abs(r3 - r4) > r1 - r2) | (r3 + r4 < r1 - r2)
+    assert np.array_equal(status == "not-assemblable", closed_na)
+    assert closed_na.sum() >= 8 and (status == "limit").sum() >= 6
+    for j in np.flatnonzero(status != "ok"):
+        m = thesis.with_parameters(r2=float(r2[j]), r3=float(r3[j]), r4=float(r4[j]))
+        if status[j] == "not-assemblable":
+            with pytest.raises(ls.AssemblyError) as exc:
+                m.sweep(0, 360, 5, derivatives=1, progress=False)
+            near = [float(s) for s in str(ds.nearest.values[j]).split(",")]
+            assert near == pytest.approx(list(exc.value.nearest), abs=1e-8)
+            assert float(ds.stop.values[j]) == 0.0
+            dist = abs(r3[j] - r4[j])  # the box's gap: B too close to O4
+            c = (r1 ** 2 + r2[j] ** 2 - dist ** 2) / (2 * r1 * r2[j])
+            edge = math.degrees(math.acos(c))
+            assert near == pytest.approx([-edge, edge], abs=1e-8)
+        else:
+            assert status[j] == "limit"
+            sw = m.sweep(0, 360, 5, derivatives=1, progress=False)
+            lim = [e.input for e in sw.events if e.kind.value == "limit"]
+            assert float(ds.stop.values[j]) == pytest.approx(lim[0], abs=1e-9)
+            dist = r3[j] + r4[j]  # the first limit on the way up: B too far from O4
+            edge = math.degrees(math.acos((r1 ** 2 + r2[j] ** 2 - dist ** 2) / (2 * r1 * r2[j])))
+            assert float(ds.stop.values[j]) == pytest.approx(edge, abs=1e-8)
