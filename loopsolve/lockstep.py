@@ -337,9 +337,48 @@ def sweep_chunk(mech, names, values, start, stop, step, *, speed=None, accel=Non
     if ch.points is not None:
         ch.points[..., ch.filled:, :] = np.nan
         ch.points[..., dead] = np.nan
-    for j in np.flatnonzero(~alive):
+    single = np.flatnonzero(~alive)
+    if lockstep and len(single):
+        single = _not_assemblable(ck, P, xs, xs_disp, single, ch)
+    for j in single:
         _single(mech, names, values[j], start, stop, step, speed, accel, jerk, mode, derivatives, ch, j, xs_disp)
     return ch, ck, P
+
+
+def _not_assemblable(ck, P, xs, xs_disp, cand, ch) -> np.ndarray:
+    """Decide, all at once, which designs ``cand`` cannot be assembled at the start, and name their nearest
+    assemblable inputs (:mod:`loopsolve.assemblable`); returns the designs left for the single sweep.
+
+    Their status, stop, nearest inputs and event are those :func:`_single` would record from the
+    single sweep's :class:`AssemblyError` (the same test, samples and message)."""
+    from .assemblable import AssemblyTest
+    from .sweep import no_assembly_error
+
+    test = AssemblyTest(ck, _Ops(ck), P, design_scale(ck, P))
+    if not test.usable:
+        return cand
+    x0 = float(xs[0])
+    ok, decided = test.at(np.full(len(cand), x0), cand)
+    na = cand[decided & ~ok]
+    near = test.nearest(x0, na)
+    done = []
+    for j, nv in zip(na, near):
+        if nv is None:
+            continue
+        disp = tuple(display_value_of(ck, v) for v in nv)
+        err = no_assembly_error(ck, x0, disp)
+        ch.status[j] = "not-assemblable"
+        ch.stop[j] = xs_disp[0]
+        ch.nearest[j] = ", ".join(f"{v:.10g}" for v in disp)
+        ch.events[j] = str(err).splitlines()[0]
+        done.append(j)
+    return np.setdiff1d(cand, np.array(done, dtype=int))
+
+
+def display_value_of(ck, v: float) -> float:
+    from .solve import display_value
+
+    return display_value(ck, v, ck.inputs[0])
 
 
 def _newton_start(ops, Z, P, scale, alive):

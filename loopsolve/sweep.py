@@ -247,7 +247,7 @@ def assembly_failure(ck, x: float, exc: SolveError) -> SolveError:
     >>> type(err).__name__, [round(v, 6) for v in err.nearest]
     ('AssemblyError', [-18.57335, 18.57335])
     """
-    from .modes import _mode_names, _modes_at, _nearest_text
+    from .modes import _mode_names, _modes_at
 
     name = ck.inputs[0]
     disp = display_value(ck, x, name)
@@ -258,11 +258,22 @@ def assembly_failure(ck, x: float, exc: SolveError) -> SolveError:
             f"{where}: Newton from the guesses stalled at {name} = {disp:g}{_input_unit(ck)}, but the mechanism assembles there "
             f"in mode(s) {_mode_names(ck.mechanism, modes)}: pass --mode (mode=) or improve the guesses",
             input_value=disp, result=getattr(exc, "result", None))
-    near = nearest_assemblable(ck, x)
+    return no_assembly_error(ck, x, nearest_assemblable(ck, x), residual=getattr(exc, "residual", None),
+                             result=getattr(exc, "result", None))
+
+
+def no_assembly_error(ck, x: float, near: tuple[float, ...], *, residual=None, result=None) -> AssemblyError:
+    """The :class:`AssemblyError` of input ``x`` (internal units), where no assembly mode exists,
+    naming the nearest assemblable inputs ``near`` (display units)."""
+    from .modes import _nearest_text
+
+    name = ck.inputs[0]
+    disp = display_value(ck, x, name)
+    where = ck.mechanism.source or ck.mechanism.name
     return AssemblyError(
         f"{where}: cannot be assembled at {name} = {disp:g}{_input_unit(ck)}: the loop equations have no real solution there"
         + _nearest_text(ck, near),
-        input_value=disp, residual=getattr(exc, "residual", None), nearest=near, result=getattr(exc, "result", None))
+        input_value=disp, residual=residual, nearest=near, result=result)
 
 
 
