@@ -130,7 +130,22 @@ class AssemblyTest:
         decided &= d >= tol  # concentric circles: not a dyad
         m = (r1 * r1 - r2 * r2 + d * d) / (2 * d)
         h2 = r1 * r1 - m * m
+        self._last = (A, B, D, sa, sb, m, h2)
         return decided & ~(h2 < 0), decided & np.isfinite(h2)
+
+    def dyad_roots(self, x, cols):
+        """Both roots ``((a, b), (a, b))`` of a one-dyad model at inputs ``x`` of designs ``cols``, and
+        whether the test decided them (the circle intersection of :func:`loopsolve.modes._dyad_roots`)."""
+        ok, decided = self.at(x, cols)
+        A, B, D, sa, sb, m, h2 = self._last
+        with np.errstate(all="ignore"):
+            u = D / np.abs(D)
+            h = np.sqrt(np.maximum(h2, 0.0))
+            roots = []
+            for sgn in (1.0, -1.0):
+                Pp = u * (m + 1j * sgn * h)
+                roots.append((sa * (np.angle(Pp) - np.angle(A)), sb * (np.angle(D - Pp) - np.angle(B))))
+        return roots, ok & decided
 
     def _angle(self, x, cols, e, i, tol):
         """The angle branch of :func:`loopsolve.modes._single_roots`: ``P cos a + Q sin a + R``."""

@@ -19,12 +19,19 @@ design of a chunk along the same input values:
    near), the regularity (≈ 2/cond of each scaled block) stays above ``REGULAR_MIN`` (a
    change point or a dead centre is near), and the signs of the block determinants (the
    assembly mode) never change.
-4. **Hand-off.** A design for which any check fails — or the start cannot be decided (Newton
-   from the guesses needs damping or does not converge) — is not guessed at: it is swept
-   alone by the public :func:`loopsolve.sweep` with its own parameter values, which gives its
-   rows, events and status (``limit``, ``not-assemblable`` ...). The checks are far more
-   conservative than the tracker's own (which locates folds to round-off), so every design
-   the lockstep path keeps is one whose single sweep is a regular path in one mode.
+4. **Designs that leave the path.** For a model whose blocks the closed-form assembly test of
+   :mod:`loopsolve.assemblable` recognizes (independent dyads of two angles, single unknowns),
+   the chunk decides at once which designs cannot be assembled at the start and locates their
+   nearest assemblable inputs (:func:`_not_assemblable`), and for one-dyad models locates the
+   limit position of designs that left the path approaching one, filling their rows up to it
+   (:func:`_limits`): status, stop, nearest inputs, events, mode and rows as their single
+   sweep gives them (the limits located by bisection to round-off, the tracker's to 1e-9).
+5. **Hand-off.** Any other design for which a check fails — near a change point, a signature
+   change, a start that cannot be decided, a model the test does not recognize — is not
+   guessed at: it is swept alone by the public :func:`loopsolve.sweep` with its own parameter
+   values, which gives its rows, events and status. The checks are far more conservative than
+   the tracker's own (which locates folds to round-off), so every design the lockstep path
+   keeps is one whose single sweep is a regular path in one mode.
 
 Mechanisms with a solve-order block larger than 2×2 (where a signature need not single out
 one root) are swept design by design.
@@ -306,7 +313,7 @@ def sweep_chunk(mech, names, values, start, stop, step, *, speed=None, accel=Non
     >>> ch.status.tolist(), ch.lockstep.tolist(), ch.Z[0].shape
     (['ok', 'ok'], [True, True], (3, 5, 2))
     """
-    from .solve import input_rates
+    from .solve import input_rates, input_value
 
     values = np.asarray(values, dtype=float).reshape(-1, len(names))
     ck = mech.compile()
@@ -328,18 +335,25 @@ def sweep_chunk(mech, names, values, start, stop, step, *, speed=None, accel=Non
         Pr = [P[i] if p.name in varied else P[i, :1] for i, p in enumerate(mech.parameters)]
         lops = _Ops(ck, shared_input=True)
         lops.fused = fused_module(ck)
-        alive = _lockstep(ck, lops, Pr, P, xs, ch, rates, derivatives)
+        alive, last, irregular, sig0 = _lockstep(ck, lops, Pr, P, xs, ch, rates, derivatives)
     ch.lockstep[:] = alive
-    dead = np.flatnonzero(~alive)
     for arr in ch.Z:
         arr[:, ch.filled:, :] = np.nan
-        arr[:, :, dead] = np.nan
     if ch.points is not None:
         ch.points[..., ch.filled:, :] = np.nan
-        ch.points[..., dead] = np.nan
     single = np.flatnonzero(~alive)
+    limits = np.zeros(0, dtype=int)
     if lockstep and len(single):
         single = _not_assemblable(ck, P, xs, xs_disp, single, ch)
+        x_end = input_value(ck, stop, ck.inputs[0], reduce=False)
+        single, limits = _limits(ck, P, xs, xs_disp, x_end, single, last, irregular, sig0, ch, rates, derivatives)
+    for j in np.flatnonzero(~alive):
+        if j in limits:
+            continue
+        for arr in ch.Z:
+            arr[:, :, j] = np.nan
+        if ch.points is not None:
+            ch.points[..., j] = np.nan
     for j in single:
         _single(mech, names, values[j], start, stop, step, speed, accel, jerk, mode, derivatives, ch, j, xs_disp)
     return ch, ck, P
@@ -373,6 +387,122 @@ def _not_assemblable(ck, P, xs, xs_disp, cand, ch) -> np.ndarray:
         ch.events[j] = str(err).splitlines()[0]
         done.append(j)
     return np.setdiff1d(cand, np.array(done, dtype=int))
+
+
+def _limits(ck, P, xs, xs_disp, x_end, cand, last, irregular, sig0, ch, rates, derivatives):
+    """Designs ``cand`` that left the lockstep path approaching a limit position: locate it and fill
+    their remaining rows, all designs at once; returns ``(left for the single sweep, done here)``.
+
+    For a model of one dyad (:class:`loopsolve.assemblable.AssemblyTest`): the first grid row
+    after the design's last lockstep row where it cannot be assembled (or the end of the range)
+    brackets the limit; the bracket is cut into 64 and the limit located by bisection on the
+    assembly test between the last assemblable piece and the next. The rows before it are the
+    dyad's closed-form root with the design's signature (the mode it was tracked in; one dyad
+    changes signature only at its limit), polished by Newton, angles continued from the row
+    before. Designs dropped near a change point or for a signature change, or whose bracket
+    finds no limit, go to the single sweep (which tells those apart).
+    """
+    from .assemblable import AssemblyTest
+
+    none = np.zeros(0, dtype=int)
+    K = len(xs)
+    if K < 2 or not len(cand):
+        return cand, none
+    test = AssemblyTest(ck, _Ops(ck), P, design_scale(ck, P))
+    if not (test.usable and len(test.blocks) == 1 and test.blocks[0][0] == "dyad"):
+        return cand, none
+    c = cand[(last[cand] >= 0) & ~irregular[cand]]
+    if not len(c):
+        return cand, none
+    xe = np.append(np.asarray(xs, dtype=float), x_end)  # the grid, then the end of the range
+    dirn = 1.0 if xs[-1] > xs[0] else -1.0
+    if dirn * (x_end - xs[-1]) <= 0:
+        xe = xe[:-1]
+    n = len(c)
+    # 1. the first grid value after each design's last row where it cannot be assembled
+    ks = np.arange(len(xe))
+    ok, dec = test.at(np.tile(xe, n), np.repeat(c, len(xe)))
+    ok, dec = ok.reshape(n, -1), dec.reshape(n, -1)
+    after = ks[None, :] > last[c][:, None]
+    bad = after & ~ok
+    found = bad.any(axis=1) & np.all(dec | ~after, axis=1)
+    kb = np.where(found, np.argmax(bad, axis=1), -1)
+    # no assemblable gap between the last row and kb: every grid value between is assemblable (checked)
+    c, kb = c[found], kb[found]
+    if not len(c):
+        return cand, none
+    # 2. cut the bracket [xe[kb-1], xe[kb]] in 64; the first piece that cannot be assembled
+    t = np.linspace(0.0, 1.0, 65)
+    lo, hi = xe[kb - 1], xe[kb]
+    xx = lo[:, None] + (hi - lo)[:, None] * t[None, :]
+    okf, decf = test.at(xx.ravel(), np.repeat(c, len(t)))
+    okf, decf = okf.reshape(len(c), -1), decf.reshape(len(c), -1)
+    first = np.argmax(~okf, axis=1)
+    good = decf.all(axis=1) & okf[:, 0] & (first > 0)
+    c, kb, xx, first = c[good], kb[good], xx[good], first[good]
+    if not len(c):
+        return cand, none
+    r = np.arange(len(c))
+    xf = test._bisect(xx[r, first - 1], xx[r, first], c)
+    # 3. the rows between each design's last lockstep row and the limit
+    ops = _Ops(ck)
+    iu = ops.iu
+    ia, ib = test.blocks[0][2]
+    for j, x_lim, k_bad in zip(c, xf, kb):
+        rows = [k for k in range(int(last[j]) + 1, min(int(k_bad), K)) if dirn * (xs[k] - x_lim) < 0]
+        prev = ch.Z[0][:, int(last[j]), j].copy()
+        if rows:
+            xr = np.asarray([xs[k] for k in rows], dtype=float)
+            cols = np.full(len(rows), j)
+            roots, okr = test.dyad_roots(xr, cols)
+            if not okr.all():
+                continue
+            Z = np.repeat(test.z0[:, None], len(rows), axis=1)
+            Z[test.ix] = xr
+            Pj = P[:, cols]
+            Zc = Z.copy()
+            Zc[ia], Zc[ib] = roots[0]
+            sg, _ = ops.signs_and_regularity(ops.jac(Zc, Pj), test.scale[cols])
+            pick = np.where(sg[0] == sig0[0, j], 0, 1)  # the root in the design's mode
+            Z[ia] = np.where(pick == 0, roots[0][0], roots[1][0])
+            Z[ib] = np.where(pick == 0, roots[0][1], roots[1][1])
+            for _ in range(3):  # polish to round-off
+                Z[iu] = Z[iu] + ops.solve(ops.jac(Z, Pj), -ops.phi(Z, Pj))
+            for q in range(len(rows)):  # angles continued from the row before
+                for i in (ia, ib):
+                    Z[i, q] = prev[i] + (Z[i, q] - prev[i] + math.pi) % (2 * math.pi) - math.pi
+                prev = Z[:, q]
+            _fill_rows(ck, ops, Z, Pj, ch, rows, j, rates, derivatives)
+        for arr in ch.Z:
+            arr[:, int(last[j]) + 1 + len(rows):, j] = np.nan
+        if ch.points is not None:
+            ch.points[..., int(last[j]) + 1 + len(rows):, j] = np.nan
+        disp = display_value_of(ck, float(x_lim))
+        ch.status[j] = "limit"
+        ch.stop[j] = disp
+        ch.events[j] = f"limit@{disp:.10g}"
+        ch.mode[j] = "".join(np.where(sig0[:, j] > 0, "+", np.where(sig0[:, j] < 0, "-", "0")))
+        ch.lockstep[j] = True
+    done = np.array([j for j in c if ch.status[j] == "limit"], dtype=int)
+    return np.setdiff1d(cand, done), done
+
+
+def _fill_rows(ck, ops, Z, P, ch, rows, j, rates, derivatives):
+    """Rates and points of design ``j`` at grid rows ``rows`` from its positions ``Z`` (nv, len(rows))."""
+    J = ops.jac(Z, P)
+    out = [Z]
+    for order in range(1, derivatives + 1):
+        Zk = np.zeros_like(Z)
+        Zk[ops.ix] = rates[order - 1]
+        Zk[ops.iu] = ops.solve(J, ops.rhs(order, out + [Zk], P))
+        out.append(Zk)
+    for order in range(derivatives + 1):
+        ch.Z[order][:, rows, j] = out[order]
+    if ch.points is not None:
+        npts = ch.points.shape[1]
+        for order in range(derivatives + 1):
+            v = np.asarray(ops.points(order, out[: order + 1], P))
+            ch.points[order, :, :, rows, j] = np.broadcast_to(v.reshape(npts, 2, -1), (npts, 2, len(rows))).transpose(2, 0, 1)
 
 
 def display_value_of(ck, v: float) -> float:
@@ -432,6 +562,8 @@ def _lockstep(ck, ops, P, Pfull, xs, ch, rates, derivatives) -> np.ndarray:
     Z = np.repeat(z0[:, None], D, axis=1)
     Z[ix] = x_guess
     alive = np.ones(D, dtype=bool)
+    last = np.full(D, -1)  # the last grid row each design reached in lockstep
+    irregular = np.zeros(D, dtype=bool)  # dropped near a change point or for a signature change
     mech = ck.mechanism
     guessed = all(mech.variable(n).guess is not None for n in ck.unknowns)
     with np.errstate(all="ignore"):
@@ -472,15 +604,18 @@ def _lockstep(ck, ops, P, Pfull, xs, ch, rates, derivatives) -> np.ndarray:
                 Z = _substep(ops, Z, P, T, C2, x, x_prev, w, alive)
                 J = ops.jac(Z, P)  # at the converged Z: mode, regularity, tangent and the rows' rates
                 sig, reg = ops.signs_and_regularity(J, scale)
-                alive &= (reg >= REGULAR_MIN) & np.all(sig == sig0, axis=0)
+                keep = (reg >= REGULAR_MIN) & np.all(sig == sig0, axis=0)
+                irregular |= alive & ~keep
+                alive &= keep
                 x_prev, T_prev, h_prev = x, T, h
                 T = None
             if k >= 0:
                 T = _store_row(ck, ops, Z, J, P, ch, k, rates, derivatives)
+                last[alive] = k
     codes = np.where(sig0 > 0, "+", np.where(sig0 < 0, "-", "0"))
     for j in np.flatnonzero(alive):
         ch.mode[j] = "".join(codes[:, j])
-    return alive
+    return alive, last, irregular, sig0
 
 
 def _store_row(ck, ops, Z, J, P, ch, k, rates, derivatives):
