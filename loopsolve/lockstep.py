@@ -395,8 +395,9 @@ def _limits(ck, P, xs, xs_disp, x_end, cand, last, irregular, sig0, ch, rates, d
 
     For a model of one dyad (:class:`loopsolve.assemblable.AssemblyTest`): the first grid row
     after the design's last lockstep row where it cannot be assembled (or the end of the range)
-    brackets the limit; the bracket is cut into 64 and the limit located by bisection on the
-    assembly test between the last assemblable piece and the next. The rows before it are the
+    brackets the limit; the stretch from the last row is cut into 64 pieces per grid step and the
+    limit located by bisection on the assembly test between the last assemblable piece and the
+    next (a dip of the discriminant on the way, which could hide a narrower gap, hands off). The rows before it are the
     dyad's closed-form root with the design's signature (the mode it was tracked in; one dyad
     changes signature only at its limit), polished by Newton, angles continued from the row
     before. Designs dropped near a change point or for a signature change, or whose bracket
@@ -431,19 +432,30 @@ def _limits(ck, P, xs, xs_disp, x_end, cand, last, irregular, sig0, ch, rates, d
     c, kb = c[found], kb[found]
     if not len(c):
         return cand, none
-    # 2. cut the bracket [xe[kb-1], xe[kb]] in 64; the first piece that cannot be assembled
-    t = np.linspace(0.0, 1.0, 65)
-    lo, hi = xe[kb - 1], xe[kb]
-    xx = lo[:, None] + (hi - lo)[:, None] * t[None, :]
-    okf, decf = test.at(xx.ravel(), np.repeat(c, len(t)))
-    okf, decf = okf.reshape(len(c), -1), decf.reshape(len(c), -1)
-    first = np.argmax(~okf, axis=1)
-    good = decf.all(axis=1) & okf[:, 0] & (first > 0)
-    c, kb, xx, first = c[good], kb[good], xx[good], first[good]
-    if not len(c):
+    # 2. from the last row to that value in 64 pieces per grid step: the first piece that cannot be
+    # assembled brackets the limit. A dip of the dyad's discriminant on the way (a local minimum
+    # below 1 % of its largest value) may hide a gap narrower than a piece: such a design goes to
+    # the single sweep, whose tracer cannot step across one.
+    xa_, xb_, keep = [], [], []
+    for j, k in zip(c, kb):
+        xx = np.linspace(xe[int(last[j])], xe[k], 64 * (k - int(last[j])) + 1)
+        okf, decf = test.at(xx, np.full(len(xx), j))
+        h2 = test._last[-1]
+        f = int(np.argmax(~okf))
+        if not decf.all() or f == 0 or okf[f]:
+            continue
+        h = h2[:f]
+        dip = (h[1:-1] <= h[:-2]) & (h[1:-1] <= h[2:]) & (h[1:-1] < 1e-2 * np.max(h)) if f > 2 else np.zeros(0, bool)
+        if dip.any():
+            continue
+        xa_.append(xx[f - 1])
+        xb_.append(xx[f])
+        keep.append((j, k))
+    if not keep:
         return cand, none
-    r = np.arange(len(c))
-    xf = test._bisect(xx[r, first - 1], xx[r, first], c)
+    c = np.array([j for j, _ in keep])
+    kb = np.array([k for _, k in keep])
+    xf = test._bisect(np.array(xa_), np.array(xb_), c)
     # 3. the rows between each design's last lockstep row and the limit
     ops = _Ops(ck)
     iu = ops.iu

@@ -462,3 +462,24 @@ def test_handed_off_designs_equal_their_single_sweep_and_the_closed_form(thesis,
             dist = r3[j] + r4[j]  # the first limit on the way up: B too far from O4
             edge = math.degrees(math.acos((r1 ** 2 + r2[j] ** 2 - dist ** 2) / (2 * r1 * r2[j])))
             assert float(ds.stop.values[j]) == pytest.approx(edge, abs=1e-8)
+
+
+@pytest.mark.filterwarnings("ignore:.*limit position")
+@pytest.mark.parametrize("eps", [1e-3, 1.4e-6, 2e-8])
+def test_a_gap_between_rows_stops_the_design_there(thesis, eps):
+    """r3 + r4 = r1 + r2 − ε: a gap around θ2 = 180° narrower than the output step (2.4°, 0.06°,
+    0.006° wide), between the rows 177.5° and 182.5°, and a wide one near 360°: the study stops at
+    the first, where its single sweep stops (closed form: |B O4| = r3 + r4)."""
+    from loopsolve.designs import Designs
+
+    r3, r4 = 60.5 - eps / 2, 24.5 - eps / 2
+    d = Designs(("r2", "r3", "r4"), {"r2": np.array([25.0, 25.0]), "r3": np.array([r3, 70.0]),
+                                      "r4": np.array([r4, 45.0])})
+    ds = ls.study(thesis, d, 32.5, 392.5, 5, derivatives=1, progress=False)
+    sw = thesis.with_parameters(r2=25, r3=r3, r4=r4).sweep(32.5, 392.5, 5, derivatives=1, progress=False)
+    lim = [e.input for e in sw.events if e.kind is ls.EventKind.LIMIT]
+    edge = math.degrees(math.acos((60 ** 2 + 25 ** 2 - (r3 + r4) ** 2) / (2 * 60 * 25)))
+    assert ds.status.values.tolist() == ["limit", "ok"]
+    assert float(ds.stop.values[0]) == pytest.approx(lim[0], abs=6e-8)
+    assert float(ds.stop.values[0]) == pytest.approx(edge, abs=1e-6)
+    assert np.isnan(ds.theta4.values[0, 30:]).all() and not np.isnan(ds.theta4.values[0, :30]).any()
