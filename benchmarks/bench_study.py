@@ -24,6 +24,8 @@ Run from the repository root::
     pip install -e .[bench,study] numba
     python benchmarks/bench_study.py                    # both parts
     python benchmarks/bench_study.py --part kernel      # part 1 only
+    python benchmarks/bench_study.py --part handoff     # issue 21's rows 2 and 3: designs not assemblable
+                                                        # at the start, limits, the mixed box
     nice python benchmarks/bench_study.py --part zarr --designs 20000
 """
 
@@ -162,6 +164,7 @@ def part_kernel(args):
 
 
 MIXED_BOX = {"r2": (15.0, 30.0), "r3": (62.0, 75.0), "r4": (40.0, 50.0)}  # issue 21: 1.4 % not assemblable at 0
+JAM_BOX = {"r2": (35.0, 45.0), "r3": (40.0, 50.0), "r4": (40.0, 50.0)}  # triple rockers: stop at a limit
 GAP_BOX = {"r2": (28.0, 30.0), "r3": (73.0, 75.0), "r4": (40.0, 41.0)}  # r3 - r4 > r1 - r2: none assemblable at 0
 
 
@@ -206,8 +209,11 @@ def _pylinkage_loop(r2, r3, r4, x):
 
 def part_handoff(args):
     """Issue 21, rows 2 and 3: designs the lockstep path hands off (not assemblable at the start, limits)."""
+    import warnings
+
     from loopsolve.designs import Designs, sample
 
+    warnings.filterwarnings("ignore", category=ls.LoopsolveWarning)  # designs stopping at limits
     mech = ls.load(MODEL)
     ls.study(mech, sample(MIXED_BOX, 10, seed=0), 0, 360, 1, derivatives=2, progress=False)  # warm up
     n = args.handoff_designs
@@ -218,8 +224,10 @@ def part_handoff(args):
     def run(d):
         return lambda: ls.study(mech, d, 0, 360, 1, derivatives=2, chunk_size=args.chunk_kernel, progress=False)
 
-    times, outs = best_times({"not assemblable": run(na), "ordinary": run(ordinary)}, args.repeats)
-    t_na, t_ok = times["not assemblable"][0], times["ordinary"][0]
+    jam = sample(JAM_BOX, n, seed=5)
+    times, outs = best_times({"not assemblable": run(na), "limit": run(jam), "ordinary": run(ordinary)},
+                             args.repeats)
+    t_na, t_ok, t_jam = times["not assemblable"][0], times["ordinary"][0], times["limit"][0]
     st = outs["not assemblable"].status.values
     print(f"== {n} designs not assemblable at theta2 = 0 (r2, r3, r4 in {GAP_BOX}) vs {n} crank-rockers, "
           f"361 points, pos/vel/acc ==")
@@ -227,6 +235,11 @@ def part_handoff(args):
           f"[{times['not assemblable'][1]:.3f}], {t_na / n * 1e3:.2f} ms per design")
     print(f"crank-rockers:                {t_ok:.3f} s [{times['ordinary'][1]:.3f}], {t_ok / n * 1e3:.2f} ms per design")
     print(f"ROW 2  not-assemblable study / ordinary study: {t_na / t_ok:.1f}x  (goal <= 2x)")
+    sj = outs["limit"].status.values
+    print(f"designs that stop at a limit ({int((sj == 'limit').sum())}/{n} limit, "
+          f"{int(outs['limit'].lockstep.sum())} in lockstep; r2, r3, r4 in {JAM_BOX}): {t_jam:.3f} s "
+          f"[{times['limit'][1]:.3f}], {t_jam / n * 1e3:.2f} ms per design")
+    print(f"ROW 2b limit-design study / ordinary study: {t_jam / t_ok:.1f}x")
 
     m = args.kernel_designs
     d = sample(MIXED_BOX, m, seed=4)
