@@ -395,7 +395,7 @@ def _limits(ck, P, xs, xs_disp, x_end, cand, last, irregular, sig0, ch, rates, d
 
     For a model of one dyad (:class:`loopsolve.assemblable.AssemblyTest`): the first grid row
     after the design's last lockstep row where it cannot be assembled (or the end of the range)
-    brackets the limit; the stretch from the last row is cut into 64 pieces per grid step and the
+    brackets the limit; the stretch from the last row is cut into pieces of 5°/64 and the
     limit located by bisection on the assembly test between the last assemblable piece and the
     next (a dip of the discriminant on the way, which could hide a narrower gap, hands off). The rows before it are the
     dyad's closed-form root with the design's signature (the mode it was tracked in; one dyad
@@ -432,17 +432,23 @@ def _limits(ck, P, xs, xs_disp, x_end, cand, last, irregular, sig0, ch, rates, d
     c, kb = c[found], kb[found]
     if not len(c):
         return cand, none
-    # 2. from the last row to that value in 64 pieces per grid step: the first piece that cannot be
+    # 2. from the last row to that value in pieces of 5°/64 (an angle input; else 64 per grid
+    # step, and at least 4): the first piece that cannot be
     # assembled brackets the limit. A dip of the dyad's discriminant on the way (a local minimum
     # below 1 % of its largest value) may hide a gap narrower than a piece: such a design goes to
     # the single sweep, whose tracer cannot step across one.
+    h = abs(float(xs[1] - xs[0]))
+    per = 64 if ck.kinds[test.ix] is not Kind.ANGLE else max(4, math.ceil(64 * h / math.radians(5.0) - 1e-9))
+    spans = [np.linspace(xe[int(last[j])], xe[k], per * (k - int(last[j])) + 1) for j, k in zip(c, kb)]
+    okf, decf = test.at(np.concatenate(spans), np.repeat(c, [len(v) for v in spans]))  # all designs at once
+    h2f = test._last[-1]
     xa_, xb_, keep = [], [], []
-    for j, k in zip(c, kb):
-        xx = np.linspace(xe[int(last[j])], xe[k], 64 * (k - int(last[j])) + 1)
-        okf, decf = test.at(xx, np.full(len(xx), j))
-        h2 = test._last[-1]
-        f = int(np.argmax(~okf))
-        if not decf.all() or f == 0 or okf[f]:
+    o = 0
+    for j, k, xx in zip(c, kb, spans):
+        okj, decj, h2 = okf[o:o + len(xx)], decf[o:o + len(xx)], h2f[o:o + len(xx)]
+        o += len(xx)
+        f = int(np.argmax(~okj))
+        if not decj.all() or f == 0 or okj[f]:
             continue
         h = h2[:f]
         dip = (h[1:-1] <= h[:-2]) & (h[1:-1] <= h[2:]) & (h[1:-1] < 1e-2 * np.max(h)) if f > 2 else np.zeros(0, bool)
@@ -456,39 +462,48 @@ def _limits(ck, P, xs, xs_disp, x_end, cand, last, irregular, sig0, ch, rates, d
     c = np.array([j for j, _ in keep])
     kb = np.array([k for _, k in keep])
     xf = test._bisect(np.array(xa_), np.array(xb_), c)
-    # 3. the rows between each design's last lockstep row and the limit
+    # 3. the rows between each design's last lockstep row and the limit, all designs at once
     ops = _Ops(ck)
     iu = ops.iu
     ia, ib = test.blocks[0][2]
-    for j, x_lim, k_bad in zip(c, xf, kb):
-        rows = [k for k in range(int(last[j]) + 1, min(int(k_bad), K)) if dirn * (xs[k] - x_lim) < 0]
-        prev = ch.Z[0][:, int(last[j]), j].copy()
-        if rows:
-            xr = np.asarray([xs[k] for k in rows], dtype=float)
-            cols = np.full(len(rows), j)
-            roots, okr = test.dyad_roots(xr, cols)
-            if not okr.all():
-                continue
-            Z = np.repeat(test.z0[:, None], len(rows), axis=1)
-            Z[test.ix] = xr
-            Pj = P[:, cols]
-            Zc = Z.copy()
-            Zc[ia], Zc[ib] = roots[0]
-            sg, _ = ops.signs_and_regularity(ops.jac(Zc, Pj), test.scale[cols])
-            pick = np.where(sg[0] == sig0[0, j], 0, 1)  # the root in the design's mode
-            Z[ia] = np.where(pick == 0, roots[0][0], roots[1][0])
-            Z[ib] = np.where(pick == 0, roots[0][1], roots[1][1])
+    rows_of = {int(j): [k for k in range(int(last[j]) + 1, min(int(k_bad), K)) if dirn * (xs[k] - x_lim) < 0]
+               for j, x_lim, k_bad in zip(c, xf, kb)}
+    rk = np.array([k for j in c for k in rows_of[int(j)]], dtype=int)  # (design, row) pairs
+    rj = np.array([j for j in c for _ in rows_of[int(j)]], dtype=int)
+    failed = set()
+    if len(rk):
+        xr = np.asarray(xs, dtype=float)[rk]
+        roots, okr = test.dyad_roots(xr, rj)
+        failed = set(rj[~okr].tolist())
+        Z = np.repeat(test.z0[:, None], len(rk), axis=1)
+        Z[test.ix] = xr
+        Pj = P[:, rj]
+        Zc = Z.copy()
+        Zc[ia], Zc[ib] = roots[0]
+        sg, _ = ops.signs_and_regularity(ops.jac(Zc, Pj), test.scale[rj])
+        pick = sg[0] == sig0[0, rj]  # the root in the design's mode
+        Z[ia] = np.where(pick, roots[0][0], roots[1][0])
+        Z[ib] = np.where(pick, roots[0][1], roots[1][1])
+        with np.errstate(all="ignore"):
             for _ in range(3):  # polish to round-off
                 Z[iu] = Z[iu] + ops.solve(ops.jac(Z, Pj), -ops.phi(Z, Pj))
-            for q in range(len(rows)):  # angles continued from the row before
+        o = 0
+        for j in c:  # angles continued from the row before
+            prev = ch.Z[0][:, int(last[j]), j]
+            for q in range(o, o + len(rows_of[int(j)])):
                 for i in (ia, ib):
                     Z[i, q] = prev[i] + (Z[i, q] - prev[i] + math.pi) % (2 * math.pi) - math.pi
                 prev = Z[:, q]
-            _fill_rows(ck, ops, Z, Pj, ch, rows, j, rates, derivatives)
+            o += len(rows_of[int(j)])
+        _fill_rows(ck, ops, Z, Pj, ch, rk, rj, rates, derivatives)
+    for j, x_lim in zip(c, xf):
+        if int(j) in failed:
+            continue
+        end = int(last[j]) + 1 + len(rows_of[int(j)])
         for arr in ch.Z:
-            arr[:, int(last[j]) + 1 + len(rows):, j] = np.nan
+            arr[:, end:, j] = np.nan
         if ch.points is not None:
-            ch.points[..., int(last[j]) + 1 + len(rows):, j] = np.nan
+            ch.points[..., end:, j] = np.nan
         disp = display_value_of(ck, float(x_lim))
         ch.status[j] = "limit"
         ch.stop[j] = disp
@@ -499,8 +514,8 @@ def _limits(ck, P, xs, xs_disp, x_end, cand, last, irregular, sig0, ch, rates, d
     return np.setdiff1d(cand, done), done
 
 
-def _fill_rows(ck, ops, Z, P, ch, rows, j, rates, derivatives):
-    """Rates and points of design ``j`` at grid rows ``rows`` from its positions ``Z`` (nv, len(rows))."""
+def _fill_rows(ck, ops, Z, P, ch, rows, cols, rates, derivatives):
+    """Rates and points at grid rows ``rows`` of designs ``cols`` (pairs) from their positions ``Z``."""
     J = ops.jac(Z, P)
     out = [Z]
     for order in range(1, derivatives + 1):
@@ -509,12 +524,13 @@ def _fill_rows(ck, ops, Z, P, ch, rows, j, rates, derivatives):
         Zk[ops.iu] = ops.solve(J, ops.rhs(order, out + [Zk], P))
         out.append(Zk)
     for order in range(derivatives + 1):
-        ch.Z[order][:, rows, j] = out[order]
+        ch.Z[order][:, rows, cols] = out[order]
     if ch.points is not None:
         npts = ch.points.shape[1]
         for order in range(derivatives + 1):
             v = np.asarray(ops.points(order, out[: order + 1], P))
-            ch.points[order, :, :, rows, j] = np.broadcast_to(v.reshape(npts, 2, -1), (npts, 2, len(rows))).transpose(2, 0, 1)
+            ch.points[order, :, :, rows, cols] = np.broadcast_to(v.reshape(npts, 2, -1),
+                                                                 (npts, 2, len(rows))).transpose(2, 0, 1)
 
 
 def display_value_of(ck, v: float) -> float:
