@@ -483,3 +483,34 @@ def test_a_gap_between_rows_stops_the_design_there(thesis, eps):
     assert float(ds.stop.values[0]) == pytest.approx(lim[0], abs=6e-8)
     assert float(ds.stop.values[0]) == pytest.approx(edge, abs=1e-6)
     assert np.isnan(ds.theta4.values[0, 30:]).all() and not np.isnan(ds.theta4.values[0, :30]).any()
+
+
+def test_not_assemblable_designs_of_a_fan_of_dyads(tmp_path, monkeypatch):
+    """A model of three independent dyads (a fan of four-bars on one crank): the designs that cannot be
+    assembled at the start are decided in the chunk (never swept alone), with the nearest assemblable
+    inputs of their own sweep."""
+    import sys
+    from pathlib import Path
+
+    from loopsolve import lockstep
+
+    sys.path.insert(0, str(Path(__file__).parent))
+    from fanmodels import fan_model
+
+    path = tmp_path / "fan.toml"
+    path.write_text(fan_model(3), encoding="utf-8")
+    mech = ls.load(path)
+    d = sample({"G0": (3.0, 6.5), "C1": (3.0, 4.0), "A": (0.5, 2.5)}, 60, seed=3)
+    alone = []
+    single = lockstep._single
+    monkeypatch.setattr(lockstep, "_single", lambda *a: (alone.append(a[-2]), single(*a)))
+    ds = ls.study(mech, d, 150, 300, 5, derivatives=1, progress=False)
+    monkeypatch.undo()
+    na = np.flatnonzero(ds.status.values == "not-assemblable")
+    assert 10 <= len(na) < len(d) and not set(alone) & set(na.tolist())
+    for j in na:
+        row = d.row(j)
+        with pytest.raises(ls.AssemblyError) as exc:
+            mech.with_parameters(**row).sweep(150, 300, 5, derivatives=1, progress=False)
+        near = [float(v) for v in ds.nearest.values[j].split(",")]
+        assert near == pytest.approx(list(exc.value.nearest), abs=6e-8)
