@@ -6,11 +6,12 @@ names the nearest assemblable inputs (:func:`loopsolve.sweep.nearest_assemblable
 much work as fifty ordinary designs. This module decides both for a whole chunk at once, with
 the same closed forms and the same samples as the single-design path:
 
-* **Assembly test.** When the solve-order blocks are independent (no block's unknowns enter a
-  later block: :func:`loopsolve.modes._feeds`) and every block is a dyad of two angles or one
-  angle or length, :func:`loopsolve.modes._dyad_roots` identifies each block's complex residual
-  as ``A e^{±ia} + B e^{±ib} + C`` from a few evaluations of Φ and decides from the circle
-  intersection whether a real root exists. Here the same probes are evaluated with the
+* **Assembly test.** When every solve-order block is a dyad of two angles or one angle or
+  length, :func:`loopsolve.modes._dyad_roots` identifies each block's complex residual as
+  ``A e^{±ia} + B e^{±ib} + C`` (or ``P cos a + Q sin a + R``, or linear) from a few evaluations
+  of Φ and decides from the circle intersection whether a real root exists; a block whose
+  unknowns enter a later block contributes each of its roots, as in
+  :func:`loopsolve.modes.branch_solutions`. Here the same probes are evaluated with the
   vectorized kernels on every design (and every sample input) at once, and the same test
   decides. A design whose block is not recognized (the checks at the three random points of
   the scalar routine fail) is *undecided* and goes to the single-design sweep as before.
@@ -61,7 +62,8 @@ class AssemblyTest:
         self.z0 = initial_z(ck, warn=False)
         self.ix = int(ck.input_idx[0])
         blocks = list(ck.blocks)
-        self.usable = bool(blocks) and not any(_feeds(ck))
+        self.usable = bool(blocks)
+        self.feeds = _feeds(ck)
         self.blocks = []
         for b in blocks:
             eqs, cols = tuple(b.eqs), tuple(b.unknowns)
@@ -75,43 +77,62 @@ class AssemblyTest:
             else:
                 self.usable = False
 
-    def _phi(self, x, sets, cols):
-        """Φ at input ``x`` (N,) with ``z[i] = v`` for ``(i, v)`` in ``sets``; designs ``cols`` (N,)."""
-        Z = np.repeat(self.z0[:, None], len(x), axis=1)
-        Z[self.ix] = x
+    def _phi(self, base, sets, cols):
+        """Φ at the positions ``base`` (nv, N) with ``z[i] = v`` for ``(i, v)`` in ``sets``; designs ``cols``."""
+        Z = base.copy()
         for i, v in sets:
             Z[i] = v
         return self.ops.phi(Z, self.P[:, cols])
 
     def at(self, x, cols=None):
-        """``(assemblable, decided)`` at inputs ``x`` (N,) of designs ``cols`` (N,; default all in order)."""
+        """``(assemblable, decided)`` at inputs ``x`` (N,) of designs ``cols`` (N,; default all in order).
+
+        The blocks in solve order, as :func:`loopsolve.modes.branch_solutions` takes them: a block
+        whose unknowns enter a later block splits the test into one branch per root (a dyad's two,
+        an angle's two, a length's one); assemblable where some branch has a root in every block."""
         x = np.asarray(x, dtype=float)
         cols = np.arange(len(x)) if cols is None else np.asarray(cols)
-        ok = np.ones(len(x), dtype=bool)
         decided = np.full(len(x), self.usable)
         if not self.usable:
-            return ok, decided
+            return np.ones(len(x), dtype=bool), decided
         s = self.scale[cols]
         tol = 1e-9 * (s + 1.0)
+        base = np.repeat(self.z0[:, None], len(x), axis=1)
+        base[self.ix] = x
+        branches = [(base, np.ones(len(x), dtype=bool))]
         with np.errstate(all="ignore"):
-            for kind, eqs, iz in self.blocks:
-                if kind == "dyad":
-                    r, d = self._dyad(x, cols, eqs, iz, tol)
-                elif kind == "angle":
-                    r, d = self._angle(x, cols, eqs[0], iz[0], tol)
-                else:
-                    r, d = self._length(x, cols, eqs[0], iz[0], s, tol)
-                ok &= r
-                decided &= d
+            for (kind, eqs, iz), feeds in zip(self.blocks, self.feeds):
+                new = []
+                for Zb, alive in branches:
+                    if kind == "dyad":
+                        r, d, roots = self._dyad(Zb, cols, eqs, iz, tol)
+                    elif kind == "angle":
+                        r, d, roots = self._angle(Zb, cols, eqs[0], iz[0], tol)
+                    else:
+                        r, d, roots = self._length(Zb, cols, eqs[0], iz[0], s, tol)
+                    decided &= d | ~alive  # a branch already without a root decides nothing more
+                    alive = alive & r
+                    if not feeds:
+                        new.append((Zb, alive))
+                        continue
+                    for root in roots:
+                        Zn = Zb.copy()
+                        for i, v in zip(iz, root):
+                            Zn[i] = np.where(alive, v, Zn[i])
+                        new.append((Zn, alive))
+                branches = new
+        ok = np.zeros(len(x), dtype=bool)
+        for _, alive in branches:
+            ok |= alive
         return ok, decided
 
-    def _dyad(self, x, cols, eqs, iz, tol):
+    def _dyad(self, base, cols, eqs, iz, tol):
         """The all-angle branch of :func:`loopsolve.modes._dyad_roots`, on every column."""
         e0, e1 = eqs
         ia, ib = iz
 
         def F(a, b):
-            f = self._phi(x, ((ia, a), (ib, b)), cols)
+            f = self._phi(base, ((ia, a), (ib, b)), cols)
             return f[e0] + 1j * f[e1]
 
         f00, fp0, f0p = F(0.0, 0.0), F(math.pi, 0.0), F(0.0, math.pi)
@@ -131,47 +152,47 @@ class AssemblyTest:
         m = (r1 * r1 - r2 * r2 + d * d) / (2 * d)
         h2 = r1 * r1 - m * m
         self._last = (A, B, D, sa, sb, m, h2)
-        return decided & ~(h2 < 0), decided & np.isfinite(h2)
+        u = D / d
+        h = np.sqrt(np.maximum(h2, 0.0))
+        roots = []
+        for sgn in (1.0, -1.0):
+            Pp = u * (m + 1j * sgn * h)
+            roots.append((sa * (np.angle(Pp) - np.angle(A)), sb * (np.angle(D - Pp) - np.angle(B))))
+        self._roots = roots
+        return decided & ~(h2 < 0), decided & np.isfinite(h2), roots
 
-    def dyad_roots(self, x, cols):
-        """Both roots ``((a, b), (a, b))`` of a one-dyad model at inputs ``x`` of designs ``cols``, and
-        whether the test decided them (the circle intersection of :func:`loopsolve.modes._dyad_roots`)."""
-        ok, decided = self.at(x, cols)
-        A, B, D, sa, sb, m, h2 = self._last
-        with np.errstate(all="ignore"):
-            u = D / np.abs(D)
-            h = np.sqrt(np.maximum(h2, 0.0))
-            roots = []
-            for sgn in (1.0, -1.0):
-                Pp = u * (m + 1j * sgn * h)
-                roots.append((sa * (np.angle(Pp) - np.angle(A)), sb * (np.angle(D - Pp) - np.angle(B))))
-        return roots, ok & decided
-
-    def _angle(self, x, cols, e, i, tol):
+    def _angle(self, base, cols, e, i, tol):
         """The angle branch of :func:`loopsolve.modes._single_roots`: ``P cos a + Q sin a + R``."""
 
         def f(v):
-            return self._phi(x, ((i, v),), cols)[e]
+            return self._phi(base, ((i, v),), cols)[e]
 
         f0, fp, fh = f(0.0), f(math.pi), f(math.pi / 2)
         R = (f0 + fp) / 2
         Pc, Q = f0 - R, fh - R
-        decided = np.ones(len(x), dtype=bool)
+        decided = np.ones(base.shape[1], dtype=bool)
         for t in np.random.default_rng(11).uniform(-math.pi, math.pi, 3):
             decided &= np.abs(f(float(t)) - (Pc * math.cos(t) + Q * math.sin(t) + R)) <= tol
         A = np.hypot(Pc, Q)
         decided &= A > tol
         c = -R / A
-        return decided & ~(np.abs(c) > 1.0), decided & np.isfinite(c)
+        ph, ac = np.arctan2(Q, Pc), np.arccos(np.clip(c, -1.0, 1.0))
+        return decided & ~(np.abs(c) > 1.0), decided & np.isfinite(c), [(ph + ac,), (ph - ac,)]
 
-    def _length(self, x, cols, e, i, s, tol):
+    def _length(self, base, cols, e, i, s, tol):
         """The length branch of :func:`loopsolve.modes._single_roots`: linear, one root unless degenerate."""
-        f0 = self._phi(x, ((i, 0.0),), cols)[e]
-        D = (self._phi(x, ((i, s),), cols)[e] - f0) / s
+        f0 = self._phi(base, ((i, 0.0),), cols)[e]
+        D = (self._phi(base, ((i, s),), cols)[e] - f0) / s
         decided = D != 0
         for t in np.random.default_rng(11).uniform(-2, 2, 3):
-            decided &= np.abs(self._phi(x, ((i, t * s),), cols)[e] - (D * t * s + f0)) <= tol
-        return decided, decided
+            decided &= np.abs(self._phi(base, ((i, t * s),), cols)[e] - (D * t * s + f0)) <= tol
+        return decided, decided, [(-f0 / D,)]
+
+    def dyad_roots(self, x, cols):
+        """Both roots ``((a, b), (a, b))`` of a one-dyad model at inputs ``x`` of designs ``cols``, and
+        whether the test decided them (the circle intersection of :func:`loopsolve.modes._dyad_roots`)."""
+        ok, decided = self.at(x, cols)
+        return self._roots, ok & decided
 
     def nearest(self, x0: float, cols) -> list[tuple[float, ...] | None]:
         """Nearest assemblable inputs (internal units) below and above ``x0`` for the designs ``cols``,

@@ -20,7 +20,7 @@ design of a chunk along the same input values:
    change point or a dead centre is near), and the signs of the block determinants (the
    assembly mode) never change.
 4. **Designs that leave the path.** For a model whose blocks the closed-form assembly test of
-   :mod:`loopsolve.assemblable` recognizes (independent dyads of two angles, single unknowns),
+   :mod:`loopsolve.assemblable` recognizes (dyads of two angles, single unknowns),
    the chunk decides at once which designs cannot be assembled at the start and locates their
    nearest assemblable inputs (:func:`_not_assemblable`), and for one-dyad models locates the
    limit position of designs that left the path approaching one, filling their rows up to it

@@ -514,3 +514,34 @@ def test_not_assemblable_designs_of_a_fan_of_dyads(tmp_path, monkeypatch):
             mech.with_parameters(**row).sweep(150, 300, 5, derivatives=1, progress=False)
         near = [float(v) for v in ds.nearest.values[j].split(",")]
         assert near == pytest.approx(list(exc.value.nearest), abs=6e-8)
+
+
+def test_not_assemblable_offset_slider_cranks_decided_in_the_chunk(monkeypatch):
+    """An offset slider-crank (two 1×1 blocks, the coupler angle feeding the slider position): a design
+    with offset e > r3 cannot be assembled at θ2 = 0; it is decided in the chunk, and its nearest
+    assemblable inputs are where r2 sin θ2 − e = −r3 (closed form) and those of its own sweep (none
+    when e − r3 > r2)."""
+    from loopsolve import lockstep
+
+    mech = ls.load(ls.models_dir() / "prob2_offset_slider_crank.toml")
+    d = sample({"r2": (300.0, 900.0), "e": (1000.0, 2600.0)}, 40, seed=4)
+    alone = []
+    single = lockstep._single
+    monkeypatch.setattr(lockstep, "_single", lambda *a: (alone.append(a[-2]), single(*a)))
+    ds = ls.study(mech, d, 0, 360, 10, derivatives=1, progress=False)
+    monkeypatch.undo()
+    r2, e, r3 = d.values["r2"], d.values["e"], 1600.0
+    na = e > r3
+    assert np.array_equal(ds.status.values == "not-assemblable", na) and 5 <= na.sum() < len(d)
+    assert not set(alone) & set(np.flatnonzero(na).tolist())
+    for j in np.flatnonzero(na):
+        with pytest.raises(ls.AssemblyError) as exc:
+            mech.with_parameters(r2=float(r2[j]), e=float(e[j])).sweep(0, 360, 10, derivatives=1, progress=False)
+        text = ds.nearest.values[j]
+        near = [float(v) for v in text.split(",")] if text else []
+        assert near == pytest.approx(list(exc.value.nearest), abs=6e-8)
+        if e[j] - r3 > r2[j]:
+            assert near == []
+        else:
+            a = math.degrees(math.asin((e[j] - r3) / r2[j]))
+            assert near == pytest.approx([-180 - a, a], rel=1e-9)
