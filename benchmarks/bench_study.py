@@ -24,6 +24,8 @@ Run from the repository root::
     pip install -e .[bench,study] numba
     python benchmarks/bench_study.py                    # both parts
     python benchmarks/bench_study.py --part kernel      # part 1 only
+    python benchmarks/bench_study.py --part handoff     # issue 21's rows 2 and 3: designs not assemblable
+                                                        # at the start, limits, the mixed box
     nice python benchmarks/bench_study.py --part zarr --designs 20000
 """
 
@@ -161,6 +163,107 @@ def part_kernel(args):
     print(f"loopsolve design-points per second (one process): {D * len(x) / t_ls:,.0f}")
 
 
+MIXED_BOX = {"r2": (15.0, 30.0), "r3": (62.0, 75.0), "r4": (40.0, 50.0)}  # issue 21: 1.4 % not assemblable at 0
+JAM_BOX = {"r2": (35.0, 45.0), "r3": (40.0, 50.0), "r4": (40.0, 50.0)}  # triple rockers: stop at a limit
+GAP_BOX = {"r2": (28.0, 30.0), "r3": (73.0, 75.0), "r4": (40.0, 41.0)}  # r3 - r4 > r1 - r2: none assemblable at 0
+
+
+def _pylinkage_loop(r2, r3, r4, x):
+    """pylinkage's numba kernel looped over the designs (one linkage, new constraints and pose per design),
+    or None when pylinkage does not import. Designs it cannot assemble are skipped, as its optimizers do."""
+    try:
+        import pylinkage as pl
+    except ImportError as exc:
+        print(f"pylinkage skipped: {exc}")
+        return None
+    o1, o2 = pl.Ground(0.0, 0.0, name="O2"), pl.Ground(R1, 0.0, name="O4")
+    crank = pl.Crank(anchor=o1, radius=25.0, angular_velocity=2 * math.pi / 360, initial_angle=0.0, name="B")
+    rocker = pl.RRRDyad(crank.output, o2, distance1=70.0, distance2=45.0, x=R1 + 45.0 * math.cos(1.0),
+                        y=45.0 * math.sin(1.0), name="C")
+    lk = pl.Linkage([o1, o2, crank, rocker], name="crank-rocker")
+    lk.set_input_velocity(crank, omega=OMEGA, alpha=0.0)
+    lk.step_fast_with_kinematics(iterations=len(x))  # JIT compile outside the timing
+    t4 = np.zeros(len(r2))
+    ok = np.zeros(len(r2), dtype=bool)
+    for i in range(len(r2)):  # the open solution at θ2 = 0, where one exists (pylinkage needs a starting pose)
+        with np.errstate(all="ignore"):
+            try:
+                t3i, t4i = C.fourbar_position(R1, r2[i], r3[i], r4[i], 0.0, 1)
+            except Exception:  # noqa: BLE001 - no assembly
+                continue
+        if np.isfinite(t4i):
+            t4[i], ok[i] = float(t4i), True
+    poses = [[(0.0, 0.0), (R1, 0.0), (float(r2[i]), 0.0),
+              (R1 + r4[i] * math.cos(t4[i]), r4[i] * math.sin(t4[i]))] for i in range(len(r2))]
+
+    def run():
+        out = []
+        for i in np.flatnonzero(ok):
+            lk.set_completely([float(r2[i]), float(r3[i]), float(r4[i])], poses[i])
+            lk.set_input_velocity(crank, omega=OMEGA, alpha=0.0)
+            out.append(lk.step_fast_with_kinematics(iterations=len(x)))
+        return out
+
+    return run
+
+
+def part_handoff(args):
+    """Issue 21, rows 2 and 3: designs the lockstep path hands off (not assemblable at the start, limits)."""
+    import warnings
+
+    from loopsolve.designs import Designs, sample
+
+    warnings.filterwarnings("ignore", category=ls.LoopsolveWarning)  # designs stopping at limits
+    mech = ls.load(MODEL)
+    ls.study(mech, sample(MIXED_BOX, 10, seed=0), 0, 360, 1, derivatives=2, progress=False)  # warm up
+    n = args.handoff_designs
+    na = sample(GAP_BOX, n, seed=2)
+    ordinary = designs(n, seed=3)
+    ordinary = Designs(("r2", "r3", "r4"), {**ordinary.values, "r4": np.full(n, R4)})
+
+    def run(d):
+        return lambda: ls.study(mech, d, 0, 360, 1, derivatives=2, chunk_size=args.chunk_kernel, progress=False)
+
+    jam = sample(JAM_BOX, n, seed=5)
+    times, outs = best_times({"not assemblable": run(na), "limit": run(jam), "ordinary": run(ordinary)},
+                             args.repeats)
+    t_na, t_ok, t_jam = times["not assemblable"][0], times["ordinary"][0], times["limit"][0]
+    st = outs["not assemblable"].status.values
+    print(f"== {n} designs not assemblable at theta2 = 0 (r2, r3, r4 in {GAP_BOX}) vs {n} crank-rockers, "
+          f"361 points, pos/vel/acc ==")
+    print(f"not assemblable ({int((st == 'not-assemblable').sum())}/{n}): {t_na:.3f} s "
+          f"[{times['not assemblable'][1]:.3f}], {t_na / n * 1e3:.2f} ms per design")
+    print(f"crank-rockers:                {t_ok:.3f} s [{times['ordinary'][1]:.3f}], {t_ok / n * 1e3:.2f} ms per design")
+    print(f"ROW 2  not-assemblable study / ordinary study: {t_na / t_ok:.1f}x  (goal <= 2x)")
+    sj = outs["limit"].status.values
+    print(f"designs that stop at a limit ({int((sj == 'limit').sum())}/{n} limit, "
+          f"{int(outs['limit'].lockstep.sum())} in lockstep; r2, r3, r4 in {JAM_BOX}): {t_jam:.3f} s "
+          f"[{times['limit'][1]:.3f}], {t_jam / n * 1e3:.2f} ms per design")
+    print(f"ROW 2b limit-design study / ordinary study: {t_jam / t_ok:.1f}x")
+
+    m = args.kernel_designs
+    d = sample(MIXED_BOX, m, seed=4)
+    r2, r3, r4 = (d.values[k] for k in ("r2", "r3", "r4"))
+    x = np.arange(361.0)
+    fns = {"loopsolve": lambda: ls.study(mech, d, 0, 360, 1, derivatives=2, chunk_size=args.chunk_kernel,
+                                         progress=False)}
+    pl_run = _pylinkage_loop(r2, r3, r4, x)
+    if pl_run is not None:
+        fns["pylinkage"] = pl_run
+    times, outs = best_times(fns, args.repeats)
+    ds = outs["loopsolve"]
+    counts = {s: int((ds.status.values == s).sum()) for s in np.unique(ds.status.values)}
+    print(f"== mixed box: {m} designs, r1 = 60, {MIXED_BOX}, 361 points, pos/vel/acc: {counts}, "
+          f"{int(ds.lockstep.sum())} lockstep ==")
+    t_ls = times["loopsolve"][0]
+    print(f"loopsolve study: {t_ls:.3f} s [{times['loopsolve'][1]:.3f}]")
+    if "pylinkage" in times:
+        t_pl = times["pylinkage"][0]
+        print(f"pylinkage numba kernel looped over the {len(outs['pylinkage'])} designs it can start: "
+              f"{t_pl:.3f} s [{times['pylinkage'][1]:.3f}]")
+        print(f"ROW 3  mixed-box study / pylinkage loop: {t_ls / t_pl:.2f}x  (goal <= 1x)")
+
+
 def _rss_peak_mb():
     r = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
     return r / 1024.0  # KiB on Linux
@@ -197,7 +300,8 @@ def part_zarr(args):
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--part", choices=("all", "kernel", "zarr"), default="all")
+    ap.add_argument("--part", choices=("all", "kernel", "handoff", "zarr"), default="all")
+    ap.add_argument("--handoff-designs", type=int, default=200, help="designs of each kind in row 2 (default 200)")
     ap.add_argument("--kernel-designs", type=int, default=2000)
     ap.add_argument("--chunk-kernel", type=int, default=2000, help="designs per chunk in part 1 (default 2000)")
     ap.add_argument("--repeats", type=int, default=5)
@@ -209,6 +313,8 @@ def main():
     os.environ.setdefault("LOOPSOLVE_CACHE_DIR", tempfile.mkdtemp(prefix="loopsolve-cache-"))
     if args.part in ("all", "kernel"):
         part_kernel(args)
+    if args.part in ("all", "handoff"):
+        part_handoff(args)
     if args.part in ("all", "zarr"):
         part_zarr(args)
 

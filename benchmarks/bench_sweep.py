@@ -19,6 +19,7 @@ Run from the repository root::
 
     pip install -e .[bench]
     python benchmarks/bench_sweep.py            # --quick for fewer repeats
+    python benchmarks/bench_sweep.py --issue21  # issue 21's four rows as ratios (also runs bench_study's)
 
 A peer that does not import is skipped with the reason printed.
 """
@@ -32,6 +33,7 @@ import shutil
 import statistics
 import subprocess
 import sys
+import tempfile
 import time
 from pathlib import Path
 
@@ -216,10 +218,74 @@ def table(title, rows, base):
         print(f"{name:72s} {t * 1e3:9.2f} ms {t / base:14.2f}x {err:10.1e}")
 
 
+def cli_times(repeats):
+    """Medians of a fresh-process cached ``loopsolve sweep`` (361-row CSV) and of ``python -c "import numpy"``."""
+    exe = shutil.which("loopsolve")
+    cli = [exe] if exe else [sys.executable, "-m", "loopsolve.cli"]
+    cmd = cli + ["sweep", str(MODEL), "--from", "0", "--to", "360", "--step", "1", "--format", "csv",
+                 "-o", os.devnull, "-q"]
+    subprocess.run(cmd, check=True, capture_output=True)  # make sure the compiled model is cached
+    bare = [sys.executable, "-c", "import numpy"]
+    t_cli, t_np = [], []
+    for _ in range(repeats):
+        for c_, acc in ((bare, t_np), (cmd, t_cli)):
+            t = time.perf_counter()
+            subprocess.run(c_, check=True, capture_output=True)
+            acc.append(time.perf_counter() - t)
+    return statistics.median(t_cli), statistics.median(t_np)
+
+
+def issue21(args):
+    """The four rows of issue 21's table, as ratios, in one run (rows 2 and 3 from bench_study.py)."""
+    mech = ls.load(MODEL)
+    ck = mech.compile()
+    tracked = loopsolve_sweep(mech, ck, 0, 359, 1, "tracked", derivatives=2)
+    tracked()
+    print("== issue 21: one tracked 360-point cycle (pos/vel/acc) against pylinkage's numba kernel ==")
+    try:
+        import numba  # noqa: F401
+        import pylinkage  # noqa: F401
+    except ImportError as exc:
+        print(f"ROW 1  skipped: {exc} (pip install numba pylinkage)")
+        t_pl = None
+    else:
+        pylinkage_fast(pylinkage_build())  # JIT outside the timing
+        t_ls, t_pl = [], []
+        for _ in range(args.repeats):  # interleaved: both see the same load
+            t = time.perf_counter()
+            tracked()
+            t_ls.append(time.perf_counter() - t)
+            lk = pylinkage_build()
+            t = time.perf_counter()
+            pylinkage_fast(lk)
+            t_pl.append(time.perf_counter() - t)
+        a, b = statistics.median(t_ls), statistics.median(t_pl)
+        print(f"loopsolve sweep(0, 359, 1, method='tracked', derivatives=2): median {a * 1e3:.2f} ms (best "
+              f"{min(t_ls) * 1e3:.2f}); pylinkage step_fast_with_kinematics (numba): {b * 1e3:.3f} ms "
+              f"(best {min(t_pl) * 1e3:.3f})")
+        print(f"ROW 1  tracked cycle / pylinkage numba: {a / b:.1f}x (best/best {min(t_ls) / min(t_pl):.1f}x)  "
+              "(goal <= 1x)")
+    m_cli, m_np = cli_times(max(5, args.repeats // 10))
+    print(f"== cached CLI, 361-row CSV, fresh process: {m_cli * 1e3:.0f} ms; python -c 'import numpy': "
+          f"{m_np * 1e3:.0f} ms ==")
+    print(f"ROW 4  cached CLI - bare numpy: +{(m_cli - m_np) * 1e3:.0f} ms  (goal <= +150 ms)")
+    sys.path.insert(0, str(Path(__file__).resolve().parent))
+    import bench_study
+
+    bench_study.part_handoff(argparse.Namespace(handoff_designs=200, kernel_designs=2000, chunk_kernel=2000,
+                                                repeats=3))
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--quick", action="store_true", help="fewer repeats")
+    ap.add_argument("--issue21", action="store_true",
+                    help="only the four rows of issue 21's table, as ratios (rows 2 and 3 from bench_study.py)")
+    ap.add_argument("--repeats", type=int, default=101, help="--issue21: interleaved runs of row 1")
     args = ap.parse_args(argv)
+    if args.issue21:
+        os.environ.setdefault("LOOPSOLVE_CACHE_DIR", tempfile.mkdtemp(prefix="loopsolve-cache-"))
+        return issue21(args)
     rep = 3 if args.quick else 9
     rep_big = 3 if args.quick else 5
 

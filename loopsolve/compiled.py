@@ -26,6 +26,7 @@ The generated functions take their arguments in declaration order:
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import os
 import stat
@@ -63,18 +64,24 @@ def cache_dir() -> Path | None:
     return Path(base) / "loopsolve"
 
 
-def structure_key(mech: Mechanism, inputs: Sequence[str]) -> str:
-    """Hash of everything the generated code depends on (not the parameter values)."""
+@functools.lru_cache(maxsize=1)
+def _sympy_version() -> str:
+    """sympy's installed version, looked up once per process (the lookup scans the installed
+    distributions: ~1 ms, paid by every compile of every design of a study before)."""
     import importlib.metadata as md
 
     try:
-        sympy_version = md.version("sympy")
+        return md.version("sympy")
     except md.PackageNotFoundError:  # pragma: no cover
-        sympy_version = "?"
+        return "?"
+
+
+def structure_key(mech: Mechanism, inputs: Sequence[str]) -> str:
+    """Hash of everything the generated code depends on (not the parameter values)."""
     parts = (
         FORMAT,
         __version__,
-        sympy_version,
+        _sympy_version(),
         mech.units,
         tuple((v.name, v.kind.name) for v in mech.variables),
         tuple((p.name, p.kind.name) for p in mech.parameters),

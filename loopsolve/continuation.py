@@ -55,7 +55,7 @@ import numpy as np
 
 from .errors import SingularPositionError
 from .kernel import ROUNDOFF as _ROUNDOFF
-from .kernel import Kernel
+from .kernel import Kernel, rho_2x3
 from .results import Event, EventKind
 from .solve import _input_unit, display_value
 
@@ -331,7 +331,8 @@ class Tracer:
         step_len = math.sqrt(((u0 - az[i0]) * w0) ** 2 + ((u1 - az[i1]) * w1) ** 2 + (delta * wx) ** 2)
         if corr > 0.25 * step_len + 1e-12:
             return None, at_bound
-        node = Node(z, t, "+" if det > 0 else "-", residual=res, n_iter=it, J=J)
+        node = Node(z, t, "+" if det > 0 else "-", residual=res, n_iter=it, J=J,
+                    rho=rho_2x3(A * cs0, B * cs1, -b0 / wx, C * cs0, D * cs1, -b1 / wx))  # = Kernel.rho
         node.grid = gidx
         return node, at_bound
 

@@ -21,6 +21,30 @@ __all__ = ["Kernel", "ROUNDOFF"]
 ROUNDOFF = 8 * 2.220446049250313e-16
 _ROUNDOFF = ROUNDOFF
 
+def rho_2x3(a0, a1, a2, b0, b1, b2) -> float:
+    """σ_min/σ_max of the 2×3 matrix with rows ``a``, ``b`` (:meth:`Kernel.rho` of one 2×2 block), in
+    closed form on plain floats: the tracker's step for four-bars computes it in place."""
+    big = max(abs(a0), abs(a1), abs(a2), abs(b0), abs(b1), abs(b2))
+    if not (0.0 < big < math.inf):
+        return 0.0
+    # σ_min/σ_max does not change with a common factor: divide by the largest entry so that the
+    # squares below cannot overflow (links of 1e90 model units)
+    a0, a1, a2, b0, b1, b2 = a0 / big, a1 / big, a2 / big, b0 / big, b1 / big, b2 / big
+    g11 = a0 * a0 + a1 * a1 + a2 * a2
+    g22 = b0 * b0 + b1 * b1 + b2 * b2
+    g12 = a0 * b0 + a1 * b1 + a2 * b2
+    # det(A Aᵀ) by Cauchy-Binet: the sum of the squared 2×2 minors (no cancellation)
+    m01 = a0 * b1 - a1 * b0
+    m02 = a0 * b2 - a2 * b0
+    m12 = a1 * b2 - a2 * b1
+    det = m01 * m01 + m02 * m02 + m12 * m12
+    tr = g11 + g22
+    lmax = 0.5 * (tr + math.sqrt(max((g11 - g22) ** 2 + 4 * g12 * g12, 0.0)))
+    if not lmax > 0:
+        return 0.0
+    return math.sqrt(max(det / lmax, 0.0) / lmax)
+
+
 class Kernel:
     """Fast scalar evaluation of the compiled functions on Python lists, with block solves."""
 
@@ -163,22 +187,10 @@ class Kernel:
         big = max((abs(v) for r in rows for v in r), default=0.0)
         if not (0.0 < big < math.inf):
             return 0.0
-        rows = [[v / big for v in r] for r in rows]
         if n == 2:
-            a, b = rows
-            g11 = sum(v * v for v in a)
-            g22 = sum(v * v for v in b)
-            g12 = sum(u * v for u, v in zip(a, b))
-            # det(A Aᵀ) by Cauchy-Binet: the sum of the squared 2×2 minors (no cancellation)
-            m01 = a[0] * b[1] - a[1] * b[0]
-            m02 = a[0] * b[2] - a[2] * b[0]
-            m12 = a[1] * b[2] - a[2] * b[1]
-            det = m01 * m01 + m02 * m02 + m12 * m12
-            tr = g11 + g22
-            lmax = 0.5 * (tr + math.sqrt(max((g11 - g22) ** 2 + 4 * g12 * g12, 0.0)))
-            if not lmax > 0:
-                return 0.0
-            return math.sqrt(max(det / lmax, 0.0) / lmax)
+            (a0, a1, a2), (b0, b1, b2) = rows
+            return rho_2x3(a0, a1, a2, b0, b1, b2)
+        rows = [[v / big for v in r] for r in rows]
         try:
             sv = np.linalg.svd(np.array(rows), compute_uv=False)
         except np.linalg.LinAlgError:

@@ -19,12 +19,19 @@ design of a chunk along the same input values:
    near), the regularity (≈ 2/cond of each scaled block) stays above ``REGULAR_MIN`` (a
    change point or a dead centre is near), and the signs of the block determinants (the
    assembly mode) never change.
-4. **Hand-off.** A design for which any check fails — or the start cannot be decided (Newton
-   from the guesses needs damping or does not converge) — is not guessed at: it is swept
-   alone by the public :func:`loopsolve.sweep` with its own parameter values, which gives its
-   rows, events and status (``limit``, ``not-assemblable`` ...). The checks are far more
-   conservative than the tracker's own (which locates folds to round-off), so every design
-   the lockstep path keeps is one whose single sweep is a regular path in one mode.
+4. **Designs that leave the path.** For a model whose blocks the closed-form assembly test of
+   :mod:`loopsolve.assemblable` recognizes (dyads of two angles, single unknowns),
+   the chunk decides at once which designs cannot be assembled at the start and locates their
+   nearest assemblable inputs (:func:`_not_assemblable`), and for one-dyad models locates the
+   limit position of designs that left the path approaching one, filling their rows up to it
+   (:func:`_limits`): status, stop, nearest inputs, events, mode and rows as their single
+   sweep gives them (the limits located by bisection to round-off, the tracker's to 1e-9).
+5. **Hand-off.** Any other design for which a check fails — near a change point, a signature
+   change, a start that cannot be decided, a model the test does not recognize — is not
+   guessed at: it is swept alone by the public :func:`loopsolve.sweep` with its own parameter
+   values, which gives its rows, events and status. The checks are far more conservative than
+   the tracker's own (which locates folds to round-off), so every design the lockstep path
+   keeps is one whose single sweep is a regular path in one mode.
 
 Mechanisms with a solve-order block larger than 2×2 (where a signature need not single out
 one root) are swept design by design.
@@ -353,7 +360,7 @@ def sweep_chunk(mech, names, values, start, stop, step, *, speed=None, accel=Non
     >>> ch.status.tolist(), ch.lockstep.tolist(), ch.Z[0].shape
     (['ok', 'ok'], [True, True], (3, 5, 2))
     """
-    from .solve import input_rates
+    from .solve import input_rates, input_value
 
     values = np.asarray(values, dtype=float).reshape(-1, len(names))
     ck = mech.compile()
@@ -379,21 +386,211 @@ def sweep_chunk(mech, names, values, start, stop, step, *, speed=None, accel=Non
         Pr = [P[i] if p.name in varied else P[i, :1] for i, p in enumerate(mech.parameters)]
         lops = _Ops(ck, shared_input=True)
         lops.fused = fused_module(ck)
-        alive = _lockstep(ck, lops, Pr, P, xs, ch, rates, derivatives, ~invalid)
+        alive, last, irregular, sig0 = _lockstep(ck, lops, Pr, P, xs, ch, rates, derivatives, ~invalid)
     ch.lockstep[:] = alive
-    dead = np.flatnonzero(~alive)
     for arr in ch.Z:
         arr[:, ch.filled:, :] = np.nan
-        arr[:, :, dead] = np.nan
     if ch.points is not None:
         ch.points[..., ch.filled:, :] = np.nan
-        ch.points[..., dead] = np.nan
     for j in np.flatnonzero(invalid):
         ch.status[j] = "invalid"
         ch.events[j] = problems[j]
-    for j in np.flatnonzero(~alive & ~invalid):
+    single = np.flatnonzero(~alive & ~invalid)
+    limits = np.zeros(0, dtype=int)
+    if lockstep and len(single):
+        single = _not_assemblable(ck, P, xs, xs_disp, single, ch)
+        x_end = input_value(ck, stop, ck.inputs[0], reduce=False)
+        single, limits = _limits(ck, P, xs, xs_disp, x_end, single, last, irregular, sig0, ch, rates, derivatives)
+    for j in np.flatnonzero(~alive):
+        if j in limits:
+            continue
+        for arr in ch.Z:
+            arr[:, :, j] = np.nan
+        if ch.points is not None:
+            ch.points[..., j] = np.nan
+    for j in single:
         _single(mech, names, values[j], start, stop, step, speed, accel, jerk, mode, derivatives, ch, j, xs_disp)
     return ch, ck, P
+
+
+def _not_assemblable(ck, P, xs, xs_disp, cand, ch) -> np.ndarray:
+    """Decide, all at once, which designs ``cand`` cannot be assembled at the start, and name their nearest
+    assemblable inputs (:mod:`loopsolve.assemblable`); returns the designs left for the single sweep.
+
+    Their status, stop, nearest inputs and event are those :func:`_single` would record from the
+    single sweep's :class:`AssemblyError` (the same test, samples and message)."""
+    from .assemblable import AssemblyTest
+    from .sweep import no_assembly_error
+
+    test = AssemblyTest(ck, _Ops(ck), P, design_scale(ck, P))
+    if not test.usable:
+        return cand
+    x0 = float(xs[0])
+    ok, decided = test.at(np.full(len(cand), x0), cand)
+    na = cand[decided & ~ok]
+    near = test.nearest(x0, na)
+    done = []
+    for j, nv in zip(na, near):
+        if nv is None:
+            continue
+        disp = tuple(display_value_of(ck, v) for v in nv)
+        err = no_assembly_error(ck, x0, disp)
+        ch.status[j] = "not-assemblable"
+        ch.stop[j] = xs_disp[0]
+        ch.nearest[j] = ", ".join(f"{v:.10g}" for v in disp)
+        ch.events[j] = str(err).splitlines()[0]
+        done.append(j)
+    return np.setdiff1d(cand, np.array(done, dtype=int))
+
+
+def _limits(ck, P, xs, xs_disp, x_end, cand, last, irregular, sig0, ch, rates, derivatives):
+    """Designs ``cand`` that left the lockstep path approaching a limit position: locate it and fill
+    their remaining rows, all designs at once; returns ``(left for the single sweep, done here)``.
+
+    For a model of one dyad (:class:`loopsolve.assemblable.AssemblyTest`): the first grid row
+    after the design's last lockstep row where it cannot be assembled (or the end of the range)
+    brackets the limit; the stretch from the last row is cut into pieces of 5°/64 and the
+    limit located by bisection on the assembly test between the last assemblable piece and the
+    next (a dip of the discriminant on the way, which could hide a narrower gap, hands off). The rows before it are the
+    dyad's closed-form root with the design's signature (the mode it was tracked in; one dyad
+    changes signature only at its limit), polished by Newton, angles continued from the row
+    before. Designs dropped near a change point or for a signature change, or whose bracket
+    finds no limit, go to the single sweep (which tells those apart).
+    """
+    from .assemblable import AssemblyTest
+
+    none = np.zeros(0, dtype=int)
+    K = len(xs)
+    if K < 2 or not len(cand):
+        return cand, none
+    test = AssemblyTest(ck, _Ops(ck), P, design_scale(ck, P))
+    if not (test.usable and len(test.blocks) == 1 and test.blocks[0][0] == "dyad"):
+        return cand, none
+    c = cand[(last[cand] >= 0) & ~irregular[cand]]
+    if not len(c):
+        return cand, none
+    xe = np.append(np.asarray(xs, dtype=float), x_end)  # the grid, then the end of the range
+    dirn = 1.0 if xs[-1] > xs[0] else -1.0
+    if dirn * (x_end - xs[-1]) <= 0:
+        xe = xe[:-1]
+    n = len(c)
+    # 1. the first grid value after each design's last row where it cannot be assembled
+    ks = np.arange(len(xe))
+    ok, dec = test.at(np.tile(xe, n), np.repeat(c, len(xe)))
+    ok, dec = ok.reshape(n, -1), dec.reshape(n, -1)
+    after = ks[None, :] > last[c][:, None]
+    bad = after & ~ok
+    found = bad.any(axis=1) & np.all(dec | ~after, axis=1)
+    kb = np.where(found, np.argmax(bad, axis=1), -1)
+    # no assemblable gap between the last row and kb: every grid value between is assemblable (checked)
+    c, kb = c[found], kb[found]
+    if not len(c):
+        return cand, none
+    # 2. from the last row to that value in pieces of 5°/64 (an angle input; else 64 per grid
+    # step, and at least 4): the first piece that cannot be
+    # assembled brackets the limit. A dip of the dyad's discriminant on the way (a local minimum
+    # below 1 % of its largest value) may hide a gap narrower than a piece: such a design goes to
+    # the single sweep, whose tracer cannot step across one.
+    h = abs(float(xs[1] - xs[0]))
+    per = 64 if ck.kinds[test.ix] is not Kind.ANGLE else max(4, math.ceil(64 * h / math.radians(5.0) - 1e-9))
+    spans = [np.linspace(xe[int(last[j])], xe[k], per * (k - int(last[j])) + 1) for j, k in zip(c, kb)]
+    okf, decf = test.at(np.concatenate(spans), np.repeat(c, [len(v) for v in spans]))  # all designs at once
+    h2f = test._last[-1]
+    xa_, xb_, keep = [], [], []
+    o = 0
+    for j, k, xx in zip(c, kb, spans):
+        okj, decj, h2 = okf[o:o + len(xx)], decf[o:o + len(xx)], h2f[o:o + len(xx)]
+        o += len(xx)
+        f = int(np.argmax(~okj))
+        if not decj.all() or f == 0 or okj[f]:
+            continue
+        h = h2[:f]
+        dip = (h[1:-1] <= h[:-2]) & (h[1:-1] <= h[2:]) & (h[1:-1] < 1e-2 * np.max(h)) if f > 2 else np.zeros(0, bool)
+        if dip.any():
+            continue
+        xa_.append(xx[f - 1])
+        xb_.append(xx[f])
+        keep.append((j, k))
+    if not keep:
+        return cand, none
+    c = np.array([j for j, _ in keep])
+    kb = np.array([k for _, k in keep])
+    xf = test._bisect(np.array(xa_), np.array(xb_), c)
+    # 3. the rows between each design's last lockstep row and the limit, all designs at once
+    ops = _Ops(ck)
+    iu = ops.iu
+    ia, ib = test.blocks[0][2]
+    rows_of = {int(j): [k for k in range(int(last[j]) + 1, min(int(k_bad), K)) if dirn * (xs[k] - x_lim) < 0]
+               for j, x_lim, k_bad in zip(c, xf, kb)}
+    rk = np.array([k for j in c for k in rows_of[int(j)]], dtype=int)  # (design, row) pairs
+    rj = np.array([j for j in c for _ in rows_of[int(j)]], dtype=int)
+    failed = set()
+    if len(rk):
+        xr = np.asarray(xs, dtype=float)[rk]
+        roots, okr = test.dyad_roots(xr, rj)
+        failed = set(rj[~okr].tolist())
+        Z = np.repeat(test.z0[:, None], len(rk), axis=1)
+        Z[test.ix] = xr
+        Pj = P[:, rj]
+        Zc = Z.copy()
+        Zc[ia], Zc[ib] = roots[0]
+        sg, _ = ops.signs_and_regularity(ops.jac(Zc, Pj), test.scale[rj])
+        pick = sg[0] == sig0[0, rj]  # the root in the design's mode
+        Z[ia] = np.where(pick, roots[0][0], roots[1][0])
+        Z[ib] = np.where(pick, roots[0][1], roots[1][1])
+        with np.errstate(all="ignore"):
+            for _ in range(3):  # polish to round-off
+                Z[iu] = Z[iu] + ops.solve(ops.jac(Z, Pj), -ops.phi(Z, Pj))
+        o = 0
+        for j in c:  # angles continued from the row before
+            prev = ch.Z[0][:, int(last[j]), j]
+            for q in range(o, o + len(rows_of[int(j)])):
+                for i in (ia, ib):
+                    Z[i, q] = prev[i] + (Z[i, q] - prev[i] + math.pi) % (2 * math.pi) - math.pi
+                prev = Z[:, q]
+            o += len(rows_of[int(j)])
+        _fill_rows(ck, ops, Z, Pj, ch, rk, rj, rates, derivatives)
+    for j, x_lim in zip(c, xf):
+        if int(j) in failed:
+            continue
+        end = int(last[j]) + 1 + len(rows_of[int(j)])
+        for arr in ch.Z:
+            arr[:, end:, j] = np.nan
+        if ch.points is not None:
+            ch.points[..., end:, j] = np.nan
+        disp = display_value_of(ck, float(x_lim))
+        ch.status[j] = "limit"
+        ch.stop[j] = disp
+        ch.events[j] = f"limit@{disp:.10g}"
+        ch.mode[j] = "".join(np.where(sig0[:, j] > 0, "+", np.where(sig0[:, j] < 0, "-", "0")))
+        ch.lockstep[j] = True
+    done = np.array([j for j in c if ch.status[j] == "limit"], dtype=int)
+    return np.setdiff1d(cand, done), done
+
+
+def _fill_rows(ck, ops, Z, P, ch, rows, cols, rates, derivatives):
+    """Rates and points at grid rows ``rows`` of designs ``cols`` (pairs) from their positions ``Z``."""
+    J = ops.jac(Z, P)
+    out = [Z]
+    for order in range(1, derivatives + 1):
+        Zk = np.zeros_like(Z)
+        Zk[ops.ix] = rates[order - 1]
+        Zk[ops.iu] = ops.solve(J, ops.rhs(order, out + [Zk], P))
+        out.append(Zk)
+    for order in range(derivatives + 1):
+        ch.Z[order][:, rows, cols] = out[order]
+    if ch.points is not None:
+        npts = ch.points.shape[1]
+        for order in range(derivatives + 1):
+            v = np.asarray(ops.points(order, out[: order + 1], P))
+            ch.points[order, :, :, rows, cols] = np.broadcast_to(v.reshape(npts, 2, -1),
+                                                                 (npts, 2, len(rows))).transpose(2, 0, 1)
+
+
+def display_value_of(ck, v: float) -> float:
+    from .solve import display_value
+
+    return display_value(ck, v, ck.inputs[0])
 
 
 def _newton_start(ops, Z, P, scale, alive):
@@ -450,6 +647,8 @@ def _lockstep(ck, ops, P, Pfull, xs, ch, rates, derivatives, alive=None) -> np.n
     Z = np.repeat(z0[:, None], D, axis=1)
     Z[ix] = x_guess
     alive = np.ones(D, dtype=bool) if alive is None else np.array(alive, dtype=bool)
+    last = np.full(D, -1)  # the last grid row each design reached in lockstep
+    irregular = np.zeros(D, dtype=bool)  # dropped near a change point or for a signature change
     mech = ck.mechanism
     guessed = all(mech.variable(n).guess is not None for n in ck.unknowns)
     with np.errstate(all="ignore"):
@@ -490,15 +689,18 @@ def _lockstep(ck, ops, P, Pfull, xs, ch, rates, derivatives, alive=None) -> np.n
                 Z = _substep(ops, Z, P, T, C2, x, x_prev, w, alive)
                 J = ops.jac(Z, P)  # at the converged Z: mode, regularity, tangent and the rows' rates
                 sig, reg = ops.signs_and_regularity(J, scale)
-                alive &= (reg >= REGULAR_MIN) & np.all(sig == sig0, axis=0)
+                keep = (reg >= REGULAR_MIN) & np.all(sig == sig0, axis=0)
+                irregular |= alive & ~keep
+                alive &= keep
                 x_prev, T_prev, h_prev = x, T, h
                 T = None
             if k >= 0:
                 T = _store_row(ck, ops, Z, J, P, ch, k, rates, derivatives)
+                last[alive] = k
     codes = np.where(sig0 > 0, "+", np.where(sig0 < 0, "-", "0"))
     for j in np.flatnonzero(alive):
         ch.mode[j] = "".join(codes[:, j])
-    return alive
+    return alive, last, irregular, sig0
 
 
 def _store_row(ck, ops, Z, J, P, ch, k, rates, derivatives):

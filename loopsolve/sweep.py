@@ -247,7 +247,7 @@ def assembly_failure(ck, x: float, exc: SolveError) -> SolveError:
     >>> type(err).__name__, [round(v, 6) for v in err.nearest]
     ('AssemblyError', [-18.57335, 18.57335])
     """
-    from .modes import _mode_names, _modes_at, _nearest_text
+    from .modes import _mode_names, _modes_at
 
     name = ck.inputs[0]
     disp = display_value(ck, x, name)
@@ -258,11 +258,22 @@ def assembly_failure(ck, x: float, exc: SolveError) -> SolveError:
             f"{where}: Newton from the guesses stalled at {name} = {disp:g}{_input_unit(ck)}, but the mechanism assembles there "
             f"in mode(s) {_mode_names(ck.mechanism, modes)}: pass --mode (mode=) or improve the guesses",
             input_value=disp, result=getattr(exc, "result", None))
-    near = nearest_assemblable(ck, x)
+    return no_assembly_error(ck, x, nearest_assemblable(ck, x), residual=getattr(exc, "residual", None),
+                             result=getattr(exc, "result", None))
+
+
+def no_assembly_error(ck, x: float, near: tuple[float, ...], *, residual=None, result=None) -> AssemblyError:
+    """The :class:`AssemblyError` of input ``x`` (internal units), where no assembly mode exists,
+    naming the nearest assemblable inputs ``near`` (display units)."""
+    from .modes import _nearest_text
+
+    name = ck.inputs[0]
+    disp = display_value(ck, x, name)
+    where = ck.mechanism.source or ck.mechanism.name
     return AssemblyError(
         f"{where}: cannot be assembled at {name} = {disp:g}{_input_unit(ck)}: the loop equations have no real solution there"
         + _nearest_text(ck, near),
-        input_value=disp, residual=getattr(exc, "residual", None), nearest=near, result=getattr(exc, "result", None))
+        input_value=disp, residual=residual, nearest=near, result=result)
 
 
 
@@ -612,6 +623,33 @@ def default_range(ck, step: float, *, mode=None) -> tuple[float, float, bool]:
     return float(start), float(round(stop, 9)), True
 
 
+def _input_samples(ck, kern, samples: int | None = None) -> list[float]:
+    """The input values :func:`reachable_ranges` samples (internal units): a full turn for an
+    angle (144 samples from −π), ±4 length scales around the guess for a length (200)."""
+    if kern.angle_x:
+        m = samples or 144
+        return [-math.pi + 2 * math.pi * i / m for i in range(m)]
+    g0 = ck.mechanism.variable(ck.inputs[0]).guess
+    g0 = 0.0 if g0 is None else float(g0)
+    m = samples or 200
+    return [g0 - 4 * ck.scale + 8 * ck.scale * i / (m - 1) for i in range(m)]
+
+
+def _reach(ck, kern, zs, x_from, x_to):
+    """How far the modes ``zs`` at ``x_from`` get towards ``x_to``: ``x_to`` when one gets there,
+    else the farthest located limit (None: no mode at ``x_from``)."""
+    best = None
+    for z in zs:
+        z = np.array(z, dtype=float)
+        z[kern.ix] = x_from
+        lim = _limit_towards(ck, kern, z, x_to)
+        if lim is None:
+            return x_to
+        if best is None or abs(lim - x_from) > abs(best - x_from):
+            best = lim
+    return best
+
+
 def reachable_ranges(ck, *, samples: int | None = None) -> list[tuple[float, float]]:
     """Intervals of the driving input (internal units) where the mechanism can be assembled.
 
@@ -632,15 +670,8 @@ def reachable_ranges(ck, *, samples: int | None = None) -> list[tuple[float, flo
     """
     kern = Kernel(ck)
     angle = kern.angle_x
-    ix = kern.ix
-    g0 = ck.mechanism.variable(ck.inputs[0]).guess
-    g0 = 0.0 if g0 is None else float(g0)
-    if angle:
-        m = samples or 144
-        xs = [-math.pi + 2 * math.pi * i / m for i in range(m)]
-    else:
-        m = samples or 200
-        xs = [g0 - 4 * ck.scale + 8 * ck.scale * i / (m - 1) for i in range(m)]
+    xs = _input_samples(ck, kern, samples)
+    m = len(xs)
     from .modes import _feeds
 
     feeds = _feeds(ck)
@@ -650,17 +681,7 @@ def reachable_ranges(ck, *, samples: int | None = None) -> list[tuple[float, flo
     step = xs[1] - xs[0]
 
     def reach(zs, x_from, x_to):
-        """How far the modes ``zs`` at ``x_from`` get towards ``x_to`` (None: no mode there)."""
-        best = None
-        for z in zs:
-            z = np.array(z, dtype=float)
-            z[ix] = x_from
-            lim = _limit_towards(ck, kern, z, x_to)
-            if lim is None:
-                return x_to
-            if best is None or abs(lim - x_from) > abs(best - x_from):
-                best = lim
-        return best
+        return _reach(ck, kern, zs, x_from, x_to)
 
     pieces = []
     for i in range(m if angle else m - 1):
@@ -711,9 +732,72 @@ def nearest_assemblable(ck, x: float) -> tuple[float, ...]:
     >>> [round(v, 6) for v in nearest_assemblable(ck, 0.0)]
     [-18.57335, 18.57335]
     """
-
-    ranges = reachable_ranges(ck)
     kern = Kernel(ck)
+    xs = _input_samples(ck, kern)
+    if not kern.angle_x and not xs[0] <= x <= xs[-1]:
+        return _nearest_from_ranges(ck, kern, x)
+    return _nearest_local(ck, kern, xs, x)
+
+
+def _nearest_local(ck, kern, xs, x):
+    """:func:`nearest_assemblable` without the whole :func:`reachable_ranges`: the same samples and
+    the same traces, but only those of the sampling intervals from ``x`` outwards to the first
+    assemblable sample on each side (the ends of the ranges next to ``x``, the same numbers)."""
+    from .modes import _feeds
+
+    feeds = _feeds(ck)
+    m, step = len(xs), xs[1] - xs[0]
+    angle = kern.angle_x
+    n_int = m if angle else m - 1  # sampling intervals [xs[i], xs[i] + step]
+    memo: dict[int, list] = {}
+
+    def sols(i):
+        i %= m
+        if i not in memo:
+            memo[i] = _assemblable_at(ck, xs[i], feeds)
+        return memo[i]
+
+    def shift(k):  # interval k (unwrapped) -> (its index, the input offset of its turn)
+        if not angle:
+            return k, 0.0
+        return k % m, 2 * math.pi * (k // m)
+
+    t = (x - xs[0]) / step
+    k0 = min(int(math.floor(t)), n_int - 1) if not angle else int(math.floor(t))
+    i0, sh0 = shift(k0)
+    xa, xb = xs[i0], xs[i0] + step
+    disp = lambda v: display_value(ck, v, ck.inputs[0])  # noqa: E731
+    ea = _reach(ck, kern, sols(i0), xa, xb) if sols(i0) else None
+    eb = _reach(ck, kern, sols(i0 + 1), xb, xa) if sols(i0 + 1) else None
+    xr = x - sh0
+    if (ea is not None and ea >= xr) or (eb is not None and eb <= xr):
+        return (disp(x),)  # inside a reachable range
+    below = ea + sh0 if ea is not None else None
+    above = eb + sh0 if eb is not None else None
+    for d in range(1, n_int):
+        if below is not None:
+            break
+        k = k0 - d
+        if not angle and k < 0:
+            break
+        i, sh = shift(k)
+        if sols(i):
+            below = _reach(ck, kern, sols(i), xs[i], xs[i] + step) + sh
+    for d in range(1, n_int):
+        if above is not None:
+            break
+        k = k0 + d
+        if not angle and k >= n_int:
+            break
+        i, sh = shift(k)
+        if sols(i + 1):
+            above = _reach(ck, kern, sols(i + 1), xs[i] + step, xs[i]) + sh
+    return tuple(disp(v) for v in (below, above) if v is not None)
+
+
+def _nearest_from_ranges(ck, kern, x):
+    """:func:`nearest_assemblable` from the whole :func:`reachable_ranges` (an input beyond the samples)."""
+    ranges = reachable_ranges(ck)
     below, above = None, None
     for lo, hi in ranges:
         shifts = [2 * math.pi * j for j in range(-2, 3)] if kern.angle_x else [0.0]
