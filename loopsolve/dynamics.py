@@ -338,12 +338,14 @@ def compile_drive(mech: Mechanism, text, inputs) -> object:
     if isinstance(text, str) and _QUANTITY_RE.match(text):  # "0.05N*m", "0.4 in*lbf", "20N": a constant
         value = parse_quantity(text, kind, length_unit="m", where="--torque")
         return lambda x, xd, t: value
+    label = "torque" if kind is Kind.TORQUE else "force"
+    si, example = ("N*m", "0.05N*m") if kind is Kind.TORQUE else ("N", "20N")
     try:
         node = _expr.parse(text) if not isinstance(text, _expr.Name) else text
+        if any(isinstance(n, _expr.Num) and n.unit for n in _expr.walk(node)):
+            raise _expr.ExpressionError("unknown unit inside the expression")
     except _expr.ExpressionError as exc:
-        label = "torque" if kind is Kind.TORQUE else "force"
-        si, example = ("N*m", "0.05N*m") if kind is Kind.TORQUE else ("N", "20N")
-        why = "units are not allowed inside an expression" if "unknown unit" in str(exc) else str(exc)
+        why = "units are not allowed inside an expression" if "unit" in str(exc) else str(exc)
         raise ModelError(f"--torque {text!r}: {why}; the driving {label} is a number in SI ({si}), a quantity "
                          f"such as \"{example}\", or an expression of {name!r}, {name + '_vel'!r} and 't' whose "
                          "value is in SI (no units inside)") from None

@@ -438,7 +438,7 @@ def _not_assemblable(ck, P, xs, xs_disp, cand, ch) -> np.ndarray:
         ch.status[j] = "not-assemblable"
         ch.stop[j] = xs_disp[0]
         ch.nearest[j] = ", ".join(f"{v:.10g}" for v in disp)
-        ch.events[j] = str(err).splitlines()[0]
+        ch.events[j] = _no_path(str(err).splitlines()[0], ck.mechanism)
         done.append(j)
     return np.setdiff1d(cand, np.array(done, dtype=int))
 
@@ -458,6 +458,7 @@ def _limits(ck, P, xs, xs_disp, x_end, cand, last, irregular, sig0, ch, rates, d
     finds no limit, go to the single sweep (which tells those apart).
     """
     from .assemblable import AssemblyTest
+    from .solve import _input_unit
 
     none = np.zeros(0, dtype=int)
     K = len(xs)
@@ -562,6 +563,9 @@ def _limits(ck, P, xs, xs_disp, x_end, cand, last, irregular, sig0, ch, rates, d
         ch.status[j] = "limit"
         ch.stop[j] = disp
         ch.events[j] = f"limit@{disp:.10g}"
+        # the warning the single sweep gives at this stop (sweep._announce_stop), summarized per study
+        ch.warnings.append((j, f"the sweep stops at a limit position (toggle) at {ck.inputs[0]} = "
+                               f"{disp:.10g}{_input_unit(ck)}"))
         ch.mode[j] = "".join(np.where(sig0[:, j] > 0, "+", np.where(sig0[:, j] < 0, "-", "0")))
         ch.lockstep[j] = True
     done = np.array([j for j in c if ch.status[j] == "limit"], dtype=int)

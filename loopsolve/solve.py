@@ -373,7 +373,7 @@ def start_position(ck: CompiledKinematics, x: float, *, mode=None, guess: dict |
     z0[ck.input_idx[0]] = x
     failure = found = None
     try:
-        found = solve_position(ck, z0, settings=settings, display_input=disp)
+        found = _within_a_turn(ck, solve_position(ck, z0, settings=settings, display_input=disp), settings, disp)
         if sig is None or signature_matches(ck.signature(found[0]), sig):
             return found
     except (AssemblyError, ConvergenceError) as exc:
@@ -412,6 +412,23 @@ def start_position(ck: CompiledKinematics, x: float, *, mode=None, guess: dict |
     if modes and isinstance(failure, ConvergenceError):
         raise failure
     raise assembly_failure(ck, x, failure) from None
+
+
+def _within_a_turn(ck, found, settings: Newton, disp):
+    """``found`` with its unknown angles in (−π, π], polished again where Newton ran off by whole turns.
+
+    Newton from far guesses can land turns away (θ3 = 616 rad is the right pose 98 turns on), where
+    the angle's last digits are lost (an ulp of 616 is 1e-13): the start of a sweep must be exact,
+    since the rows after it follow it continuously. One Newton polish from the reduced angles
+    restores the residual.
+    """
+    z = np.array(found[0], dtype=float)
+    ang = np.array([i for i in ck.unknown_idx if ck.kinds[i] is Kind.ANGLE], dtype=int)
+    if not len(ang) or np.all(np.abs(z[ang]) <= math.pi) or not np.all(np.isfinite(z[ang])):
+        return found
+    ang = ang[np.abs(z[ang]) > math.pi]
+    z[ang] = -((-z[ang] + math.pi) % (2 * math.pi) - math.pi)  # into (−π, π]
+    return solve_position(ck, z, settings=settings, display_input=disp)
 
 
 def _coincide(ck, zs) -> bool:

@@ -315,3 +315,36 @@ def test_cli_modes_says_which_mode_the_guesses_name(capsys):
     assert main(["modes", path, "--at", "90"]) == 0
     assert capsys.readouterr().out.splitlines()[-1].startswith("the guesses name mode - (open)")
     assert ls.guessed_mode(ls.load(path)) == "-"
+
+
+def test_a_start_newton_ran_turns_away_from_is_reduced_and_exact():
+    """Newton from the factory's guesses at θ2 = 0 lands on this crank-rocker's pose at θ2 ≈ 100°
+    98 turns away (θ3 ≈ 616 rad), where the last digits are gone; the start is reduced to
+    (−π, π] and polished: the loops close to round-off of O(1) numbers and θ3 matches the
+    half-angle closed form (found by the tracker's finite-difference property test)."""
+    r = (1.8125, 1.466796875, 3.4375, 3.091806875)
+    mech = ls.fourbar(*r, theta2=0.0, mode="open")
+    st = mech.solve(100 - 2e-3)
+    assert st.mode == "-"
+    ck = mech.compile()
+    z = np.array(st.z, dtype=float)
+    assert np.all(np.abs(z[ck.unknown_idx]) <= np.pi)
+    assert np.max(np.abs(ck.phi(z))) <= 1e-15 * max(r)
+    t2 = np.radians(100 - 2e-3)
+    r1, r2, r3, r4 = r
+    # circle intersection: C on the circle about B = r2·e^{iθ2} of radius r3 and about O4 = r1 of radius r4
+    B, O4 = r2 * np.exp(1j * t2), complex(r1, 0)
+    d = abs(O4 - B)
+    along = (r3**2 - r4**2 + d**2) / (2 * d)
+    h = math.sqrt(r3**2 - along**2)
+    u = (O4 - B) / d
+    sols = []
+    for sgn in (1, -1):
+        C = B + along * u + sgn * h * 1j * u
+        th3, th4 = np.angle(C - B), np.angle(C - O4)
+        if np.sin(th4 - th3) > 0:  # mode "-": det Φ_q = r3·r4·sin(θ3 − θ4) < 0
+            sols.append((th3, th4))
+    assert len(sols) == 1
+    for name, want in zip(("theta3", "theta4"), sols[0]):
+        got = np.radians(st[name])
+        assert abs((got - want + np.pi) % (2 * np.pi) - np.pi) < 1e-12
