@@ -29,10 +29,11 @@ The certificate dict is the report's ``certificate`` (see ``DESIGN.md``, Synthes
 from __future__ import annotations
 
 import math
+import warnings
 
 import numpy as np
 
-from .errors import LoopsolveError
+from .errors import LoopsolveError, LoopsolveWarning
 from .units import Kind
 
 __all__ = ["certify", "DEFECTS"]
@@ -142,6 +143,12 @@ def certify(mech, inputs, *, poses=None, crank: bool = False, transmission=None,
         degrees or None), ``grashof_margin`` (None when the model has no four-bar loop),
         ``defects`` (a sorted list of :data:`DEFECTS` names) and ``notes`` (what was found where).
     """
+    with warnings.catch_warnings():  # the tracker's stop notices are what the certificate reports
+        warnings.simplefilter("ignore", LoopsolveWarning)
+        return _certify(mech, inputs, poses, crank, transmission, point, targets)
+
+
+def _certify(mech, inputs, poses, crank, transmission, point, targets):
     from .modes import _modes_at
 
     ck = mech.compile()
@@ -200,7 +207,8 @@ def certify(mech, inputs, *, poses=None, crank: bool = False, transmission=None,
                     "limit": "the input reaches a limit (toggle) position between them",
                     "singular": "the motion crosses a change point or a mode change between them",
                     "other pose": "the motion arrives at another assembly than the target's"}[kind]
-                    + (" (same circuit)" if same else " (another circuit)"))
+                    + (" (the target's assembly is on the same circuit, past a limit or change point)" if same
+                       else " (the target's assembly is on another circuit)"))
                 z = Zc[t + 1]
             else:
                 z = Zc[t + 1]

@@ -124,9 +124,28 @@ class Batch:
         return sig
 
     def all_signs(self) -> list[np.ndarray]:
-        """Every combination of block signs (each ``(nb,)``): the modes a search may try."""
-        nb = len(self.ops.blocks)
-        return [np.array(c, dtype=float) for c in itertools.product((1.0, -1.0), repeat=nb)]
+        """Every combination of block signs (each ``(nb,)``) that can occur: the modes a search may try.
+
+        A block whose determinant has one sign at 64 random positions (e.g. a slider's 1×1
+        block, linear in its length) keeps that sign only.
+        """
+        if getattr(self, "_all_signs", None) is None:
+            rng = np.random.default_rng(0)
+            N = 64
+            Z = np.repeat(self.z0[:, None], N, axis=1)
+            sc = self.ck.scale
+            for a, i in enumerate(self.iu):
+                Z[i] = rng.uniform(-sc, sc, N) if self.is_len[a] else rng.uniform(-math.pi, math.pi, N)
+            Z[self.ix] = rng.uniform(-math.pi, math.pi, N) if self.input_is_angle else rng.uniform(-sc, sc, N)
+            P = np.repeat(np.asarray(self.ck.p, dtype=float)[:, None], N, axis=1)
+            with np.errstate(all="ignore"):
+                sig, _ = self.ops.signs_and_regularity(self.ops.jac(Z, P), np.full(N, sc))
+            choices = []
+            for row in sig:
+                seen = sorted({float(v) for v in row if v != 0}, reverse=True)
+                choices.append(seen or [1.0, -1.0])
+            self._all_signs = [np.array(c, dtype=float) for c in itertools.product(*choices)]
+        return self._all_signs
 
     # ------------------------------------------------------------------ positions
     def _starts(self, cols, Z, scale, second: bool = False):

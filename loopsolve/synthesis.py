@@ -61,7 +61,7 @@ __all__ = ["Problem", "define", "read_targets", "evaluate", "search", "polish", 
 
 _TASK_COLUMNS = {"path": ("x", "y"), "function": ("input", "output"), "motion": ("x", "y", "angle")}
 #: input step of the search's grid for free timing, and its largest continuation substep
-_FREE_STEP = math.radians(5.0)
+_FREE_STEP = math.radians(10.0)
 _SEARCH_H = math.radians(10.0)
 
 
