@@ -199,18 +199,28 @@ def _distinct(V, f, k, lo, hi):
 
 def one_run(problem, seed, opts):
     """One run: ``(best candidate dict or None, rejected list, seconds, statistics)``."""
+    import dataclasses
+
     t0 = time.perf_counter()
-    V, f, mi, di, X, gens, nev = search(problem, seed=seed, popsize=opts["popsize"], maxiter=opts["maxiter"],
-                                        tol=opts["tol"])
-    cands = []
-    P = problem.batch.params(V)
-    modes = problem.modes(P)
-    for i in _distinct(V, f, opts["polish"], problem.lo, problem.hi):
-        signs = modes[mi[i]][:, i]
-        p = polish(problem, V[i], signs=signs, inputs=X[:, i] if problem.free else None)
-        if math.isfinite(p.get("objective", math.inf)):
-            p["direction"] = int(di[i]) if problem.free else (1 if problem.inputs[-1] >= problem.inputs[0] else -1)
-            cands.append(p)
+    if problem.mode == "any":  # one search per mode: a basin of one mode cannot crowd out the other's
+        subs = [dataclasses.replace(problem, mode=_signature(sg)) for sg in problem.batch.all_signs()]
+    else:
+        subs = [problem]
+    cands, gens, nev = [], 0, 0
+    rng = np.random.default_rng(seed)
+    for sub, k in [(sub, k) for sub in subs for k in range(opts["restarts"])]:
+        V, f, mi, di, X, g, n = search(sub, seed=int(rng.integers(2**31)), popsize=opts["popsize"],
+                                       maxiter=opts["maxiter"], tol=opts["tol"], strategy=opts["strategy"])
+        gens += g
+        nev += n
+        P = sub.batch.params(V)
+        modes = sub.modes(P)
+        for i in _distinct(V, f, opts["polish"], sub.lo, sub.hi):
+            signs = modes[mi[i]][:, i]
+            p = polish(sub, V[i], signs=signs, inputs=X[:, i] if sub.free else None)
+            if math.isfinite(p.get("objective", math.inf)):
+                p["direction"] = int(di[i]) if sub.free else (1 if sub.inputs[-1] >= sub.inputs[0] else -1)
+                cands.append(p)
     cands.sort(key=lambda c: c["objective"])
     rejected, best = [], None
     for c in cands:
@@ -239,7 +249,8 @@ def _run_task(args):
 
 def synthesize(mech, *, path=None, function=None, motion=None, link=None, targets=None, inputs=None, vary=None,
                crank: bool = False, transmission=None, runs: int = 1, seed: int = 0, mode: str | None = "any",
-               popsize: int = 15, maxiter: int = 400, tol: float = 1e-3, polish_candidates: int = 4,
+               popsize: int = 15, maxiter: int = 150, tol: float = 1e-3, restarts: int = 4,
+               strategy: str = "best1bin", polish_candidates: int = 2,
                workers: int | None = None, scheduler: str | None = None, client=None,
                progress: bool | None = None) -> SynthesisResult:
     """Find parameter values that make ``mech`` do a job; only certified designs are returned.
@@ -270,9 +281,10 @@ def synthesize(mech, *, path=None, function=None, motion=None, link=None, target
     mode : "any", None or a signature
         The assembly mode: ``"any"`` lets the search pick (the report says which), ``None``
         keeps the mode the guesses name, a signature (``"-"``) that mode.
-    popsize, maxiter, tol : differential-evolution settings (scipy's meaning).
-    polish_candidates : int
-        Distinct members of each run's final population that are polished and certified.
+    popsize, maxiter, tol, strategy : differential-evolution settings (scipy's meaning).
+    restarts : int
+        Short DE searches per mode in one run (seeded from the run's seed); each search's best
+        ``polish_candidates`` distinct designs are polished and certified.
     workers, scheduler, client
         Spread the runs over a Dask cluster (as :func:`loopsolve.study` does).
     progress : bool, optional
@@ -295,7 +307,8 @@ def synthesize(mech, *, path=None, function=None, motion=None, link=None, target
         raise ModelError(f"--runs {runs}: must be at least 1")
     problem = define(mech, path=path, function=function, motion=motion, link=link, targets=targets, inputs=inputs,
                      vary=vary, crank=crank, transmission=transmission, mode=mode)
-    opts = {"popsize": popsize, "maxiter": maxiter, "tol": tol, "polish": polish_candidates}
+    opts = {"popsize": popsize, "maxiter": maxiter, "tol": tol, "polish": polish_candidates, "restarts": restarts,
+            "strategy": strategy}
     seeds = [seed + r for r in range(runs)]
     if progress is None:
         progress = sys.stderr.isatty()
