@@ -82,7 +82,7 @@ def fourbar():
 @pytest.fixture(scope="module")
 def planted_result(fourbar):
     return ls.synthesize(fourbar, path="P", targets=planted_targets(), inputs=PLANT_INPUTS, vary=VARY6, seed=3,
-                         popsize=12, maxiter=120, progress=False)
+                         popsize=12, maxiter=120, restarts=1, progress=False)
 
 
 class TestObjectiveAgainstClosedForm:
@@ -182,7 +182,7 @@ def test_jacobian_matches_finite_differences(fourbar):
 def test_free_timing_recovers_the_planted_inputs(fourbar):
     tg = planted_targets(inputs=[40, 70, 100, 130, 160], p=dict(PLANTED, r4=3.0))  # r1, r3, r4: the model's
     res = ls.synthesize(fourbar, path="P", targets=tg, vary={"r2": (0.5, 3), "rcx": (-3, 3), "rcy": (-3, 3)},
-                        seed=1, popsize=15, maxiter=40, mode=None, progress=False)
+                        seed=1, popsize=15, maxiter=40, mode=None, restarts=1, progress=False)
     rep = res.report
     assert rep["objective"] <= 1e-20
     assert [t["input"] % 360 for t in rep["targets"]] == pytest.approx([40, 70, 100, 130, 160], abs=1e-7)
@@ -264,7 +264,7 @@ class TestDefects:
         try:  # and a search never reports an exact (two-circuit) design
             res = ls.synthesize(fourbar, path="P", targets={"x": t[:, 0], "y": t[:, 1]}, inputs=[30, 60, 90],
                                 vary={"r2": (0.5, 3), "rcx": (-3, 3), "rcy": (-3, 3)}, popsize=8, maxiter=20,
-                                progress=False)
+                                restarts=1, progress=False)
         except ls.SynthesisError:
             return
         assert res.report["objective"] > 1e-8 and res.report["certificate"]["defects"] == []
@@ -280,7 +280,7 @@ def test_slider_crank_coupler_path():
     pts = np.array([slider_point(plant, x) for x in xs])
     res = ls.synthesize(m, path="P", targets={"x": pts[:, 0], "y": pts[:, 1], "input": xs},
                         vary={"r2": (0.5, 2), "e": (-1, 1), "rcx": (-3, 3), "rcy": (-3, 3)}, seed=0, popsize=10,
-                        maxiter=60, progress=False)
+                        maxiter=60, restarts=1, progress=False)
     rep = res.report
     assert rep["objective"] <= 1e-20
     q = dict(plant, **rep["parameters"])
@@ -299,7 +299,7 @@ def test_sixbar_point_path():
     pts = np.array([ck.point_values(0, plant.solve(x).z)[ck.points.index("D")] for x in xs])
     res = ls.synthesize(m, path="D", targets={"x": pts[:, 0], "y": pts[:, 1]}, inputs=xs,
                         vary={"r_link5": (50, 80), "r_link6": (55, 85)}, seed=0, popsize=8, maxiter=40,
-                        mode=None, progress=False)
+                        mode=None, restarts=1, progress=False)
     rep = res.report
     assert rep["objective"] <= 1e-16
     assert rep["parameters"]["r_link5"] == pytest.approx(64.0, abs=1e-6)
@@ -360,9 +360,72 @@ def test_cli_writes_report_and_model(tmp_path):
     targets_csv.write_text("x,y\n" + "".join(f"{float(x)!r},{float(y)!r}\n" for x, y in zip(t["x"], t["y"])))
     r = _cli(str(FOURBAR), "--path", "P", "--targets", str(targets_csv), "--inputs", ",".join(map(str, PLANT_INPUTS)),
              "--vary", "r2=0.5:3", "--vary", "rcx=-3:3", "--vary", "rcy=-3:3", "--popsize", "15", "--maxiter", "40",
-             "--report", str(rep), "-o", str(out), "-q")
+             "--restarts", "1", "--report", str(rep), "-o", str(out), "-q")
     assert r.returncode == 0, r.stderr
     data = json.loads(rep.read_text())
     assert data["objective"] <= 1e-20 and data["certificate"]["defects"] == []
     m = ls.load(out)
     assert {p.name: p.value for p in m.parameters}["r2"] == pytest.approx(1.5, abs=1e-9)
+
+
+# ------------------------------------------------------------------------------------------- other tasks
+
+
+def fourbar_angles(p, theta2_deg, sign):
+    """(θ3, θ4) in degrees of the synthesis four-bar (θ0 = φ = 0) by circle intersection."""
+    t = math.radians(theta2_deg)
+    A = np.array([p["r2"] * math.cos(t), p["r2"] * math.sin(t)])
+    O4 = np.array([p["r1"], 0.0])
+    d = np.linalg.norm(O4 - A)
+    u = (O4 - A) / d
+    along = (d * d + p["r3"] ** 2 - p["r4"] ** 2) / (2 * d)
+    h = math.sqrt(p["r3"] ** 2 - along ** 2)
+    n = np.array([-u[1], u[0]])
+    for B in (A + along * u + h * n, A + along * u - h * n):
+        v3, v4 = B - A, B - O4
+        if np.sign(v3[1] * v4[0] - v3[0] * v4[1]) == sign:
+            return math.degrees(math.atan2(v3[1], v3[0])), math.degrees(math.atan2(v4[1], v4[0]))
+
+
+def test_function_generation_recovers_a_planted_four_bar(fourbar):
+    plant = dict(PLANTED, r4=3.0)
+    xs = [30, 50, 70, 90, 110]
+    ys = [fourbar_angles(plant, x, -1)[1] for x in xs]
+    res = ls.synthesize(fourbar, function="theta4", targets={"input": xs, "output": ys},
+                        vary={"r2": (0.5, 3), "r1": (3, 5)}, seed=0, popsize=10, maxiter=40, mode=None,
+                        restarts=1, progress=False)
+    rep = res.report
+    assert rep["task"] == "function" and rep["objective"] <= 1e-20
+    assert rep["parameters"]["r2"] == pytest.approx(1.5, abs=1e-8)
+    assert rep["parameters"]["r1"] == pytest.approx(4.0, abs=1e-8)
+    # the reported error is the output angle's, in radians, against the closed form
+    q = dict(plant, **rep["parameters"])
+    for (x, y), t in zip(zip(xs, ys), rep["targets"]):
+        assert t["error"] == pytest.approx(abs(math.radians(fourbar_angles(q, x, -1)[1] - y)), abs=1e-12)
+
+
+def test_motion_generation_recovers_a_planted_coupler(fourbar):
+    plant = dict(PLANTED, r4=3.0)
+    xs = [30, 60, 90, 120]
+    pts = [fourbar_point(plant, x, -1) for x in xs]
+    ang = [fourbar_angles(plant, x, -1)[0] for x in xs]
+    res = ls.synthesize(fourbar, motion="P", link="theta3",
+                        targets={"x": [p[0] for p in pts], "y": [p[1] for p in pts], "angle": ang},
+                        inputs=xs, vary={"r2": (0.5, 3), "rcx": (-3, 3), "rcy": (-3, 3)}, seed=0, popsize=10,
+                        maxiter=40, mode=None, restarts=1, progress=False)
+    rep = res.report
+    assert rep["task"] == "motion" and rep["objective"] <= 1e-20
+    assert [rep["parameters"][k] for k in ("r2", "rcx", "rcy")] == pytest.approx([1.5, 1.2, 0.8], abs=1e-8)
+
+
+@pytest.mark.parametrize("kwargs, words", [
+    ({"motion": "P", "link": "theta9"}, ["theta9", "angle unknown"]),
+    ({"motion": "P"}, ["--link"]),
+    ({"function": "theta2"}, ["theta2", "not an unknown"]),
+])
+def test_function_and_motion_argument_errors(fourbar, kwargs, words):
+    cols = {"x": [1, 2], "y": [1, 2], "angle": [0, 10]} if "motion" in kwargs else {"input": [1, 2], "output": [1, 2]}
+    with pytest.raises(ls.ModelError) as e:
+        ls.synthesize(fourbar, targets=cols, vary={"r2": (0.5, 3)}, **kwargs)
+    for w in words:
+        assert w in str(e.value)
