@@ -178,6 +178,7 @@ class Problem:
     mode: str | None  # None: the guesses'; "any": the search's choice; or a signature
     L: float
     batch: object = field(repr=False)
+    shown_inputs: tuple | None = None  # the prescribed inputs as the user gave them (model units)
 
     @property
     def free(self) -> bool:
@@ -302,7 +303,7 @@ def define(mech, *, path: str | None = None, function: str | None = None, motion
         names.append(n)
         lo.append(a)
         hi.append(b_)
-    xs = None
+    xs = shown = None
     if inputs is not None and "input" in cols:
         raise ModelError("give the timing either as an input column of --targets or as --inputs, not both")
     if inputs is not None:
@@ -311,8 +312,10 @@ def define(mech, *, path: str | None = None, function: str | None = None, motion
         if len(inputs) != T:
             raise ModelError(f"--inputs: {len(inputs)} values for {T} targets")
         xs = np.array([input_value(ck, v, reduce=False) for v in inputs])
+        shown = [float(v) if _is_number(v) else None for v in inputs]
     elif "input" in cols:
         xs = np.array([input_value(ck, float(v), reduce=False) for v in cols["input"]])
+        shown = [float(v) for v in cols["input"]]
     if xs is not None and np.any(np.diff(xs) == 0):
         raise ModelError("--inputs: two targets at the same input value")
     ang = mech.units.angle == "deg"
@@ -348,7 +351,15 @@ def define(mech, *, path: str | None = None, function: str | None = None, motion
         L = L if L > 0 else 1.0
     return Problem(mech, ck, task, what if task != "function" else None, what if task == "function" else None, link,
                    tg, xs, tuple(names), np.array(lo), np.array(hi), bool(crank), transmission, mode, L,
-                   Batch(ck, names))
+                   Batch(ck, names), None if shown is None or None in shown else tuple(shown))
+
+
+def _is_number(v) -> bool:
+    try:
+        float(v)
+    except (TypeError, ValueError):
+        return False
+    return True
 
 
 # ---------------------------------------------------------------------------------------- search
@@ -590,15 +601,12 @@ def polish(problem: Problem, values, *, signs=None, inputs=None, max_nfev: int =
 
     r_fail = None
 
-    def fun(u):
-        nonlocal r_fail
+    def fun(u):  # a step that leaves the mode or cannot be traced gets a large constant residual
         P, Zt, reached = state(u)
         if reached < T:
             return r_fail
         r = problem.residuals(Zt, P)[:, :, 0].T.ravel()
-        if r_fail is None or not np.all(np.isfinite(r)):
-            pass
-        return r
+        return r if np.all(np.isfinite(r)) else r_fail
 
     def jac(u):
         P, Zt, reached = state(u)

@@ -407,8 +407,8 @@ def _result(problem, outs) -> SynthesisResult:
         "parameters": dict(zip(problem.names, map(float, best["values"]))),
         "mode": _signature(best["signs"]),
         "direction": best["direction"],
-        "targets": [{"input": display_value(ck, float(x)), "error": float(e)}
-                    for x, e in zip(best["inputs"], best["errors"])],
+        "targets": [{"input": (problem.shown_inputs[i] if problem.shown_inputs else display_value(ck, float(x))),
+                     "error": float(e)} for i, (x, e) in enumerate(zip(best["inputs"], best["errors"]))],
         "certificate": cert,
     })
     report = _clean(report)

@@ -105,6 +105,7 @@ class TestObjectiveAgainstClosedForm:
         for k, v in PLANTED.items():
             assert rep["parameters"][k] == pytest.approx(v, abs=1e-8)
         assert rep["mode"] == "-" and rep["direction"] == 1
+        assert [t["input"] for t in rep["targets"]] == PLANT_INPUTS  # as given
         c = rep["certificate"]
         assert c["defects"] == [] and c["assembles"] and c["one_circuit"] and c["order"]
 
@@ -132,6 +133,22 @@ class TestObjectiveAgainstClosedForm:
         assert lo == pytest.approx(min(mus), abs=0.05) and hi == pytest.approx(max(mus), abs=0.05)
         s = sorted(p[k] for k in ("r1", "r2", "r3", "r4"))
         assert rep["certificate"]["grashof_margin"] == pytest.approx(s[1] + s[2] - s[0] - s[3], rel=1e-9)
+
+    def test_plot_draws_targets_curve_and_linkages(self, planted_result):
+        import matplotlib
+
+        matplotlib.use("Agg")
+        fig = planted_result.plot()
+        ax = fig.axes[0]
+        labels = [ln.get_label() for ln in ax.get_lines()]
+        assert "targets" in labels and "P (design)" in labels
+        tx, ty = [ln for ln in ax.get_lines() if ln.get_label() == "targets"][0].get_data()
+        assert np.allclose(tx, planted_targets()["x"]) and np.allclose(ty, planted_targets()["y"])
+        curve = [ln for ln in ax.get_lines() if ln.get_label() == "P (design)"][0].get_data()
+        assert len(curve[0]) > 300  # a full turn of the crank
+        import matplotlib.pyplot as plt
+
+        plt.close(fig)
 
     def test_written_model_reproduces_the_errors(self, planted_result, tmp_path):
         path = tmp_path / "design.toml"
