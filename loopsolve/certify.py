@@ -142,6 +142,15 @@ def certify(mech, inputs, *, poses=None, crank: bool = False, transmission=None,
         ``assembles``, ``one_circuit``, ``order``, ``crank``, ``transmission`` ([min, max] in
         degrees or None), ``grashof_margin`` (None when the model has no four-bar loop),
         ``defects`` (a sorted list of :data:`DEFECTS` names) and ``notes`` (what was found where).
+
+    Examples
+    --------
+    >>> m = ls.load(ls.models_dir() / "fourbar_path_synthesis.toml")   # a Grashof crank-rocker
+    >>> c = certify(m, np.radians([30, 60, 90]), crank=True)
+    >>> c["defects"], c["crank"], [round(v, 1) for v in c["transmission"]]
+    ([], True, [54.3, 100.3])
+    >>> certify(m, np.radians([30, 90, 60]))["defects"]
+    ['order']
     """
     with warnings.catch_warnings():  # the tracker's stop notices are what the certificate reports
         warnings.simplefilter("ignore", LoopsolveWarning)
@@ -162,6 +171,13 @@ def _certify(mech, inputs, poses, crank, transmission, point, targets):
             z = np.array(poses[:, t], dtype=float)
             z[ix] = xs[t]
             closes = np.all(np.isfinite(z)) and float(np.max(np.abs(ck.phi(z)))) <= 1e-8 * ck.scale
+        elif targets is None:  # the mode the guesses name
+            from .solve import start_position
+
+            try:
+                z, closes = start_position(ck, xs[t])[0], True
+            except LoopsolveError:
+                z, closes = None, False
         else:
             modes = _modes_at(ck, xs[t])
             z, closes = None, bool(modes)

@@ -80,6 +80,12 @@ def read_targets(targets, task: str = "path", *, source: str | None = None) -> d
     Returns a dict of float arrays with the task's columns (``x,y`` / ``input,output`` /
     ``x,y,angle``) and ``input`` when given (prescribed timing). Raises :class:`ModelError`
     naming the file, line and column.
+
+    Examples
+    --------
+    >>> cols = read_targets("x,y,input\\n1,2,30\\n3,4,60\\n")
+    >>> cols["x"].tolist(), cols["input"].tolist()
+    ([1.0, 3.0], [30.0, 60.0])
     """
     need = _TASK_COLUMNS[task]
     where = source or "targets"

@@ -300,6 +300,19 @@ def synthesize(mech, *, path=None, function=None, motion=None, link=None, target
         Bad targets, bounds, names (exit 2 on the command line).
     SynthesisError
         No run found a certified design (its ``report`` lists the rejected candidates).
+
+    Examples
+    --------
+    The coupler point of the model's own four-bar at three crank angles; find the crank length
+    and the coupler point again:
+
+    >>> mech = ls.load(ls.models_dir() / "fourbar_path_synthesis.toml")
+    >>> targets = {"x": [1.247635, 1.125070, 0.759129], "y": [2.261923, 2.556968, 2.635152]}
+    >>> res = ls.synthesize(mech, path="P", targets=targets, inputs=[30, 60, 90],
+    ...                     vary={"r2": (0.5, 2), "rcx": (0, 3)}, popsize=8, maxiter=30, restarts=1,
+    ...                     mode="guesses", progress=False)
+    >>> {k: round(v, 3) for k, v in res.report["parameters"].items()}, res.report["certificate"]["defects"]
+    ({'r2': 1.0, 'rcx': 1.5}, [])
     """
     if mode == "guesses":
         mode = None
