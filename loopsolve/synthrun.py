@@ -359,20 +359,11 @@ def problem_targets(problem, targets):
 def _dask_runs(problem, mech, kwargs, seeds, opts, workers, scheduler, client, bar):
     from .modelfile import dumps
 
-    try:
-        from dask.distributed import Client, LocalCluster
-    except ImportError:
-        from .errors import MissingDependencyError
+    from .studies import _make_client  # the studies' cluster rules (local processes or a scheduler)
 
-        raise MissingDependencyError("--workers/--scheduler need dask[distributed]: pip install 'dask[distributed]'") \
-            from None
     own = None
     if client is None:
-        if scheduler:
-            client = own = Client(scheduler)
-        else:
-            cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True)
-            client = own = Client(cluster)
+        client = own = _make_client(workers or 1, scheduler)
     kwargs = dict(kwargs, model_text=dumps(mech), source=mech.source or mech.name)
     try:
         futs = [client.submit(_run_task, (kwargs, s, opts), pure=False) for s in seeds]
@@ -385,7 +376,7 @@ def _dask_runs(problem, mech, kwargs, seeds, opts, workers, scheduler, client, b
         if own is not None:
             cluster = getattr(own, "cluster", None)
             own.close()
-            if cluster is not None:
+            if cluster is not None and not scheduler:
                 cluster.close()
     return outs
 
