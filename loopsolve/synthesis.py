@@ -512,18 +512,20 @@ def search(problem: Problem, *, seed: int = 0, popsize: int = 15, maxiter: int =
            strategy: str = "best1bin", progress=None):
     """One seeded differential-evolution run; returns the final population sorted by objective.
 
-    Returns ``(V (S, k), f (S,), mode index (S,), direction (S,), inputs (T, S), generations, evaluations)``.
+    Returns ``(V (S, k), f (S,), mode index (S,), direction (S,), inputs (T, S), generations, evaluations,
+    history)``; ``history`` is the best objective of every evaluated batch (the convergence).
     """
     from scipy.optimize import differential_evolution
 
     k = len(problem.names)
     bounds = list(zip(problem.lo, problem.hi))
-    state = {"n": 0, "gen": 0}
+    state = {"n": 0, "gen": 0, "history": []}
     archive_v, archive_f = [], []  # the best designs of every generation: basins the final population left
 
     def fun(x):
         f, _, _, _ = evaluate(problem, x.T)
         state["n"] += x.shape[1]
+        state["history"].append(float(np.min(f)) if f.size else math.inf)
         for i in np.argsort(f)[:3]:
             if np.isfinite(f[i]):
                 archive_v.append(x[:, i].copy())
@@ -544,7 +546,7 @@ def search(problem: Problem, *, seed: int = 0, popsize: int = 15, maxiter: int =
         V = np.vstack([V, np.array(archive_v)[order]])
     f, mi, di, X = evaluate(problem, V)
     order = np.argsort(f, kind="stable")
-    return V[order], f[order], mi[order], di[order], X[:, order], state["gen"], state["n"]
+    return V[order], f[order], mi[order], di[order], X[:, order], state["gen"], state["n"], state["history"]
 
 
 # ---------------------------------------------------------------------------------------- polish

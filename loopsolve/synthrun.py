@@ -206,13 +206,14 @@ def one_run(problem, seed, opts):
         subs = [dataclasses.replace(problem, mode=_signature(sg)) for sg in problem.batch.all_signs()]
     else:
         subs = [problem]
-    cands, gens, nev = [], 0, 0
+    cands, gens, nev, history = [], 0, 0, []
     rng = np.random.default_rng(seed)
     for sub, k in [(sub, k) for sub in subs for k in range(opts["restarts"])]:
-        V, f, mi, di, X, g, n = search(sub, seed=int(rng.integers(2**31)), popsize=opts["popsize"],
+        V, f, mi, di, X, g, n, hist = search(sub, seed=int(rng.integers(2**31)), popsize=opts["popsize"],
                                        maxiter=opts["maxiter"], tol=opts["tol"], strategy=opts["strategy"])
         gens += g
         nev += n
+        history.append({"mode": sub.mode, "best": hist})
         P = sub.batch.params(V)
         modes = sub.modes(P)
         for i in _distinct(V, f, opts["polish"], sub.lo, sub.hi):
@@ -232,7 +233,7 @@ def one_run(problem, seed, opts):
         rejected.append({"seed": seed, "objective": c["objective"],
                          "parameters": dict(zip(problem.names, map(float, c["values"]))),
                          "defects": cert["defects"], "notes": cert["notes"]})
-    return best, rejected, time.perf_counter() - t0, {"generations": gens, "evaluations": nev}
+    return best, rejected, time.perf_counter() - t0, {"generations": gens, "evaluations": nev, "history": history}
 
 
 def _run_task(args):
@@ -384,18 +385,19 @@ def _dask_runs(problem, mech, kwargs, seeds, opts, workers, scheduler, client, b
 def _result(problem, outs) -> SynthesisResult:
     from .solve import display_value
 
-    runs_f, secs, rejected, gens, nev = [], [], [], [], 0
+    runs_f, secs, rejected, gens, nev, hist = [], [], [], [], 0, []
     best = None
     for cand, rej, sec, stats in outs:
         runs_f.append(cand["objective"] if cand else None)
         secs.append(sec)
         rejected.extend(rej)
         gens.append(stats["generations"])
+        hist.append(stats.get("history", []))
         nev += stats["evaluations"]
         if cand and (best is None or cand["objective"] < best["objective"]):
             best = cand
     stats = {"generations": gens, "evaluations": nev, "certified_runs": sum(f is not None for f in runs_f),
-             "rejected": rejected}
+             "rejected": rejected, "history": hist}
     report = {"task": problem.task, "objective": None, "parameters": None, "runs": runs_f, "seconds": secs,
               "mode": None, "direction": None, "targets": None, "certificate": None, "statistics": stats}
     if best is None:
