@@ -345,7 +345,12 @@ def define(mech, *, path: str | None = None, function: str | None = None, motion
                 raise ModelError(f"--transmission {transmission!r}: expected LO:HI in degrees") from None
         transmission = tuple(float(v) for v in transmission)
         if len(transmission) != 2 or not transmission[0] < transmission[1]:
-            raise ModelError(f"--transmission {transmission}: expected LO:HI (degrees) with LO < HIGH")
+            raise ModelError(f"--transmission {transmission}: expected LO:HI (degrees) with LO < HI")
+        dyads = [b for b in ck.blocks if len(b.unknowns) == 2 and all(
+            ck.kinds[int(ck.unknown_idx[c])] is Kind.ANGLE for c in b.unknowns)]
+        if not dyads:
+            raise ModelError(f"{name}: --transmission needs a dyad of two angle unknowns (the angle between its "
+                             "links is the transmission angle); this model has none")
     if mode is not None and mode != "any":
         nb = len(ck.blocks)
         if len(mode) != nb or any(c not in "+-" for c in mode):

@@ -290,6 +290,12 @@ class TestDefects:
 # ------------------------------------------------------------------------------------------- other models
 
 
+def test_transmission_needs_an_angle_dyad():
+    with pytest.raises(ls.ModelError, match="dyad of two angle unknowns"):
+        ls.synthesize(ls.load(SLIDER), path="P", targets={"x": [1, 2], "y": [1, 2]}, inputs=[0, 30],
+                      vary={"r2": (0.5, 2)}, transmission=(40, 140))
+
+
 def test_slider_crank_coupler_path():
     m = ls.load(SLIDER)
     plant = {"r2": 1.2, "r3": 3.0, "e": 0.4, "rcx": 1.6, "rcy": 0.9}  # r3: the model's
@@ -436,12 +442,14 @@ def test_motion_generation_recovers_a_planted_coupler(fourbar):
 
 
 @pytest.mark.parametrize("kwargs, words", [
+    ({"path": "P", "transmission": "50:40"}, ["--transmission", "LO < HI"]),
     ({"motion": "P", "link": "theta9"}, ["theta9", "angle unknown"]),
     ({"motion": "P"}, ["--link"]),
     ({"function": "theta2"}, ["theta2", "not an unknown"]),
 ])
 def test_function_and_motion_argument_errors(fourbar, kwargs, words):
-    cols = {"x": [1, 2], "y": [1, 2], "angle": [0, 10]} if "motion" in kwargs else {"input": [1, 2], "output": [1, 2]}
+    cols = ({"x": [1, 2], "y": [1, 2], "angle": [0, 10]} if "motion" in kwargs else {"x": [1, 2], "y": [1, 2]}
+            if "path" in kwargs else {"input": [1, 2], "output": [1, 2]})
     with pytest.raises(ls.ModelError) as e:
         ls.synthesize(fourbar, targets=cols, vary={"r2": (0.5, 3)}, **kwargs)
     for w in words:
