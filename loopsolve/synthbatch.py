@@ -306,16 +306,21 @@ class Batch:
                 alive &= reg >= REGULAR_MIN
             Zt[:, 0] = np.where(alive, Z, np.nan)
             reached = alive.astype(int)
-            zk1 = np.zeros_like(Z)
-            zk1[self.ix] = 1.0
+            # only the designs still going are computed on: the columns are compacted as they stop
+            cols = np.flatnonzero(alive)
+            Z, P, J, scale, w, sig0, X = (Z[:, cols], P[:, cols], J[:, cols], scale[cols], w[:, cols],
+                                          sig0[:, cols], X[:, cols])
+            alive = np.ones(cols.size, dtype=bool)
             for t in range(1, T):
+                if not cols.size:
+                    break
                 dx = X[t] - X[t - 1]
-                amax = np.max(np.abs(np.where(alive, dx, 0.0))) if alive.any() else 0.0
+                amax = float(np.max(np.abs(dx)))
                 m = max(1, int(math.ceil(amax / hmax - 1e-9)))
                 h = dx / m
                 for s in range(1, m + 1):
-                    if not alive.any():
-                        break
+                    zk1 = np.zeros_like(Z)
+                    zk1[self.ix] = 1.0
                     Tq = ops.solve(J, ops.rhs(1, (Z, zk1), P))
                     Z = Z.copy()
                     Z[self.ix] = X[t - 1] + dx * (s / m)
@@ -340,8 +345,17 @@ class Batch:
                     alive &= np.all(sig == sig0, axis=0)
                     if stop_on_singular:
                         alive &= reg >= REGULAR_MIN
-                Zt[:, t] = np.where(alive, Z, np.nan)
-                reached = np.where(alive, t + 1, reached)
+                    if not alive.all():
+                        keep = alive
+                        cols = cols[keep]
+                        Z, P, J, scale, w, sig0, X = (Z[:, keep], P[:, keep], J[:, keep], scale[keep], w[:, keep],
+                                                      sig0[:, keep], X[:, keep])
+                        alive = np.ones(cols.size, dtype=bool)
+                        dx, h = dx[keep], h[keep]
+                    if not cols.size:
+                        break
+                Zt[:, t, cols] = Z
+                reached[cols] = t + 1
         return Zt, reached
 
     def newton(self, Z, P, signs, iters: int = 12):
