@@ -33,7 +33,10 @@ benchmark a 150-generation DE/best/1/bin search ends in the basin of the optimum
 three seeds and its polish reaches the optimum in about half of those, so four restarts per
 mode make a run's best reach it with high probability, while one long search that stalls in
 the wide 0.13 basin stays there (and one search over both modes at once lets a basin of one
-mode crowd out the other's). The search strategy is a setting (``strategy``).
+mode crowd out the other's). The search strategy is a setting (``strategy``). A positive
+range spanning more than a decade (link lengths in [0.2, 50]) is searched on a log scale: on the
+eighteen-point benchmark this took the runs from 0.0098–0.0306 to 0.0099 every time, and the
+five-point runs to the optimum faster.
 
 **Local polish**: ``scipy.optimize.least_squares`` (trust-region reflective within the bounds)
 on the residual vector with the analytic Jacobian (implicit function theorem: ∂q/∂p = −Φ_q⁻¹ Φ_p,
@@ -523,17 +526,27 @@ def search(problem: Problem, *, seed: int = 0, popsize: int = 15, maxiter: int =
     from scipy.optimize import differential_evolution
 
     k = len(problem.names)
-    bounds = list(zip(problem.lo, problem.hi))
+    # a positive range spanning more than a decade (a link length in [0.2, 50]) is searched on a
+    # log scale: a uniform sample of the box would put almost no design at the small lengths
+    logs = (problem.lo > 0) & (problem.hi >= 10 * problem.lo)
+    lo_u = np.where(logs, np.log(np.where(logs, problem.lo, 1.0)), problem.lo)
+    hi_u = np.where(logs, np.log(np.where(logs, problem.hi, 1.0)), problem.hi)
+
+    def to_values(U):  # (k, S) search coordinates -> (S, k) model values
+        return np.where(logs[:, None], np.exp(U), U).T
+
+    bounds = list(zip(lo_u, hi_u))
     state = {"n": 0, "gen": 0, "history": []}
     archive_v, archive_f = [], []  # the best designs of every generation: basins the final population left
 
     def fun(x):
-        f, _, _, _ = evaluate(problem, x.T)
+        Vx = to_values(x)
+        f, _, _, _ = evaluate(problem, Vx)
         state["n"] += x.shape[1]
         state["history"].append(float(np.min(f)) if f.size else math.inf)
         for i in np.argsort(f)[:3]:
             if np.isfinite(f[i]):
-                archive_v.append(x[:, i].copy())
+                archive_v.append(Vx[i].copy())
                 archive_f.append(float(f[i]))
         return f
 
@@ -545,7 +558,8 @@ def search(problem: Problem, *, seed: int = 0, popsize: int = 15, maxiter: int =
     res = differential_evolution(fun, bounds, vectorized=True, updating="deferred", popsize=popsize,
                                  maxiter=maxiter, tol=tol, seed=seed, init="latinhypercube", polish=False,
                                  callback=cb, strategy=strategy)
-    V = np.vstack([np.atleast_2d(res.x), np.asarray(res.population)])
+    V = np.vstack([to_values(np.atleast_2d(res.x).T), to_values(np.asarray(res.population).T)])
+    V = np.clip(V, problem.lo, problem.hi)
     if archive_v:
         order = np.argsort(archive_f)[:20 * max(1, k)]
         V = np.vstack([V, np.array(archive_v)[order]])
