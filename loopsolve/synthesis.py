@@ -41,7 +41,8 @@ five-point runs to the optimum faster.
 **Local polish**: ``scipy.optimize.least_squares`` (trust-region reflective within the bounds)
 on the residual vector with the analytic Jacobian (implicit function theorem: ∂q/∂p = −Φ_q⁻¹ Φ_p,
 ∂q/∂x = Φ_q⁻¹ b₁ for free input values, explicit ∂P/∂p from a generated kernel). The best few
-distinct members of the final population are polished.
+distinct designs of each search (its final population and the best designs of every
+generation) are polished.
 
 **Certificate** (:mod:`loopsolve.certify`): from the tracker (the public sweep), never from
 the optimizer. A design is reported only when it is certified; rejected candidates are listed
