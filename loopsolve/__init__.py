@@ -26,6 +26,7 @@ from .errors import (  # noqa: E402
     ModelFileError,
     SingularPositionError,
     SolveError,
+    SynthesisError,
     TopologyError,
 )
 from .factories import fourbar, inverted_slider_crank, slider_crank  # noqa: E402
@@ -104,6 +105,13 @@ def study(mech, vary, start, stop, step, **kwargs):
     return _study(mech, vary, start, stop, step, **kwargs)
 
 
+def synthesize(mech, **kwargs):
+    """Dimensional synthesis (path, function, motion generation): see :func:`loopsolve.synthrun.synthesize`."""
+    from .synthrun import synthesize as _synthesize
+
+    return _synthesize(mech, **kwargs)
+
+
 def forces(mech, at=None, stop=None, step=None, **kwargs):
     """Force and torque analysis: see :func:`loopsolve.kinetostatics.forces` (imports sympy once)."""
     from .kinetostatics import forces as _forces
@@ -161,6 +169,7 @@ __all__ = [
     "ModelFileError",
     "SingularPositionError",
     "SolveError",
+    "SynthesisError",
     "State",
     "Sweep",
     "TopologyError",
@@ -185,4 +194,5 @@ __all__ = [
     "solve",
     "study",
     "sweep",
+    "synthesize",
 ]

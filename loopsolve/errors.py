@@ -138,6 +138,14 @@ class BranchError(SolveError):
     """Branch tracking failed: step below the minimum, or an ambiguous branch."""
 
 
+class SynthesisError(SolveError):
+    """A synthesis found no certified design; ``report`` holds the runs and the rejected candidates."""
+
+    def __init__(self, message: str, *, report: Any = None):
+        super().__init__(message)
+        self.report = report
+
+
 class MissingDependencyError(LoopsolveError, ImportError):
     """An optional dependency (an extra such as ``loopsolve[plot]``) or program is missing."""
 

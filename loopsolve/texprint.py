@@ -203,6 +203,8 @@ class LatexPrinter(_SympyLatexPrinter):
         When the argument differs from a declared angle p by n·π/2, sin/cos of it is ±sin p or
         ±cos p (kept unevaluated)."""
         arg = f.args[0]
+        if arg.is_Symbol or any(arg == p for p in self._settings["angles"]):
+            return f  # a plain variable or a declared angle as it is (another may differ by a quarter turn)
         for p in self._settings["angles"]:
             d = arg - p
             if d == 0 or not d.is_number:

@@ -484,3 +484,15 @@ class TestCli:
         assert cli.main(["latex", model, "--pdf", "-o", str(tmp_path / "d.pdf")]) == 2
         err = capsys.readouterr().err
         assert "MissingDependencyError" in err and "pdflatex" in err
+
+
+def test_a_declared_angle_is_not_rewritten_through_a_quarter_turn_offset():
+    """θ3 and θ3 + 90° both declared (a coupler frame's unit vectors): cos θ3 stays cos θ3."""
+    import sympy as sp
+
+    from loopsolve.latex import LatexPrinter
+
+    t3 = sp.Symbol("theta3")
+    pr = LatexPrinter({"degrees": True, "angles": (t3 + sp.pi / 2,)})
+    assert pr.doprint(sp.cos(t3)) == "\\cos\\theta_{3}"
+    assert pr.doprint(sp.sin(t3)) == "\\sin\\theta_{3}"
