@@ -120,12 +120,16 @@ def _parameters(mech) -> dict:
 
 
 def classic_synthesize(mech, *, method: str, targets, function: str | None = None, motion: str | None = None,
-                       link: str | None = None, fit: str | None = None) -> ClassicSynthesis:
+                       link: str | None = None, fit: str | None = None, input_range=None) -> ClassicSynthesis:
     """Run Freudenstein (``function=``) or Burmester (``motion=``, ``link=``) on a four-bar model.
 
     Raises
     ------
     ModelError
+        ``input_range`` (function generation: the intended input range, model units; default the
+        targets' span) is checked (a limit inside it is a ``range`` defect) and the report's
+        ``structural_error`` covers it.
+
         Not a four-bar, an unknown ``function``/``link`` variable or ``motion`` point, a malformed
         targets file, too few (or too many) targets for the method.
     SolveError
@@ -158,9 +162,10 @@ def classic_synthesize(mech, *, method: str, targets, function: str | None = Non
 
         deg = mech.units.angle == "deg"
         conv = (lambda v: v) if deg else np.degrees
+        rng = None if input_range is None else tuple(float(conv(float(v))) for v in input_range)
         d = freudenstein_points(conv(rows[:, 0]), conv(rows[:, 1]), fit=fit or ("exact" if len(rows) == 3 else
                                                                                    "least-squares"),
-                                length_unit=mech.units.length, name=f"{mech.name} (Freudenstein)")
+                                length_unit=mech.units.length, name=f"{mech.name} (Freudenstein)", input_range=rng)
         errs = []
         for a, b in rows:
             out = d.mechanism.solve(float(conv(a)), mode=d.mode)["theta4"] if d.certified else math.nan
@@ -174,6 +179,15 @@ def classic_synthesize(mech, *, method: str, targets, function: str | None = Non
                   "parameters": _parameters(d.mechanism), "K": list(d.K), "mode": d.mode, "direction": 1,
                   "targets": [{"input": float(a), "error": e} for (a, _), e in zip(rows, errs)],
                   "certificate": cert, "design": d.to_dict()}
+        from .structerr import structural_error
+
+        # the design model is in degrees: the error in degrees, converted to the model's angle unit
+        se = structural_error(d.mechanism, "theta4", float(conv(rows[0, 0])), targets=(conv(rows[:, 0]),
+                              conv(rows[:, 1])), input_range=rng)
+        if not deg:
+            se = {k: ([math.radians(x) for x in v] if isinstance(v, list) else
+                      math.radians(v) if k in ("max", "at", "signed") and v is not None else v) for k, v in se.items()}
+        report["structural_error"] = se
         return ClassicSynthesis(d.mechanism, report, d)
     if motion is None or link is None:
         raise ModelError("--method burmester is for motion generation (--motion POINT --link VAR)")
