@@ -120,7 +120,8 @@ def _parameters(mech) -> dict:
 
 
 def classic_synthesize(mech, *, method: str, targets, function: str | None = None, motion: str | None = None,
-                       link: str | None = None, fit: str | None = None, input_range=None) -> ClassicSynthesis:
+                       link: str | None = None, fit: str | None = None, input_range=None,
+                       desired=None) -> ClassicSynthesis:
     """Run Freudenstein (``function=``) or Burmester (``motion=``, ``link=``) on a four-bar model.
 
     Raises
@@ -128,7 +129,8 @@ def classic_synthesize(mech, *, method: str, targets, function: str | None = Non
     ModelError
         ``input_range`` (function generation: the intended input range, model units; default the
         targets' span) is checked (a limit inside it is a ``range`` defect) and the report's
-        ``structural_error`` covers it.
+        ``structural_error`` covers it (against ``desired(x)``, model units, when given; else the
+        PCHIP through the targets).
 
         Not a four-bar, an unknown ``function``/``link`` variable or ``motion`` point, a malformed
         targets file, too few (or too many) targets for the method.
@@ -182,8 +184,12 @@ def classic_synthesize(mech, *, method: str, targets, function: str | None = Non
         from .structerr import structural_error
 
         # the design model is in degrees: the error in degrees, converted to the model's angle unit
+        want = None
+        if desired is not None:
+            def want(x):  # the design model is in degrees; desired takes and gives model units
+                return conv(np.asarray(desired(x if deg else np.radians(x)), dtype=float))
         se = structural_error(d.mechanism, "theta4", float(conv(rows[0, 0])), targets=(conv(rows[:, 0]),
-                              conv(rows[:, 1])), input_range=rng)
+                              conv(rows[:, 1])), input_range=rng, desired=want)
         if not deg:
             se = {k: ([math.radians(x) for x in v] if isinstance(v, list) else
                       math.radians(v) if k in ("max", "at", "signed") and v is not None else v) for k, v in se.items()}

@@ -253,7 +253,7 @@ def synthesize(mech, *, path=None, function=None, motion=None, link=None, target
                popsize: int = 15, maxiter: int = 150, tol: float = 1e-3, restarts: int = 4,
                strategy: str = "best1bin", polish_candidates: int = 2,
                workers: int | None = None, scheduler: str | None = None, client=None,
-               progress: bool | None = None, method: str = "general", input_range=None):
+               progress: bool | None = None, method: str = "general", input_range=None, desired=None):
     """Find parameter values that make ``mech`` do a job; only certified designs are returned.
 
     Parameters
@@ -300,6 +300,9 @@ def synthesize(mech, *, path=None, function=None, motion=None, link=None, target
         Function generation: the intended input range (model units; default the targets'
         span) over which the report's ``structural_error`` (largest |y(x) − y_wanted(x)|, the
         wanted curve being the PCHIP through the targets) is measured by tracking the design.
+    desired : callable, optional
+        Function generation: the wanted output y(x) (model units, vectorized) as the reference
+        of ``structural_error`` instead of the PCHIP through the targets.
 
     Returns
     -------
@@ -327,7 +330,8 @@ def synthesize(mech, *, path=None, function=None, motion=None, link=None, target
     """
     if method != "general":
         return _classic(mech, method, path=path, function=function, motion=motion, link=link, targets=targets,
-                        input_range=input_range, vary=vary, inputs=inputs, crank=crank, transmission=transmission)
+                        input_range=input_range, desired=desired, vary=vary, inputs=inputs, crank=crank,
+                        transmission=transmission)
     if mode == "guesses":
         mode = None
     if runs < 1:
@@ -360,10 +364,10 @@ def synthesize(mech, *, path=None, function=None, motion=None, link=None, target
                 bar.update(1)
     if bar is not None:
         bar.close()
-    return _result(problem, outs, input_range)
+    return _result(problem, outs, input_range, desired)
 
 
-def _classic(mech, method, *, path, function, motion, link, targets, input_range, **general_only):
+def _classic(mech, method, *, path, function, motion, link, targets, input_range, desired, **general_only):
     from .classicsynth import METHODS, classic_synthesize
 
     if method not in METHODS:
@@ -378,7 +382,7 @@ def _classic(mech, method, *, path, function, motion, link, targets, input_range
 
     try:
         res = classic_synthesize(mech, method=method, targets=targets, function=function, motion=motion, link=link,
-                                 input_range=input_range)
+                                 input_range=input_range, desired=desired)
     except SynthesisError:
         raise
     except SolveError as exc:  # no usable candidate: the same error as the general method's, with the report
@@ -392,7 +396,7 @@ def _classic(mech, method, *, path, function, motion, link, targets, input_range
     return res
 
 
-def _function_structural_error(problem, mech, report, input_range):
+def _function_structural_error(problem, mech, report, input_range, desired=None):
     from .structerr import structural_error
     from .units import Kind
 
@@ -401,7 +405,8 @@ def _function_structural_error(problem, mech, report, input_range):
     if ck.kinds[ck.index(problem.output)] is Kind.ANGLE and problem.mech.units.angle == "deg":
         y = np.degrees(y)
     x = np.array([t["input"] for t in report["targets"]], dtype=float)
-    return structural_error(mech, problem.output, float(x[0]), targets=(x, y), input_range=input_range)
+    return structural_error(mech, problem.output, float(x[0]), targets=(x, y), input_range=input_range,
+                            desired=desired)
 
 
 def problem_targets(problem, targets):
@@ -436,7 +441,7 @@ def _dask_runs(problem, mech, kwargs, seeds, opts, workers, scheduler, client, b
     return outs
 
 
-def _result(problem, outs, input_range=None) -> SynthesisResult:
+def _result(problem, outs, input_range=None, desired=None) -> SynthesisResult:
     from .solve import display_value
 
     runs_f, secs, rejected, gens, nev, hist = [], [], [], [], 0, []
@@ -474,6 +479,7 @@ def _result(problem, outs, input_range=None) -> SynthesisResult:
     report = _clean(report)
     mech = design_model(problem, best["values"], best["inputs"], best["Z"])
     if problem.task == "function":
-        report["structural_error"] = _clean(_function_structural_error(problem, mech, report, input_range))
+        report["structural_error"] = _clean(_function_structural_error(problem, mech, report, input_range,
+                                                                                 desired))
     return SynthesisResult(problem, mech, report, np.asarray(best["values"]), np.asarray(best["inputs"]),
                            best["Z"])

@@ -242,3 +242,26 @@ def test_structural_error_of_a_general_function_design_against_the_closed_form(t
     e = np.abs(theta4(dense, r2=r2) - ref)
     assert se["max"] == pytest.approx(e.max(), rel=1e-3, abs=1e-4)
     assert se["at"] == pytest.approx(dense[np.argmax(e)], abs=0.5)
+
+
+def test_structural_error_of_the_freudenstein_design_against_the_closed_form(log10_csv):
+    # the three-point log10 design over its reachable span of targets, against y = log10 x itself: the output
+    # from Freudenstein's equation (K1 - cos t2) cos t4 - sin t2 sin t4 = K2 cos t2 - K3, solved here
+    def wanted(t2):
+        return 135 + 90 * np.log10(1 + 9 * (np.asarray(t2) - 45) / 60)
+
+    rows = log10_targets()
+    res = ls.synthesize(ls.load(FOURBAR), method="freudenstein", function="theta4", targets=log10_csv,
+                        desired=wanted)
+    se = res.report["structural_error"]
+    assert se["reference"] == "function" and se["range"] == pytest.approx([rows[0][0], rows[-1][0]])
+    k1, k2, k3 = freudenstein_K(rows)
+    t2 = np.radians(np.linspace(rows[0][0], rows[-1][0], 20001))
+    a, b, c = k1 - np.cos(t2), -np.sin(t2), k2 * np.cos(t2) - k3
+    base, half = np.arctan2(b, a), np.arccos(np.clip(c / np.hypot(a, b), -1, 1))
+    branches = [np.degrees(base + s * half) for s in (1, -1)]
+    t4 = min(branches, key=lambda t: abs((t[0] - rows[0][1] + 180) % 360 - 180))
+    e = (t4 - wanted(np.degrees(t2)) + 180) % 360 - 180
+    assert abs(e[0]) < 1e-6 and abs(e[-1]) < 1e-6  # the end targets are met
+    assert se["max"] == pytest.approx(np.abs(e).max(), rel=1e-3)
+    assert se["at"] == pytest.approx(np.degrees(t2[np.argmax(np.abs(e))]), abs=0.5)
