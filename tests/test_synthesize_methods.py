@@ -265,3 +265,30 @@ def test_structural_error_of_the_freudenstein_design_against_the_closed_form(log
     assert abs(e[0]) < 1e-6 and abs(e[-1]) < 1e-6  # the end targets are met
     assert se["max"] == pytest.approx(np.abs(e).max(), rel=1e-3)
     assert se["at"] == pytest.approx(np.degrees(t2[np.argmax(np.abs(e))]), abs=0.5)
+
+
+def test_cli_general_function_report_has_the_structural_error_over_range(tmp_path):
+    # targets on the model's own four-bar (prob1: AB=20, BC=66, CD=56, AD=80, open mode), crank length varied
+    def theta4(t2_deg):
+        a = np.array([20 * math.cos(math.radians(t2_deg)), 20 * math.sin(math.radians(t2_deg))])
+        B = intersect(a, 66.0, np.array([80.0, 0.0]), 56.0)
+        return math.degrees(math.atan2(B[1], B[0] - 80.0))
+
+    t = tmp_path / "f.csv"
+    t.write_text("input,output\n" + "".join(f"{x},{theta4(x)!r}\n" for x in (30, 60, 90, 120)))
+    rep_path = tmp_path / "r.json"
+    p = run("synthesize", FOURBAR, "--function", "theta4", "--targets", t, "--vary", "AB=15:25", "--range",
+            "20:130", "--popsize", "6", "--maxiter", "15", "--restarts", "1", "--report", rep_path, "-q")
+    if p.returncode != 0:
+        pytest.fail(p.stderr)
+    rep = json.loads(rep_path.read_text())
+    se = rep["structural_error"]
+    assert rep["parameters"]["AB"] == pytest.approx(20, abs=1e-6)
+    assert se["range"] == [20.0, 130.0] and se["reached"] == pytest.approx([20.0, 130.0])
+    assert se["reference"] == "pchip through the targets"
+    from scipy.interpolate import PchipInterpolator
+
+    dense = np.linspace(20, 130, 2201)
+    ref = PchipInterpolator([30, 60, 90, 120], [theta4(x) for x in (30, 60, 90, 120)])(dense)
+    e = np.abs(np.array([theta4(x) for x in dense]) - ref)
+    assert se["max"] == pytest.approx(e.max(), rel=1e-2)
