@@ -174,9 +174,12 @@ def certify_design(problem, values, inputs=None, signs=None, poses=None) -> dict
                    point=problem.point, targets=problem.targets)
 
 
-def polish_design(problem, values, *, inputs=None, signs=None):
-    """Polish one start (model units) and certify it: ``(polished dict, certificate)``."""
-    p = polish(problem, values, inputs=inputs, signs=signs)
+def polish_design(problem, values, *, inputs=None, signs=None, hmax=None):
+    """Polish one start (model units) and certify it: ``(polished dict, certificate)``.
+
+    ``hmax``: the trace's largest input step (internal units; default the engine's 5°).
+    """
+    p = polish(problem, values, inputs=inputs, signs=signs, **({} if hmax is None else {"hmax": hmax}))
     if not math.isfinite(p.get("objective", math.inf)):
         return p, {"defects": ["assembly"], "notes": ["the start cannot be traced through the targets"]}
     cert = certify_design(problem, p["values"], p["inputs"], p["signs"], p["Z"])

@@ -292,3 +292,56 @@ def test_cli_general_function_report_has_the_structural_error_over_range(tmp_pat
     ref = PchipInterpolator([30, 60, 90, 120], [theta4(x) for x in (30, 60, 90, 120)])(dense)
     e = np.abs(np.array([theta4(x) for x in dense]) - ref)
     assert se["max"] == pytest.approx(e.max(), rel=1e-2)
+
+
+def test_least_squares_freudenstein_is_polished_by_the_general_method(tmp_path):
+    # seven uniform points of the log10 generator: linear least squares on K (computed here with numpy), then the
+    # general method's polish of r2, r3, r4 (r1 = 100). Reference: the four-bar's closed form written here.
+    x = np.linspace(1.6, 9.4, 7)
+    a, b = 45 + 60 * (x - 1) / 9, 135 + 90 * np.log10(x)
+    t = tmp_path / "seven.csv"
+    t.write_text("input,output\n" + "".join(f"{float(u)!r},{float(v)!r}\n" for u, v in zip(a, b)))
+    ta, tb = np.radians(a), np.radians(b)
+    K = np.linalg.lstsq(np.c_[np.cos(tb), -np.cos(ta), np.ones_like(ta)], np.cos(ta - tb), rcond=None)[0]
+
+    def outputs(r1, r2, r3, r4, s2, s4):
+        # crank pin at s2*r2∠t2, rocker pin at O4 + s4*r4∠t4 (s = -1: a negative Freudenstein length)
+        out = []
+        for t2, want in zip(ta, tb):
+            A = s2 * r2 * np.array([math.cos(t2), math.sin(t2)])
+            cands = []
+            for side in (1, -1):
+                d = A - np.array([r1, 0.0])
+                L = float(np.hypot(*d))
+                xx = (r4 * r4 - r3 * r3 + L * L) / (2 * L)
+                h = math.sqrt(max(r4 * r4 - xx * xx, 0.0))
+                C = np.array([r1, 0.0]) + xx * d / L + side * h * np.array([-d[1], d[0]]) / L
+                ang = math.atan2(C[1], C[0] - r1) - (0 if s4 > 0 else math.pi)
+                cands.append((ang - want + math.pi) % (2 * math.pi) - math.pi)
+            out.append(min(cands, key=abs))
+        return np.array(out)
+
+    s2, s4 = (1 if K[0] > 0 else -1), (1 if K[1] > 0 else -1)
+    r2, r4 = 100 / abs(K[0]), 100 / abs(K[1])
+    r3 = math.sqrt(100 ** 2 + r2 ** 2 + r4 ** 2 - 2 * (100 / K[0]) * (100 / K[1]) * K[2])
+    f_linear = float(np.sum(outputs(100, r2, r3, r4, s2, s4) ** 2))
+    res = ls.synthesize(ls.load(FOURBAR), method="freudenstein", function="theta4", targets=t)
+    rep = res.report
+    assert rep["polish"]["used"] and rep["polish"]["objective_before"] == pytest.approx(f_linear, rel=1e-6)
+    p = rep["parameters"]
+    e = outputs(p["r1"], p["r2"], p["r3"], p["r4"], s2, s4)
+    f = float(np.sum(e ** 2))
+    assert rep["objective"] == pytest.approx(f, rel=1e-6) and f < 0.5 * f_linear
+    assert [t_["error"] for t_ in rep["targets"]] == pytest.approx(list(e), abs=1e-9)
+    # a local minimum of the closed-form objective: along r2, r3, r4 both neighbours are higher and the parabola
+    # through the three values has its vertex within 5 % of the step from the polished value
+    for k in ("r2", "r3", "r4"):
+        q = dict(p)
+        h = 1e-4 * p[k]
+        q[k] = p[k] + h
+        fp = float(np.sum(outputs(q["r1"], q["r2"], q["r3"], q["r4"], s2, s4) ** 2))
+        q[k] = p[k] - h
+        fm = float(np.sum(outputs(q["r1"], q["r2"], q["r3"], q["r4"], s2, s4) ** 2))
+        assert f <= min(fp, fm)
+        assert abs(h * (fm - fp) / (2 * (fp + fm - 2 * f))) < 0.05 * h
+    assert rep["certificate"]["defects"] == []
