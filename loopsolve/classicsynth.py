@@ -115,17 +115,84 @@ class ClassicSynthesis:
         return dumps(self.mechanism)
 
 
+def _polish_freudenstein(res: ClassicSynthesis, a, b, rng, want, deg: bool) -> ClassicSynthesis:
+    """The general method's local polish of a least-squares design (angles ``a``, ``b`` in degrees)."""
+    import copy
+
+    from .modelfile import dumps, loads
+    from .structerr import structural_error
+    from .synthesis import define
+    from .synthrun import design_model, polish_design
+
+    rep = res.report
+    mech = res.mechanism
+    spec = copy.deepcopy(mech.spec)
+    g = spec["variables"]["theta4"]["guess"]  # the tracked output starts within half a turn of the target
+    spec["variables"]["theta4"]["guess"] = g + 360.0 * round((b[0] - g) / 360.0)
+    mech = loads(dumps(spec), source=mech.source or mech.name)
+    p0 = rep["parameters"]
+    vary = {n: (0.2 * p0[n], 5.0 * p0[n]) for n in ("r2", "r3", "r4")}
+    info = {"method": "general (loopsolve.synthrun.polish_design)", "varied": sorted(vary),
+            "objective_before": rep["objective"], "objective": None, "used": False}
+    out = res
+    try:
+        problem = define(mech, function="theta4", targets={"input": a, "output": b}, vary=vary, mode=None)
+        p, cert = polish_design(problem, [p0[n] for n in problem.names], hmax=math.radians(0.1))
+    except (ModelError, SolveError) as exc:
+        p, cert = {"objective": math.inf}, {"defects": ["assembly"], "notes": [str(exc)]}
+    f = p.get("objective", math.inf)
+    info.update({"objective": f if math.isfinite(f) else None, "certificate": cert})
+    if math.isfinite(f) and not cert.get("defects") and f < rep["objective"]:
+        new = design_model(problem, p["values"], p["inputs"], p["Z"])
+        se = structural_error(new, "theta4", float(a[0]), targets=(a, b), input_range=rng, desired=want)
+        old_reach = rep["structural_error"]["reached"]
+        if se["reached"] is not None and se["reached"][0] <= old_reach[0] + 1e-9 \
+                and se["reached"][1] >= old_reach[1] - 1e-9:
+            errs = []
+            for x, y in zip(a, b):
+                out_ = new.solve(float(x), mode=rep["mode"])["theta4"]
+                errs.append(math.radians((out_ - y + 180) % 360 - 180))
+            if not deg:
+                se = {k: ([math.radians(x) for x in v] if isinstance(v, list) else
+                          math.radians(v) if k in ("max", "at", "signed") and v is not None else v)
+                      for k, v in se.items()}
+            from .classic import grashof
+
+            pars = _parameters(new)
+            cls = grashof(*(abs(pars[n]) for n in ("r1", "r2", "r3", "r4"))).value
+            rep = dict(rep, objective=float(sum(e * e for e in errs)), parameters=pars,
+                       targets=[{"input": t["input"], "error": e} for t, e in zip(rep["targets"], errs)],
+                       structural_error=se, certificate=dict(rep["certificate"], **{
+                           k: cert[k] for k in ("assembles", "one_circuit", "order", "defects") if k in cert}, grashof=cls))
+            info["used"] = True
+            out = ClassicSynthesis(new, rep, res.design)
+        else:
+            info["note"] = "the polished design reaches less of the input range: kept the least-squares design"
+    out.report["polish"] = info
+    return out
+
+
 def _parameters(mech) -> dict:
     return {p.name: (math.degrees(p.value) if p.kind.name == "ANGLE" else p.value) for p in mech.parameters}
 
 
 def classic_synthesize(mech, *, method: str, targets, function: str | None = None, motion: str | None = None,
-                       link: str | None = None, fit: str | None = None) -> ClassicSynthesis:
+                       link: str | None = None, fit: str | None = None, input_range=None,
+                       desired=None, polish: bool = True) -> ClassicSynthesis:
     """Run Freudenstein (``function=``) or Burmester (``motion=``, ``link=``) on a four-bar model.
 
     Raises
     ------
     ModelError
+        ``input_range`` (function generation: the intended input range, model units; default the
+        targets' span) is checked (a limit inside it is a ``range`` defect) and the report's
+        ``structural_error`` covers it (against ``desired(x)``, model units, when given; else the
+        PCHIP through the targets).
+        ``polish``: a certified least-squares Freudenstein design (more than three targets) is
+        polished by the general method (:func:`loopsolve.synthrun.polish_design` on r2, r3, r4,
+        the ground r1 fixed) and replaced when the polished design is certified, better, and
+        reaches as much of the input range; the report's ``polish`` says what happened.
+
         Not a four-bar, an unknown ``function``/``link`` variable or ``motion`` point, a malformed
         targets file, too few (or too many) targets for the method.
     SolveError
@@ -158,9 +225,10 @@ def classic_synthesize(mech, *, method: str, targets, function: str | None = Non
 
         deg = mech.units.angle == "deg"
         conv = (lambda v: v) if deg else np.degrees
+        rng = None if input_range is None else tuple(float(conv(float(v))) for v in input_range)
         d = freudenstein_points(conv(rows[:, 0]), conv(rows[:, 1]), fit=fit or ("exact" if len(rows) == 3 else
                                                                                    "least-squares"),
-                                length_unit=mech.units.length, name=f"{mech.name} (Freudenstein)")
+                                length_unit=mech.units.length, name=f"{mech.name} (Freudenstein)", input_range=rng)
         errs = []
         for a, b in rows:
             out = d.mechanism.solve(float(conv(a)), mode=d.mode)["theta4"] if d.certified else math.nan
@@ -174,7 +242,23 @@ def classic_synthesize(mech, *, method: str, targets, function: str | None = Non
                   "parameters": _parameters(d.mechanism), "K": list(d.K), "mode": d.mode, "direction": 1,
                   "targets": [{"input": float(a), "error": e} for (a, _), e in zip(rows, errs)],
                   "certificate": cert, "design": d.to_dict()}
-        return ClassicSynthesis(d.mechanism, report, d)
+        from .structerr import structural_error
+
+        # the design model is in degrees: the error in degrees, converted to the model's angle unit
+        want = None
+        if desired is not None:
+            def want(x):  # the design model is in degrees; desired takes and gives model units
+                return conv(np.asarray(desired(x if deg else np.radians(x)), dtype=float))
+        se = structural_error(d.mechanism, "theta4", float(conv(rows[0, 0])), targets=(conv(rows[:, 0]),
+                              conv(rows[:, 1])), input_range=rng, desired=want)
+        if not deg:
+            se = {k: ([math.radians(x) for x in v] if isinstance(v, list) else
+                      math.radians(v) if k in ("max", "at", "signed") and v is not None else v) for k, v in se.items()}
+        report["structural_error"] = se
+        result = ClassicSynthesis(d.mechanism, report, d)
+        if polish and d.certified and len(rows) > 3:
+            result = _polish_freudenstein(result, conv(rows[:, 0]), conv(rows[:, 1]), rng, want, deg)
+        return result
     if motion is None or link is None:
         raise ModelError("--method burmester is for motion generation (--motion POINT --link VAR)")
     if motion not in [p.name for p in mech.points]:

@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import math
 import os
 import sys
 import warnings
@@ -320,8 +321,13 @@ def _synthesis_parser(sub) -> None:
     p.add_argument("--targets", required=True, metavar="T.csv", help="targets (CSV with a header line; an "
                    "input column prescribes the timing)")
     p.add_argument("--inputs", metavar="X1,X2,...", help="prescribed input value of every target (model units)")
-    p.add_argument("--vary", action="append", required=True, metavar="NAME=LOW:HIGH",
-                   help="a design variable and its bounds (model units); repeat for more")
+    p.add_argument("--vary", action="append", metavar="NAME=LOW:HIGH",
+                   help="a design variable and its bounds (model units); repeat for more (general method)")
+    p.add_argument("--method", choices=("general", "freudenstein", "burmester"), default="general",
+                   help="general (default: any model, --vary), or the classical four-bar methods: freudenstein "
+                   "(--function) and burmester (--motion --link, five poses)")
+    p.add_argument("--range", dest="input_range", metavar="LO:HI", help="with --function: the intended input range "
+                   "(model units; default: the targets' inputs), checked and reported as the structural error")
     p.add_argument("--crank", action="store_true", help="the input must turn fully")
     p.add_argument("--transmission", metavar="LO:HI", help="transmission angle bounds over the motion (degrees)")
     p.add_argument("--mode", default="any", metavar="any|guesses|SIGNATURE",
@@ -347,6 +353,14 @@ def cmd_synthesize(args) -> int:
 
     for out in (args.output, args.report):
         _check_output(out)
+    input_range = _parse_range(args.input_range) if args.input_range else None
+    if input_range is not None and not args.function:
+        raise ModelError("--range is for function generation (--function OUT)")
+    if args.method != "general":
+        return _classic_synthesize(args, input_range)
+    if not args.vary:
+        raise ModelError("synthesize: the general method needs the design variables (--vary NAME=LOW:HIGH, "
+                         "repeatable), or --method freudenstein|burmester on a four-bar model")
     mech = _load(args.model)
     vary = {}
     for text in args.vary:
@@ -367,7 +381,8 @@ def cmd_synthesize(args) -> int:
                          targets=args.targets, inputs=args.inputs, vary=vary, crank=args.crank,
                          transmission=args.transmission, runs=args.runs, seed=args.seed, mode=args.mode,
                          popsize=args.popsize, maxiter=args.maxiter, restarts=args.restarts, workers=args.workers,
-                         scheduler=args.scheduler, progress=None if not args.quiet else False)
+                         scheduler=args.scheduler, progress=None if not args.quiet else False,
+                         input_range=input_range)
     except SynthesisError as exc:
         if args.report and exc.report is not None:
             _write(json.dumps(exc.report, indent=2) + "\n", args.report)
@@ -382,6 +397,52 @@ def cmd_synthesize(args) -> int:
     else:
         rep = res.report
         print(f"objective {rep['objective']:.6g} (mode {rep['mode']}, certified); wrote {args.report}"
+              + (f" and {args.output}" if args.output else ""), file=sys.stderr)
+    return EXIT_OK
+
+
+def _parse_range(text):
+    from .errors import ModelError
+
+    parts = str(text).split(":")
+    try:
+        lo, hi = (float(v) for v in parts)
+    except ValueError:
+        raise ModelError(f"--range {text!r}: expected LO:HI (two numbers, model units)") from None
+    if not (math.isfinite(lo) and math.isfinite(hi)) or lo == hi:
+        raise ModelError(f"--range {text!r}: LO and HI must be two different finite numbers")
+    return (lo, hi)
+
+
+def _classic_synthesize(args, input_range) -> int:
+    """``synthesize --method freudenstein|burmester``: exit 3 (report still written) when not usable."""
+    import json
+
+    from .errors import ModelError, SynthesisError
+    from .synthrun import synthesize
+
+    for flag, given in (("--path", args.path), ("--vary", args.vary), ("--inputs", args.inputs),
+                        ("--crank", args.crank), ("--transmission", args.transmission),
+                        ("--workers", args.workers), ("--scheduler", args.scheduler)):
+        if given:
+            raise ModelError(f"{flag} is not used by --method {args.method} (it is for the general method)")
+    mech = _load(args.model)
+    try:
+        res = synthesize(mech, method=args.method, targets=args.targets, function=args.function,
+                         motion=args.motion, link=args.link, input_range=input_range)
+    except SynthesisError as exc:
+        if args.report and exc.report is not None:
+            _write(json.dumps(exc.report, indent=2) + "\n", args.report)
+        raise
+    text = json.dumps(res.report, indent=2) + "\n"
+    if args.report:
+        _write(text, args.report)
+    if args.output:
+        _write(res.to_toml(), args.output)
+    if not args.report:
+        sys.stdout.write(text)
+    else:
+        print(f"{args.method}: objective {res.report['objective']:.6g} (certified); wrote {args.report}"
               + (f" and {args.output}" if args.output else ""), file=sys.stderr)
     return EXIT_OK
 

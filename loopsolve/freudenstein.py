@@ -448,12 +448,13 @@ def freudenstein(function: Callable | None, x_range: Sequence[float], input_rang
 
 
 def freudenstein_points(inputs, outputs, *, fit: str = "exact", ground: float = 100.0, length_unit: str = "mm",
-                        name: str = "Freudenstein function generator") -> FunctionDesign:
+                        name: str = "Freudenstein function generator", input_range=None) -> FunctionDesign:
     """A function generator through precision points given as angles (degrees), checked by the tracker.
 
     ``inputs``/``outputs``: the input and output angles of each target, in the order the input
     must meet them; three (``fit="exact"``) or more (``fit="least-squares"``). The intended
-    input range is from the first to the last target; ``max_error`` is the largest output error
+    input range is ``input_range`` (degrees; default from the first to the last target: a limit
+    inside it is a ``range`` defect); ``max_error`` is the largest output error
     at the targets (the function between them is not known here).
 
     Examples
@@ -491,7 +492,13 @@ def freudenstein_points(inputs, outputs, *, fit: str = "exact", ground: float = 
     if fit != "exact":
         prec = ((prec[0][0], prec[0][1], prec[0][2], math.degrees(t4_0)),) + prec[1:]
     cls = grashof(*(abs(v) for v in lengths))
-    return _analyse(mech, K, lengths, (0.0, 0.0), fit, prec, (float(a[0]), float(a[-1])),
+    in_rng = (float(a[0]), float(a[-1]))
+    if input_range is not None:
+        lo, hi = sorted(float(v) for v in input_range)
+        if not (lo <= min(a) and max(a) <= hi):
+            raise ModelError(f"input range {lo:g}°:{hi:g}° does not hold every target input ({min(a):g}°…{max(a):g}°)")
+        in_rng = (lo, hi) if a[-1] >= a[0] else (hi, lo)
+    return _analyse(mech, K, lengths, (0.0, 0.0), fit, prec, in_rng,
                     (float(b[0]), float(b[-1])), cls, sign,
                     lambda t: np.degrees(fourbar_output(K, np.radians(t), sign)[0]), None, 1.0)
 

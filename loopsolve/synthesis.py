@@ -572,14 +572,16 @@ def search(problem: Problem, *, seed: int = 0, popsize: int = 15, maxiter: int =
 # ---------------------------------------------------------------------------------------- polish
 
 
-def polish(problem: Problem, values, *, signs=None, inputs=None, max_nfev: int = 200) -> dict:
+def polish(problem: Problem, values, *, signs=None, inputs=None, max_nfev: int = 200,
+           hmax: float = math.radians(5)) -> dict:
     """Local least-squares polish from ``values`` (model units, one per varied parameter).
 
     ``signs``: the mode (block signs; default: the best of the problem's modes at ``values``);
     ``inputs``: internal input values at the targets (free timing: the start of the unknown
     input values; prescribed: ignored). Returns a dict with ``values``, ``inputs``, ``signs``,
     ``objective``, ``Z`` (positions at the targets) or ``objective = inf`` when the start
-    cannot be traced.
+    cannot be traced. ``hmax``: the trace's largest input step (internal units; smaller follows
+    designs whose output turns fast, e.g. near a limit position).
     """
     from scipy.optimize import least_squares
 
@@ -619,7 +621,7 @@ def polish(problem: Problem, values, *, signs=None, inputs=None, max_nfev: int =
                     Zt, reached = Z[:, :, None], T
             if not ok:
                 with np.errstate(all="ignore"):
-                    Zt, r = problem.trace(P, x[:, None], sg, hmax=math.radians(5), singular_stop=False)
+                    Zt, r = problem.trace(P, x[:, None], sg, hmax=hmax, singular_stop=False)
                 reached = int(r[0])
             if reached >= T:
                 last["Z"] = Zt[:, :, 0].copy()

@@ -174,9 +174,12 @@ def certify_design(problem, values, inputs=None, signs=None, poses=None) -> dict
                    point=problem.point, targets=problem.targets)
 
 
-def polish_design(problem, values, *, inputs=None, signs=None):
-    """Polish one start (model units) and certify it: ``(polished dict, certificate)``."""
-    p = polish(problem, values, inputs=inputs, signs=signs)
+def polish_design(problem, values, *, inputs=None, signs=None, hmax=None):
+    """Polish one start (model units) and certify it: ``(polished dict, certificate)``.
+
+    ``hmax``: the trace's largest input step (internal units; default the engine's 5°).
+    """
+    p = polish(problem, values, inputs=inputs, signs=signs, **({} if hmax is None else {"hmax": hmax}))
     if not math.isfinite(p.get("objective", math.inf)):
         return p, {"defects": ["assembly"], "notes": ["the start cannot be traced through the targets"]}
     cert = certify_design(problem, p["values"], p["inputs"], p["signs"], p["Z"])
@@ -253,7 +256,7 @@ def synthesize(mech, *, path=None, function=None, motion=None, link=None, target
                popsize: int = 15, maxiter: int = 150, tol: float = 1e-3, restarts: int = 4,
                strategy: str = "best1bin", polish_candidates: int = 2,
                workers: int | None = None, scheduler: str | None = None, client=None,
-               progress: bool | None = None) -> SynthesisResult:
+               progress: bool | None = None, method: str = "general", input_range=None, desired=None):
     """Find parameter values that make ``mech`` do a job; only certified designs are returned.
 
     Parameters
@@ -290,10 +293,23 @@ def synthesize(mech, *, path=None, function=None, motion=None, link=None, target
         Spread the runs over a Dask cluster (as :func:`loopsolve.study` does).
     progress : bool, optional
         Runs completed on stderr (tqdm); default: on a terminal.
+    method : {"general", "freudenstein", "burmester"}
+        ``general`` (this engine); the classical four-bar methods (``function=`` for
+        Freudenstein, ``motion=``/``link=`` with five poses for Burmester) go to
+        :func:`loopsolve.classicsynth.classic_synthesize` (``vary`` and the search options are
+        not used) and return its result; a design with defects raises :class:`SynthesisError`
+        whose ``report`` lists them.
+    input_range : (lo, hi), optional
+        Function generation: the intended input range (model units; default the targets'
+        span) over which the report's ``structural_error`` (largest |y(x) − y_wanted(x)|, the
+        wanted curve being the PCHIP through the targets) is measured by tracking the design.
+    desired : callable, optional
+        Function generation: the wanted output y(x) (model units, vectorized) as the reference
+        of ``structural_error`` instead of the PCHIP through the targets.
 
     Returns
     -------
-    SynthesisResult
+    SynthesisResult (ClassicSynthesis for the classical methods)
 
     Raises
     ------
@@ -315,6 +331,10 @@ def synthesize(mech, *, path=None, function=None, motion=None, link=None, target
     >>> {k: round(v, 3) for k, v in res.report["parameters"].items()}, res.report["certificate"]["defects"]
     ({'r2': 1.0, 'rcx': 1.5}, [])
     """
+    if method != "general":
+        return _classic(mech, method, path=path, function=function, motion=motion, link=link, targets=targets,
+                        input_range=input_range, desired=desired, vary=vary, inputs=inputs, crank=crank,
+                        transmission=transmission)
     if mode == "guesses":
         mode = None
     if runs < 1:
@@ -347,7 +367,49 @@ def synthesize(mech, *, path=None, function=None, motion=None, link=None, target
                 bar.update(1)
     if bar is not None:
         bar.close()
-    return _result(problem, outs)
+    return _result(problem, outs, input_range, desired)
+
+
+def _classic(mech, method, *, path, function, motion, link, targets, input_range, desired, **general_only):
+    from .classicsynth import METHODS, classic_synthesize
+
+    if method not in METHODS:
+        raise ModelError(f"method={method!r}: expected 'general', {', '.join(repr(m) for m in METHODS)}")
+    if path is not None:
+        raise ModelError(f"method={method!r} is for {'function' if method == 'freudenstein' else 'motion'} "
+                         "generation; path generation uses the general method")
+    for k, v in general_only.items():
+        if v:
+            raise ModelError(f"{k}= is not used by method={method!r} (it is for the general method)")
+    from .errors import SolveError
+
+    try:
+        res = classic_synthesize(mech, method=method, targets=targets, function=function, motion=motion, link=link,
+                                 input_range=input_range, desired=desired)
+    except SynthesisError:
+        raise
+    except SolveError as exc:  # no usable candidate: the same error as the general method's, with the report
+        raise SynthesisError(str(exc), report=getattr(exc, "report", None)) from None
+    defects = res.report["certificate"]["defects"]
+    if defects:
+        msgs = [d["message"] for d in res.report.get("design", {}).get("defects", [])[:2]]
+        raise SynthesisError(f"{method}: the design has defects ({', '.join(defects)})"
+                             + (": " + "; ".join(msgs) if msgs else "")
+                             + "; try more targets (least squares) or the general method", report=res.report)
+    return res
+
+
+def _function_structural_error(problem, mech, report, input_range, desired=None):
+    from .structerr import structural_error
+    from .units import Kind
+
+    ck = problem.ck
+    y = problem.targets[:, 0]
+    if ck.kinds[ck.index(problem.output)] is Kind.ANGLE and problem.mech.units.angle == "deg":
+        y = np.degrees(y)
+    x = np.array([t["input"] for t in report["targets"]], dtype=float)
+    return structural_error(mech, problem.output, float(x[0]), targets=(x, y), input_range=input_range,
+                            desired=desired)
 
 
 def problem_targets(problem, targets):
@@ -382,7 +444,7 @@ def _dask_runs(problem, mech, kwargs, seeds, opts, workers, scheduler, client, b
     return outs
 
 
-def _result(problem, outs) -> SynthesisResult:
+def _result(problem, outs, input_range=None, desired=None) -> SynthesisResult:
     from .solve import display_value
 
     runs_f, secs, rejected, gens, nev, hist = [], [], [], [], 0, []
@@ -419,5 +481,8 @@ def _result(problem, outs) -> SynthesisResult:
     })
     report = _clean(report)
     mech = design_model(problem, best["values"], best["inputs"], best["Z"])
+    if problem.task == "function":
+        report["structural_error"] = _clean(_function_structural_error(problem, mech, report, input_range,
+                                                                                 desired))
     return SynthesisResult(problem, mech, report, np.asarray(best["values"]), np.asarray(best["inputs"]),
                            best["Z"])
