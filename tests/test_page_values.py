@@ -287,3 +287,17 @@ def test_velocity_and_acceleration_tabs_plot_their_columns(browser, tmp_path):
             if other:
                 wrong, _ = _affine_residual(pts[:, 1], sw[name + other])
                 assert wrong > 1.0, (name, suffix)  # the other quantity does not fit
+
+
+@pytest.mark.parametrize("model, rng, through, runs", [("thesis_crank_rocker_dynamics", (0, 360, 15), False, 1),
+                                                        ("double_rocker", (60, 180, 10), True, 2)])
+def test_mode_band_only_when_the_mode_changes(browser, tmp_path, model, rng, through, runs):
+    """The slider's mode band (one coloured run per mode) is drawn only for a sweep that changes mode."""
+    sw = sweep_of(model, rng, through)
+    data = page_data(sw)
+    changes = sum(1 for i in range(1, len(sw)) if sw.modes[i] != sw.modes[i - 1])
+    assert len(data["modes"]["runs"]) == runs == changes + 1
+    assert data["modes"]["changes"] is (changes > 0)
+    _open(browser, sw, tmp_path, f"band-{model}")
+    rects = browser.execute_script("return document.querySelectorAll('#ls-marks rect').length")
+    assert rects == (runs if changes else 0)
