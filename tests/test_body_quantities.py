@@ -43,3 +43,30 @@ def test_malformed_mass_in_a_model_file_is_a_model_error():
     assert n == 1
     with pytest.raises(ModelError, match=r'"0\.3kg"'):
         ls.loads(bad, source="heavy.toml")
+
+
+ENGINE = ls.models_dir() / "engine_slider_crank.toml"
+
+
+def load_error(text: str) -> str:
+    with pytest.raises(ModelError) as info:
+        ls.loads(text, source="e.toml")
+    return str(info.value)
+
+
+def test_declaration_errors_name_the_key_and_what_to_write():
+    """Each message names the exact key and the fix (mutation survivors of bodies.parse_dynamics
+    changed only these messages: the SI unit of an expression, the key of a bar's density, the
+    list of declared bodies)."""
+    t = ENGINE.read_text(encoding="utf-8")
+    msg = load_error(t.replace('force = ["-5.0265e-3*1e5', 'force = ["2 mm * -5.0265e-3*1e5'))
+    assert msg.startswith("e.toml: loads[0].force[0]: ")
+    assert "an expression is in SI (force in N); drop the unit 'mm'" in msg
+    msg = load_error(t.replace('mass = "0.6kg", inertia = "1.6e-3kg*m^2"',
+                               'bar = { length = 140, width = 20, thickness = 8, density = "heavy" }'))
+    assert msg.startswith("e.toml: bodies.rod.bar.density: 'heavy' is not a density")
+    msg = load_error(t.replace('body = "piston"', 'body = "nobody"', 1))
+    assert msg == "e.toml: loads[0].body: 'nobody' is not a declared body (bodies: crank, piston, rod)"
+    thesis = (ls.models_dir() / "thesis_crank_rocker_dynamics.toml").read_text(encoding="utf-8")
+    msg = load_error(thesis.replace('torque = "-0.05N*m"', 'torque = "1 m * -0.05*cos(theta4)"'))
+    assert "an expression is in SI (torque in N*m); drop the unit" in msg
