@@ -386,7 +386,11 @@ def sweep_chunk(mech, names, values, start, stop, step, *, speed=None, accel=Non
         Pr = [P[i] if p.name in varied else P[i, :1] for i, p in enumerate(mech.parameters)]
         lops = _Ops(ck, shared_input=True)
         lops.fused = fused_module(ck)
-        alive, last, irregular, sig0 = _lockstep(ck, lops, Pr, P, xs, ch, rates, derivatives, ~invalid)
+        from .solve import input_value
+
+        # the single sweep tracks on to `stop` past the last grid row (a limit there is its event): so do the checks
+        x_end = input_value(ck, stop, ck.inputs[0], reduce=False)
+        alive, last, irregular, sig0 = _lockstep(ck, lops, Pr, P, xs, ch, rates, derivatives, ~invalid, x_end=x_end)
     ch.lockstep[:] = alive
     for arr in ch.Z:
         arr[:, ch.filled:, :] = np.nan
@@ -632,10 +636,11 @@ def _newton_start(ops, Z, P, scale, alive):
     return Z
 
 
-def _lockstep(ck, ops, P, Pfull, xs, ch, rates, derivatives, alive=None) -> np.ndarray:
+def _lockstep(ck, ops, P, Pfull, xs, ch, rates, derivatives, alive=None, x_end=None):
     """``P``: the parameter rows as the generated code takes them (fixed ones as one value).
 
     ``alive``: the designs to sweep (default all); the others are left out from the start.
+    ``x_end``: the end of the range (internal units); the checks run on to it past the last grid row.
     """
     from .solve import initial_z
 
@@ -677,6 +682,11 @@ def _lockstep(ck, ops, P, Pfull, xs, ch, rates, derivatives, alive=None) -> np.n
             a, b = float(xs[k - 1]), float(xs[k])
             m = max(1, int(math.ceil(abs(b - a) / hmax - 1e-9)))
             targets += [(a + (b - a) * i / m, -1) for i in range(1, m)] + [(b, k)]
+        a = float(xs[-1])
+        if x_end is not None and abs(x_end - a) > 1e-12 * max(1.0, abs(x_end)):
+            # between the last row and `stop` (less than a step): checked, no row stored
+            m = max(1, int(math.ceil(abs(x_end - a) / hmax - 1e-9)))
+            targets += [(a + (x_end - a) * i / m, -1) for i in range(1, m + 1)]
         zk1 = np.zeros_like(Z)
         zk1[ix] = 1.0
         x_prev = x_guess

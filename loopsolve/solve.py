@@ -77,7 +77,7 @@ def initial_z(ck: CompiledKinematics, *, guess: dict | None = None, warn: bool =
         warnings.warn(
             f"{mech.name}: no guess for {', '.join(missing)}; starting from 0 (angles) or "
             f"{ck.scale:g} (lengths). Guesses pick the assembly mode: give them in [variables] "
-            "or choose a mode with --mode",
+            "or choose a mode with --mode SIGNATURE (mode= in Python; `loopsolve modes` lists them)",
             LoopsolveWarning,
             stacklevel=3,
         )

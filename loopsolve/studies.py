@@ -176,18 +176,19 @@ def _chunk_dataset(res, ck_info, names, values, offset):
     inp = ck_info["input"]
     D = len(values)
     dims = ("design", inp)
-    data = {k: (dims, v.T, {"units": ck_info["units"].get(k, "")}) for k, v in res["columns"].items() if k != inp}
+    units, punits = ck_info["units"], ck_info["param_units"]
+    data = {k: (dims, v.T, {"units": units.get(k, "")}) for k, v in res["columns"].items() if k != inp}
     for k, v in res.get("sensitivity", {}).items():
         data[k] = (dims, v.T, {"units": ck_info["sensitivity_units"].get(k, "")})
     for k in ("status", "events", "nearest", "mode"):
         data[k] = ("design", np.asarray(res[k], dtype=object))
-    data["stop"] = ("design", res["stop"])
+    data["stop"] = ("design", res["stop"], {"units": units[inp]})
     data["lockstep"] = ("design", res["lockstep"])
     for k, v in res.get("metrics", {}).items():
         data[k] = ("design", v)
-    coords = {"design": np.arange(offset, offset + D), inp: res["x"]}
+    coords = {"design": np.arange(offset, offset + D), inp: (inp, res["x"], {"units": units[inp]})}
     for j, n in enumerate(names):
-        coords[n] = ("design", values[:, j])
+        coords[n] = ("design", values[:, j], {"units": punits[n]})
     return xr.Dataset(data, coords=coords, attrs=ck_info["attrs"])
 
 
@@ -317,6 +318,8 @@ def study(mech, vary, start, stop, step, *, samples: int | None = None, lhs: int
     fixed = {p.name: (math.degrees(p.value) if p.kind is Kind.ANGLE and mech.units.angle == "deg" else p.value)
              for p in mech.parameters if p.name not in names}
     ck_info = {"input": ck.inputs[0], "units": units, "sensitivity_units": sens_units,
+               "param_units": {p.name: (mech.units.angle if p.kind is Kind.ANGLE else mech.units.length
+                                        if p.kind is Kind.LENGTH else "1") for p in mech.parameters},
                "attrs": {"model": mech.name, "source": str(mech.source or ""), "start": str(start), "stop": str(stop),
                          "step": str(step), "fixed": repr(fixed), "metrics": "; ".join(metrics),
                          "length_unit": mech.units.length, "angle_unit": mech.units.angle}}
@@ -549,7 +552,7 @@ def _run_dask_zarr(client, tasks, bounds, ck_info, names, path, bar):
         return da.empty(shape, chunks=(c,) + v.shape[1:], dtype=v.dtype)
 
     tmpl = xr.Dataset({k: (v.dims, lazy(v), v.attrs) for k, v in first.data_vars.items()},
-                      coords={k: ((v.dims, lazy(v)) if "design" in v.dims and k != "design" else v)
+                      coords={k: ((v.dims, lazy(v), v.attrs) if "design" in v.dims and k != "design" else v)
                               for k, v in first.coords.items() if k != "design"},
                       attrs=first.attrs)
     tmpl = tmpl.assign_coords(design=np.arange(N))

@@ -84,6 +84,21 @@ def test_directory_is_created_private_whatever_the_umask(cache):
     assert not [p for p in cache.iterdir() if p.suffix == ".tmp"]
 
 
+def test_directory_is_never_more_open_than_0700(cache, monkeypatch):
+    """The directory is created 0700 by mkdir itself, not opened up and then closed by a chmod:
+    with umask 0 and the follow-up chmod intercepted, it is 0700 from its first instant (kills
+    loopsolve.compiled.x__ensure_dir__mutmut_12, ``os.mkdir(directory, 449)``: 449 is 0o701)."""
+    calls = []
+    monkeypatch.setattr(compiled.os, "chmod", lambda path, mode, *a, **k: calls.append((str(path), mode)))
+    old = os.umask(0)
+    try:
+        compiled._ensure_dir(cache)
+    finally:
+        os.umask(old)
+    assert stat.S_IMODE(cache.stat().st_mode) == 0o700
+    assert calls == [(str(cache), 0o700)]
+
+
 def test_planted_entry_of_this_user_is_never_run_and_is_replaced(cache, tmp_path):
     cache.mkdir(mode=0o700)
     marker = tmp_path / "MARKER"

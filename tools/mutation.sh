@@ -1,6 +1,8 @@
 #!/usr/bin/env bash
 # Mutation testing of the numerical core and the outputs (symbolic, compiled, solve, newton,
-# kernel/continuation/sweep, batch, export, info, kinetostatics) with mutmut 3; configured in pyproject.toml
+# kernel/continuation/sweep, batch, export, info, kinetostatics) and of forces, studies and the page
+# (dynamics, bodies, forceresults, simulation, lockstep, studies, metrics, sensitivity, designs, view)
+# with mutmut 3; configured in pyproject.toml
 # [tool.mutmut] (modules to mutate, a fast in-process test selection). Slow, so it is not part of
 # the test command. Results are kept in ./mutants/ (git-ignored); a second run only re-tests what
 # changed.
@@ -8,6 +10,7 @@
 #   tools/mutation.sh                          # every mutant of every configured module (hours)
 #   tools/mutation.sh 'loopsolve.compiled*'    # one module (mutant names are module.function__mutmut_N)
 #   MUTATION_SAMPLE=10 tools/mutation.sh       # a reproducible sample: every 10th mutant of each module
+#   MUTATION_SAMPLE=60 MUTATION_MODULES="studies view" tools/mutation.sh   # ... of these modules only
 #   tools/mutation.sh --summary                # only print the survival rate per module and the verdicts
 #                                              # of tools/mutation_triage/<module>.txt on the survivors
 #
@@ -23,7 +26,10 @@ if [[ "${1:-}" != "--summary" ]]; then
   if [[ -n "${MUTATION_SAMPLE:-}" && ${#names[@]} -eq 0 ]]; then
     # generate the mutants (no test run), then pick every Nth name of each module (natural order)
     nice -n 19 python3 tools/mutation_summary.py --generate >/dev/null
-    mapfile -t names < <(python3 tools/mutation_summary.py --names --every "$MUTATION_SAMPLE")
+    # MUTATION_MODULES="studies view" limits the sample to those modules
+    mods="${MUTATION_MODULES:-.*}"
+    mapfile -t names < <(python3 tools/mutation_summary.py --names --every "$MUTATION_SAMPLE" \
+                         | grep -E "^loopsolve\.(${mods// /|})\.")
   fi
   nice -n 19 mutmut run --max-children "${MUTMUT_CHILDREN:-1}" "${names[@]}" || true
 fi
