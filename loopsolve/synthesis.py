@@ -67,7 +67,7 @@ import numpy as np
 from .errors import ModelError, SynthesisError  # noqa: F401  (re-exported)
 from .units import Kind
 
-__all__ = ["Problem", "define", "read_targets", "evaluate", "search", "polish", "SynthesisError"]
+__all__ = ["Problem", "define", "read_targets", "evaluate", "search", "search_many", "polish", "SynthesisError"]
 
 _TASK_COLUMNS = {"path": ("x", "y"), "function": ("input", "output"), "motion": ("x", "y", "angle")}
 #: input step of the search's grid for free timing, and its largest continuation substep
@@ -517,14 +517,107 @@ def _monotone_assignment(E):
     return np.min(cost, axis=0), np.array(out[::-1])
 
 
+class _Lockstep:
+    """Evaluate the generations of several DE searches (one thread each) as one batch.
+
+    Each search thread hands its generation to :meth:`__call__` and waits; when every search
+    still running has handed one in, the last arrival evaluates their concatenation in one call
+    of :func:`evaluate` (the kernels' per-call overhead is paid once for all of them) and hands
+    every thread its own columns back. A design's objective does not depend on the other
+    columns of the batch, so each search follows the same course as when run alone.
+    """
+
+    def __init__(self, problem, n):
+        import threading
+
+        self.problem = problem
+        self.active = n
+        self.pending = {}
+        self.results = {}
+        self.cv = threading.Condition()
+
+    def __call__(self, ident, V):
+        with self.cv:
+            self.pending[ident] = V
+            self._maybe_run()
+            while ident not in self.results:
+                self.cv.wait()
+            out = self.results.pop(ident)
+        if isinstance(out, BaseException):
+            raise out
+        return out
+
+    def done(self):
+        with self.cv:
+            self.active -= 1
+            self._maybe_run()
+
+    def _maybe_run(self):
+        if not self.pending or len(self.pending) < self.active:
+            return
+        items = list(self.pending.items())
+        self.pending.clear()
+        try:
+            f, mi, di, X = evaluate(self.problem, np.vstack([v for _, v in items]))
+            a = 0
+            for ident, v in items:
+                n = v.shape[0]
+                self.results[ident] = (f[a:a + n], mi[a:a + n], di[a:a + n], X[:, a:a + n])
+                a += n
+        except BaseException as exc:  # every waiting search gets the error, none hangs
+            for ident, _ in items:
+                self.results[ident] = exc
+        self.cv.notify_all()
+
+
+def search_many(problem: Problem, seeds, **kwargs) -> list:
+    """Several seeded :func:`search` runs on one problem whose generations are evaluated together.
+
+    Returns the list of :func:`search` results, in the order of ``seeds``; each is the one
+    ``search(problem, seed=s, **kwargs)`` returns (the searches run in lockstep threads that
+    only wait on each other, so one batch of all their populations is evaluated per generation).
+    """
+    import threading
+
+    seeds = list(seeds)
+    if len(seeds) <= 1:
+        return [search(problem, seed=s, **kwargs) for s in seeds]
+    step = _Lockstep(problem, len(seeds))
+    out = [None] * len(seeds)
+
+    def work(i, s):
+        try:
+            out[i] = search(problem, seed=s, _evaluate=lambda V: step(i, V), **kwargs)
+        except BaseException as exc:
+            out[i] = exc
+        finally:
+            step.done()
+
+    threads = [threading.Thread(target=work, args=(i, s), daemon=True) for i, s in enumerate(seeds)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    for r in out:
+        if isinstance(r, BaseException):
+            raise r
+    return out
+
+
 def search(problem: Problem, *, seed: int = 0, popsize: int = 15, maxiter: int = 400, tol: float = 1e-3,
-           strategy: str = "best1bin", progress=None):
+           strategy: str = "best1bin", progress=None, _evaluate=None):
     """One seeded differential-evolution run; returns the final population sorted by objective.
 
     Returns ``(V (S, k), f (S,), mode index (S,), direction (S,), inputs (T, S), generations, evaluations,
     history)``; ``history`` is the best objective of every evaluated batch (the convergence).
+    ``_evaluate``: the batch evaluation of a generation (default :func:`evaluate` on ``problem``;
+    :func:`search_many` passes its lockstep batcher).
     """
     from scipy.optimize import differential_evolution
+
+    if _evaluate is None:
+        def _evaluate(V):
+            return evaluate(problem, V)
 
     k = len(problem.names)
     # a positive range spanning more than a decade (a link length in [0.2, 50]) is searched on a
@@ -542,7 +635,7 @@ def search(problem: Problem, *, seed: int = 0, popsize: int = 15, maxiter: int =
 
     def fun(x):
         Vx = to_values(x)
-        f, _, _, _ = evaluate(problem, Vx)
+        f, _, _, _ = _evaluate(Vx)
         state["n"] += x.shape[1]
         state["history"].append(float(np.min(f)) if f.size else math.inf)
         for i in np.argsort(f)[:3]:

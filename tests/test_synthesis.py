@@ -170,6 +170,25 @@ def test_polish_from_a_perturbed_start_reaches_round_off(fourbar):
     assert np.allclose(out["values"], [PLANTED[n] for n in pr.names], atol=1e-8)
 
 
+def test_lockstep_searches_equal_the_searches_run_alone(fourbar):
+    """search_many evaluates the generations of several searches as one batch: same courses as alone."""
+    from loopsolve.synthesis import search, search_many
+
+    pr = define(fourbar, path="P", targets=planted_targets(), inputs=PLANT_INPUTS, vary=VARY6, mode="-")
+    kw = {"popsize": 6, "maxiter": 12}
+    together = search_many(pr, [5, 6, 7], **kw)
+    for s, got in zip([5, 6, 7], together):
+        alone = search(pr, seed=s, **kw)
+        assert np.allclose(got[0], alone[0], rtol=1e-12, atol=0) and np.allclose(got[1], alone[1], rtol=1e-9)
+        assert got[5:7] == alone[5:7]  # generations, evaluations
+    # the objective of each search's best design against the circle intersection written here
+    for V, f, *_ in together:
+        p = dict(zip(pr.names, V[0]))
+        ref = sum(float(np.sum((fourbar_point(p, x, -1) - np.array([tx, ty])) ** 2))
+                  for x, tx, ty in zip(PLANT_INPUTS, *planted_targets().values()))
+        assert f[0] == pytest.approx(ref, rel=1e-9)
+
+
 def test_jacobian_matches_finite_differences(fourbar):
     """dr/dp (analytic: -Φ_q⁻¹ Φ_p and ∂P/∂p) against central differences of the closed form."""
     pr = define(fourbar, path="P", targets=planted_targets(), inputs=PLANT_INPUTS,
