@@ -665,6 +665,14 @@ def search(problem: Problem, *, seed: int = 0, popsize: int = 15, maxiter: int =
 # ---------------------------------------------------------------------------------------- polish
 
 
+def periodic(problem: Problem) -> tuple[np.ndarray, np.ndarray]:
+    """``(mask, period)`` of the varied parameters: angles whose bounds span a whole turn (model units)."""
+    b = problem.batch
+    ang = np.array([b.mech.parameters[i].kind is Kind.ANGLE for i in b.pidx], dtype=bool)
+    period = 2 * math.pi / b.pconv
+    return ang & ((problem.hi - problem.lo) >= period * (1 - 1e-12)), period
+
+
 def polish(problem: Problem, values, *, signs=None, inputs=None, max_nfev: int = 200,
            hmax: float = math.radians(5)) -> dict:
     """Local least-squares polish from ``values`` (model units, one per varied parameter).
@@ -751,12 +759,26 @@ def polish(problem: Problem, values, *, signs=None, inputs=None, max_nfev: int =
         return {"objective": math.inf, "values": v0, "inputs": inputs, "signs": sg[:, 0]}
     r0 = fun(u0)
     r_fail = np.full_like(r0, 10 * max(1.0, float(np.max(np.abs(r0)))) + 1.0)
-    lo = np.concatenate([problem.lo, np.full(T, -np.inf)]) if free else problem.lo
-    hi = np.concatenate([problem.hi, np.full(T, np.inf)]) if free else problem.hi
-    with np.errstate(all="ignore"):
-        res = least_squares(fun, u0, jac=jac, bounds=(lo, hi), method="trf", x_scale="jac", ftol=1e-15,
-                            xtol=1e-15, gtol=1e-15, max_nfev=max_nfev)
-    u = res.x if float(np.sum(fun(res.x) ** 2)) <= float(np.sum(r0 ** 2)) else u0
+    # an angle whose bounds span a whole turn is periodic: unbounded here, wrapped into its bounds
+    # after (a bound at 0° or 360° would stop a design whose optimum lies across it)
+    per, period = periodic(problem)
+    plo, phi_ = np.where(per, -np.inf, problem.lo), np.where(per, np.inf, problem.hi)
+
+    def solve(blo, bhi):
+        lo = np.concatenate([blo, np.full(T, -np.inf)]) if free else blo
+        hi = np.concatenate([bhi, np.full(T, np.inf)]) if free else bhi
+        with np.errstate(all="ignore"):
+            res = least_squares(fun, u0, jac=jac, bounds=(lo, hi), method="trf", x_scale="jac", ftol=1e-15,
+                                xtol=1e-15, gtol=1e-15, max_nfev=max_nfev)
+        return res.x if float(np.sum(fun(res.x) ** 2)) <= float(np.sum(r0 ** 2)) else u0
+
+    u = solve(plo, phi_)
+    if np.any(per):
+        uw = u.copy()
+        uw[:k][per] = problem.lo[per] + np.mod(u[:k][per] - problem.lo[per], period[per])
+        if not np.array_equal(uw, u):
+            f_u, f_w = float(np.sum(fun(u) ** 2)), float(np.sum(fun(uw) ** 2))
+            u = uw if abs(f_w - f_u) <= 1e-9 * f_u + 1e-24 else solve(problem.lo, problem.hi)
     P, Zt, reached = state(u)
     if reached < T:
         return {"objective": math.inf, "values": u[:k], "inputs": inputs, "signs": sg[:, 0]}

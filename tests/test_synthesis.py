@@ -189,6 +189,19 @@ def test_lockstep_searches_equal_the_searches_run_alone(fourbar):
         assert f[0] == pytest.approx(ref, rel=1e-9)
 
 
+def test_polish_crosses_the_bound_of_a_periodic_angle(fourbar):
+    """θ0 ∈ [0°, 360°] is a whole turn: a start at 357° reaches a planted optimum at θ0 = 4° (wrapped)."""
+    p = dict(PLANTED, theta0=4.0)
+    t = np.array([fourbar_point(p, x, -1) for x in PLANT_INPUTS])
+    vary = dict(VARY6, theta0=(0, 360))
+    pr = define(fourbar, path="P", targets={"x": t[:, 0], "y": t[:, 1]}, inputs=PLANT_INPUTS, vary=vary)
+    start = np.array([PLANTED.get(n, 0.0) * 1.01 for n in pr.names])
+    start[pr.names.index("theta0")] = 357.0
+    out = polish(pr, start, signs=np.array([-1.0]))
+    assert out["objective"] <= 1e-20
+    assert out["values"][pr.names.index("theta0")] == pytest.approx(4.0, abs=1e-7)
+
+
 def test_jacobian_matches_finite_differences(fourbar):
     """dr/dp (analytic: -Φ_q⁻¹ Φ_p and ∂P/∂p) against central differences of the closed form."""
     pr = define(fourbar, path="P", targets=planted_targets(), inputs=PLANT_INPUTS,
