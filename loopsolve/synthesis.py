@@ -33,7 +33,10 @@ benchmark a 150-generation DE/best/1/bin search ends in the basin of the optimum
 three seeds and its polish reaches the optimum in about half of those, so four restarts per
 mode make a run's best reach it with high probability, while one long search that stalls in
 the wide 0.13 basin stays there (and one search over both modes at once lets a basin of one
-mode crowd out the other's). The search strategy is a setting (``strategy``). A positive
+mode crowd out the other's). The restarts of one mode run in lockstep (:func:`search_many`: one thread per search, each
+waiting for the others; every generation of all of them is one batch), which pays the kernels'
+per-call overhead once per generation instead of once per search (a run 1.3–1.5× faster, the
+same designs). The search strategy is a setting (``strategy``). A positive
 range spanning more than a decade (link lengths in [0.2, 50]) is searched on a log scale: on the
 eighteen-point benchmark this took the runs from 0.0098–0.0306 to 0.0099 every time, and the
 five-point runs to the optimum faster.
@@ -42,7 +45,9 @@ five-point runs to the optimum faster.
 on the residual vector with the analytic Jacobian (implicit function theorem: ∂q/∂p = −Φ_q⁻¹ Φ_p,
 ∂q/∂x = Φ_q⁻¹ b₁ for free input values, explicit ∂P/∂p from a generated kernel). The best few
 distinct designs of each search (its final population and the best designs of every
-generation) are polished.
+generation) are polished. An angle parameter whose bounds span a whole turn (θ0, φ ∈ [0°, 360°])
+is periodic: it is unbounded in the polish and wrapped into its bounds afterwards, so a design
+whose optimum lies across 0°/360° is not stopped at the bound.
 
 **Certificate** (:mod:`loopsolve.certify`): from the tracker (the public sweep), never from
 the optimizer. A design is reported only when it is certified; rejected candidates are listed
@@ -67,7 +72,7 @@ import numpy as np
 from .errors import ModelError, SynthesisError  # noqa: F401  (re-exported)
 from .units import Kind
 
-__all__ = ["Problem", "define", "read_targets", "evaluate", "search", "polish", "SynthesisError"]
+__all__ = ["Problem", "define", "read_targets", "evaluate", "search", "search_many", "polish", "SynthesisError"]
 
 _TASK_COLUMNS = {"path": ("x", "y"), "function": ("input", "output"), "motion": ("x", "y", "angle")}
 #: input step of the search's grid for free timing, and its largest continuation substep
@@ -517,14 +522,107 @@ def _monotone_assignment(E):
     return np.min(cost, axis=0), np.array(out[::-1])
 
 
+class _Lockstep:
+    """Evaluate the generations of several DE searches (one thread each) as one batch.
+
+    Each search thread hands its generation to :meth:`__call__` and waits; when every search
+    still running has handed one in, the last arrival evaluates their concatenation in one call
+    of :func:`evaluate` (the kernels' per-call overhead is paid once for all of them) and hands
+    every thread its own columns back. A design's objective does not depend on the other
+    columns of the batch, so each search follows the same course as when run alone.
+    """
+
+    def __init__(self, problem, n):
+        import threading
+
+        self.problem = problem
+        self.active = n
+        self.pending = {}
+        self.results = {}
+        self.cv = threading.Condition()
+
+    def __call__(self, ident, V):
+        with self.cv:
+            self.pending[ident] = V
+            self._maybe_run()
+            while ident not in self.results:
+                self.cv.wait()
+            out = self.results.pop(ident)
+        if isinstance(out, BaseException):
+            raise out
+        return out
+
+    def done(self):
+        with self.cv:
+            self.active -= 1
+            self._maybe_run()
+
+    def _maybe_run(self):
+        if not self.pending or len(self.pending) < self.active:
+            return
+        items = list(self.pending.items())
+        self.pending.clear()
+        try:
+            f, mi, di, X = evaluate(self.problem, np.vstack([v for _, v in items]))
+            a = 0
+            for ident, v in items:
+                n = v.shape[0]
+                self.results[ident] = (f[a:a + n], mi[a:a + n], di[a:a + n], X[:, a:a + n])
+                a += n
+        except BaseException as exc:  # every waiting search gets the error, none hangs
+            for ident, _ in items:
+                self.results[ident] = exc
+        self.cv.notify_all()
+
+
+def search_many(problem: Problem, seeds, **kwargs) -> list:
+    """Several seeded :func:`search` runs on one problem whose generations are evaluated together.
+
+    Returns the list of :func:`search` results, in the order of ``seeds``; each is the one
+    ``search(problem, seed=s, **kwargs)`` returns (the searches run in lockstep threads that
+    only wait on each other, so one batch of all their populations is evaluated per generation).
+    """
+    import threading
+
+    seeds = list(seeds)
+    if len(seeds) <= 1:
+        return [search(problem, seed=s, **kwargs) for s in seeds]
+    step = _Lockstep(problem, len(seeds))
+    out = [None] * len(seeds)
+
+    def work(i, s):
+        try:
+            out[i] = search(problem, seed=s, _evaluate=lambda V: step(i, V), **kwargs)
+        except BaseException as exc:
+            out[i] = exc
+        finally:
+            step.done()
+
+    threads = [threading.Thread(target=work, args=(i, s), daemon=True) for i, s in enumerate(seeds)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    for r in out:
+        if isinstance(r, BaseException):
+            raise r
+    return out
+
+
 def search(problem: Problem, *, seed: int = 0, popsize: int = 15, maxiter: int = 400, tol: float = 1e-3,
-           strategy: str = "best1bin", progress=None):
+           strategy: str = "best1bin", progress=None, _evaluate=None):
     """One seeded differential-evolution run; returns the final population sorted by objective.
 
     Returns ``(V (S, k), f (S,), mode index (S,), direction (S,), inputs (T, S), generations, evaluations,
     history)``; ``history`` is the best objective of every evaluated batch (the convergence).
+    ``_evaluate``: the batch evaluation of a generation (default :func:`evaluate` on ``problem``;
+    :func:`search_many` passes its lockstep batcher).
     """
     from scipy.optimize import differential_evolution
+
+    if _evaluate is None:
+        def _evaluate(V):
+            return evaluate(problem, V)
 
     k = len(problem.names)
     # a positive range spanning more than a decade (a link length in [0.2, 50]) is searched on a
@@ -542,7 +640,7 @@ def search(problem: Problem, *, seed: int = 0, popsize: int = 15, maxiter: int =
 
     def fun(x):
         Vx = to_values(x)
-        f, _, _, _ = evaluate(problem, Vx)
+        f, _, _, _ = _evaluate(Vx)
         state["n"] += x.shape[1]
         state["history"].append(float(np.min(f)) if f.size else math.inf)
         for i in np.argsort(f)[:3]:
@@ -570,6 +668,14 @@ def search(problem: Problem, *, seed: int = 0, popsize: int = 15, maxiter: int =
 
 
 # ---------------------------------------------------------------------------------------- polish
+
+
+def periodic(problem: Problem) -> tuple[np.ndarray, np.ndarray]:
+    """``(mask, period)`` of the varied parameters: angles whose bounds span a whole turn (model units)."""
+    b = problem.batch
+    ang = np.array([b.mech.parameters[i].kind is Kind.ANGLE for i in b.pidx], dtype=bool)
+    period = 2 * math.pi / b.pconv
+    return ang & ((problem.hi - problem.lo) >= period * (1 - 1e-12)), period
 
 
 def polish(problem: Problem, values, *, signs=None, inputs=None, max_nfev: int = 200,
@@ -658,12 +764,26 @@ def polish(problem: Problem, values, *, signs=None, inputs=None, max_nfev: int =
         return {"objective": math.inf, "values": v0, "inputs": inputs, "signs": sg[:, 0]}
     r0 = fun(u0)
     r_fail = np.full_like(r0, 10 * max(1.0, float(np.max(np.abs(r0)))) + 1.0)
-    lo = np.concatenate([problem.lo, np.full(T, -np.inf)]) if free else problem.lo
-    hi = np.concatenate([problem.hi, np.full(T, np.inf)]) if free else problem.hi
-    with np.errstate(all="ignore"):
-        res = least_squares(fun, u0, jac=jac, bounds=(lo, hi), method="trf", x_scale="jac", ftol=1e-15,
-                            xtol=1e-15, gtol=1e-15, max_nfev=max_nfev)
-    u = res.x if float(np.sum(fun(res.x) ** 2)) <= float(np.sum(r0 ** 2)) else u0
+    # an angle whose bounds span a whole turn is periodic: unbounded here, wrapped into its bounds
+    # after (a bound at 0° or 360° would stop a design whose optimum lies across it)
+    per, period = periodic(problem)
+    plo, phi_ = np.where(per, -np.inf, problem.lo), np.where(per, np.inf, problem.hi)
+
+    def solve(blo, bhi):
+        lo = np.concatenate([blo, np.full(T, -np.inf)]) if free else blo
+        hi = np.concatenate([bhi, np.full(T, np.inf)]) if free else bhi
+        with np.errstate(all="ignore"):
+            res = least_squares(fun, u0, jac=jac, bounds=(lo, hi), method="trf", x_scale="jac", ftol=1e-15,
+                                xtol=1e-15, gtol=1e-15, max_nfev=max_nfev)
+        return res.x if float(np.sum(fun(res.x) ** 2)) <= float(np.sum(r0 ** 2)) else u0
+
+    u = solve(plo, phi_)
+    if np.any(per):
+        uw = u.copy()
+        uw[:k][per] = problem.lo[per] + np.mod(u[:k][per] - problem.lo[per], period[per])
+        if not np.array_equal(uw, u):
+            f_u, f_w = float(np.sum(fun(u) ** 2)), float(np.sum(fun(uw) ** 2))
+            u = uw if abs(f_w - f_u) <= 1e-9 * f_u + 1e-24 else solve(problem.lo, problem.hi)
     P, Zt, reached = state(u)
     if reached < T:
         return {"objective": math.inf, "values": u[:k], "inputs": inputs, "signs": sg[:, 0]}

@@ -20,7 +20,7 @@ import numpy as np
 
 from .errors import ModelError
 from .errors import SynthesisError
-from .synthesis import define, evaluate, polish, search, _signature
+from .synthesis import define, evaluate, polish, search_many, _signature
 
 __all__ = ["synthesize", "SynthesisResult", "certify_design", "polish_design"]
 
@@ -211,9 +211,12 @@ def one_run(problem, seed, opts):
         subs = [problem]
     cands, gens, nev, history = [], 0, 0, []
     rng = np.random.default_rng(seed)
-    for sub, k in [(sub, k) for sub in subs for k in range(opts["restarts"])]:
-        V, f, mi, di, X, g, n, hist = search(sub, seed=int(rng.integers(2**31)), popsize=opts["popsize"],
-                                       maxiter=opts["maxiter"], tol=opts["tol"], strategy=opts["strategy"])
+    seeds = [[int(rng.integers(2**31)) for _ in range(opts["restarts"])] for _ in subs]
+    found = []  # the restarts of one mode run in lockstep: one batch per generation for all of them
+    for sub, ss in zip(subs, seeds):
+        found += [(sub, r) for r in search_many(sub, ss, popsize=opts["popsize"], maxiter=opts["maxiter"],
+                                                 tol=opts["tol"], strategy=opts["strategy"])]
+    for sub, (V, f, mi, di, X, g, n, hist) in found:
         gens += g
         nev += n
         history.append({"mode": sub.mode, "best": hist})
