@@ -198,7 +198,7 @@ def test_cli_burmester_flags_the_order_defect_of_the_only_exact_four_bars(fourba
     err = one_line_error(p, code=3)
     assert "Burmester" in err and "order" in err
     assert not out.exists()  # a defective design is not written
-    rep = json.loads(rep_path.read_text())
+    rep = json.loads(rep_path.read_text(), parse_constant=lambda c: pytest.fail(f"{c} in the JSON report"))
     assert rep["method"] == "burmester" and rep["certificate"]["defects"] == ["order"]
     assert rep["candidates"] and all(not c["certified"] and [d["kind"] for d in c["defects"]] == ["order"]
                                      for c in rep["candidates"])
