@@ -302,8 +302,9 @@ class FourBarCandidate:
     ``lengths`` = (ground, crank, coupler, rocker); ``inputs`` the crank angle (degrees) at each
     pose; ``pose_errors`` √(|P − T|² + (L·Δφ)²) at each pose where the tracked motion arrives
     (L the largest distance between two poses, Δφ in radians: the synthesis contract's motion
-    objective is the sum of their squares; NaN where it does not arrive); ``defects`` empty means certified: one motion of the input, in ``mode``, crossing no
-    limit, meets the poses in order. ``certificate`` is the synthesis contract's dict.
+    objective is the sum of their squares; NaN where it does not arrive, null in ``to_dict``);
+    ``defects`` empty means certified: one motion of the input, in ``mode``, crossing no limit,
+    meets the poses in order. ``certificate`` is the synthesis contract's dict.
     """
 
     dyads: tuple[int, int]
@@ -330,7 +331,8 @@ class FourBarCandidate:
     def to_dict(self) -> dict:
         return {"dyads": list(self.dyads), "lengths": list(self.lengths), "grashof": self.grashof.value,
                 "mode": self.mode, "direction": self.direction, "inputs": list(self.inputs),
-                "pose_errors": list(self.pose_errors), "certified": self.certified,
+                "pose_errors": [e if math.isfinite(e) else None for e in self.pose_errors],  # strict JSON: null
+                "certified": self.certified,
                 "defects": [d.to_dict() for d in self.defects], "certificate": self.certificate}
 
 

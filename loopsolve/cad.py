@@ -118,8 +118,10 @@ def drawing_entities(state, *, curves: dict | None = None) -> list[Entity]:
 
             order = hull_order(np.asarray(pts))
             out.append(Entity("LINKS", "polyline", tuple(pts[i] for i in order), closed=True, name=name))
+    tracers = _tracer_joints(frame, state)  # a vector model's coupler point: a tracer, not a pin
     for p in frame.joints:
-        out.append(Entity("PINS", "circle", (_xy(p),), size=pin))
+        if _key(p, state) not in tracers:
+            out.append(Entity("PINS", "circle", (_xy(p),), size=pin))
     for p, key in frame.pivots:
         u = np.asarray(style.pivot_dir.get(key, np.array([0.0, -1.0])), dtype=float)
         n = np.array([-u[1], u[0]])
@@ -148,7 +150,7 @@ def drawing_entities(state, *, curves: dict | None = None) -> list[Entity]:
         a, b = 0.95 * size, 0.5 * size
         corners = (p - d * a - n * b, p + d * a - n * b, p + d * a + n * b, p - d * a + n * b)
         out.append(Entity("SLIDERS", "polyline", tuple(_xy(c) for c in corners), closed=True))
-    for p, name in frame.points:
+    for p, name in frame.points + [(xy, text) for xy, text in tracers.values()]:
         out.append(Entity("POINTS", "circle", (_xy(p),), size=0.16 * size, name=str(name)))
     for p, text, _ in frame.labels:
         q = np.asarray(p, dtype=float) + np.array([0.35, 0.35]) * size
@@ -237,29 +239,35 @@ def write_svg(entities, output, *, unit: str = "mm", title: str = "") -> None:
     ET.ElementTree(root).write(str(output), encoding="utf-8", xml_declaration=True)
 
 
+def _key(p, state):
+    tol = 1e-9 * state.compiled.scale
+    return tuple(np.round(np.asarray(p, dtype=float) / tol).astype(np.int64))
+
+
+def _tracer_joints(frame, state) -> dict:
+    """{position key: (xy, name)} of the named points of one moving link only that the frame draws
+    as joints (not a pin between links, not a ground pivot): the coupler point of a vector model,
+    whose coupler is drawn through it."""
+    count: dict = {}
+    for _, xy, _ in frame.links:
+        for k in {_key(p, state) for p in xy}:
+            count[k] = count.get(k, 0) + 1
+    fixed = {_key(p, state) for p, _ in frame.pivots} | {_key(p, state) for p, _ in frame.blocks}
+    known = set(state.compiled.points)
+    drawn = {str(name) for _, name in frame.points}
+    out: dict = {}
+    for p, text, _ in frame.labels:
+        k = _key(p, state)
+        if count.get(k) == 1 and k not in fixed and text in known and text not in drawn and k not in out:
+            out[k] = (p, str(text))
+    return out
+
+
 def _tracer_points(state) -> list[str]:
     from .geometry import pose_frames
 
     (frame,), _ = pose_frames([state], vectors=False)
-    names = [str(name) for _, name in frame.points]
-    # a point of one moving link only (not a pin between links, not a ground pivot): a tracer too,
-    # as the coupler point of a vector model is (its coupler is drawn through it)
-    tol = 1e-9 * state.compiled.scale
-
-    def key(p):
-        return tuple(np.round(np.asarray(p, dtype=float) / tol).astype(np.int64))
-
-    count: dict = {}
-    for _, xy, _ in frame.links:
-        for k in {key(p) for p in xy}:
-            count[k] = count.get(k, 0) + 1
-    fixed = {key(p) for p, _ in frame.pivots} | {key(p) for p, _ in frame.blocks}
-    known = set(state.compiled.points)
-    for p, text, _ in frame.labels:
-        k = key(p)
-        if count.get(k) == 1 and k not in fixed and text in known and text not in names:
-            names.append(str(text))
-    return names
+    return [str(name) for _, name in frame.points] + [t for _, t in _tracer_joints(frame, state).values()]
 
 
 def point_curves(mech, state, names, *, step=None) -> dict:

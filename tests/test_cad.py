@@ -159,3 +159,39 @@ def test_entities_read_as_a_summary(tmp_path):
     assert "<361 points from (" in text and len(text) < 150 and "name='P'" in text
     pin = next(e for e in ents if e.layer == "PINS")
     assert repr(pin).startswith("Entity(layer='PINS', kind='circle', points=((0.0, 0.0),), size=")
+
+
+def test_cli_synthesized_design_file_draws_to_dxf_at_the_solve(tmp_path, capsys):
+    # loopsolve synthesize ... -o design.toml, then loopsolve draw design.toml --at X -o design.dxf
+    from test_synthesize_methods import G2, G4, L2, pose
+
+    base = tmp_path / "fourbar.toml"
+    base.write_text(ls.dumps(ls.fourbar(60, 25, 70, 45)))
+    poses = tmp_path / "poses.csv"
+    poses.write_text("x,y,angle\n" + "".join(f"{x!r},{y!r},{a!r}\n" for x, y, a in map(pose, (10, 70, 130, 190, 250))))
+    design, out = tmp_path / "design.toml", tmp_path / "design.dxf"
+    status, _, err = call(capsys, "synthesize", base, "--method", "burmester", "--motion", "C", "--link", "theta3",
+                          "--targets", poses, "-o", design, "-q")
+    assert status == 0, err
+    status, _, err = call(capsys, "draw", design, "--at", "130", "-o", out)
+    assert status == 0 and "wrote" in err
+    s = ls.load(design).solve(130)
+    xy = {n: (s[f"{n}_x"], s[f"{n}_y"]) for n in JOINTS + ("P",)}
+    # the solve against the planted crank-rocker by hand: pivots, crank pin, the pose's coupler point
+    assert near(xy["O2"], G2) and near(xy["O4"], G4)
+    assert near(xy["A"], G2 + L2 * np.array([math.cos(math.radians(130)), math.sin(math.radians(130))]))
+    assert near(xy["P"], pose(130)[:2], 1e-7)
+    msp = ezdxf.readfile(out).modelspace()
+    pins = [tuple(e.dxf.center)[:2] for e in msp.query("CIRCLE[layer=='PINS']")]
+    assert len(pins) == 4 and all(any(near(p, xy[j]) for p in pins) for j in JOINTS)
+    [tracer] = [tuple(e.dxf.center)[:2] for e in msp.query("CIRCLE[layer=='POINTS']")]
+    assert near(tracer, xy["P"])
+    lines = [(tuple(e.dxf.start)[:2], tuple(e.dxf.end)[:2]) for e in msp.query("LINE[layer=='LINKS']")]
+    for a, b in (("O2", "A"), ("A", "B"), ("O4", "B")):
+        assert any((near(p, xy[a]) and near(q, xy[b])) or (near(p, xy[b]) and near(q, xy[a])) for p, q in lines), (a, b)
+    apexes = sorted(tuple(map(float, e.get_points("xy")[0])) for e in msp.query("LWPOLYLINE[layer=='GROUND']"))
+    assert np.allclose(apexes, sorted([tuple(G2), tuple(G4)]), atol=1e-9)
+    [curve] = msp.query("LWPOLYLINE[layer=='CURVES']")  # the coupler curve passes through every pose
+    verts = np.array([tuple(v) for v in curve.get_points("xy")])
+    for t in (10, 70, 130, 190, 250):
+        assert np.min(np.hypot(*(verts - pose(t)[:2]).T)) < 1e-7

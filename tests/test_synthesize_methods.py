@@ -174,6 +174,50 @@ def test_cli_burmester_returns_the_planted_crank_rocker(fourbar_file, poses_csv,
         assert (s["phi"] - a + 180) % 360 - 180 == pytest.approx(0, abs=1e-7)
 
 
+# The hand-built motion problem with an order defect: the planted crank-rocker's poses listed in the crank order
+# 10°, 130°, 70°, 190°, 250°. Every exact four-bar (Burmester's six) meets them, none in the given order. For the
+# planted crank-rocker, by hand: the crank steps +120, -60, +120, +60 degrees, so visiting the poses in this order
+# turns it 120 + 300 + 120 + 60 = 600 degrees one way (840 the other), more than one turn: an order defect.
+SHUFFLED = (10, 130, 70, 190, 250)
+
+
+@pytest.fixture
+def shuffled_csv(tmp_path):
+    p = tmp_path / "shuffled.csv"
+    p.write_text("x,y,angle\n" + "".join(f"{x!r},{y!r},{a!r}\n" for x, y, a in map(pose, SHUFFLED)))
+    return p
+
+
+def test_cli_burmester_flags_the_order_defect_of_the_only_exact_four_bars(fourbar_file, shuffled_csv, tmp_path):
+    steps = [(b - a + 180) % 360 - 180 for a, b in zip(SHUFFLED, SHUFFLED[1:])]
+    turn = min(sum((d * s) % 360 for s in steps) for d in (1, -1))
+    assert turn == 600  # the hand count above
+    rep_path, out = tmp_path / "r.json", tmp_path / "d.toml"
+    p = run("synthesize", fourbar_file, "--method", "burmester", "--motion", "C", "--link", "theta3",
+            "--targets", shuffled_csv, "--report", rep_path, "-o", out)
+    err = one_line_error(p, code=3)
+    assert "Burmester" in err and "order" in err
+    assert not out.exists()  # a defective design is not written
+    rep = json.loads(rep_path.read_text(), parse_constant=lambda c: pytest.fail(f"{c} in the JSON report"))
+    assert rep["method"] == "burmester" and rep["certificate"]["defects"] == ["order"]
+    assert rep["candidates"] and all(not c["certified"] and [d["kind"] for d in c["defects"]] == ["order"]
+                                     for c in rep["candidates"])
+    [planted] = [c for c in rep["candidates"] if sorted(c["lengths"]) == pytest.approx(sorted((L1, L2, L3, L4)))]
+    assert [(x - t + 180) % 360 - 180 for x, t in zip(planted["inputs"], SHUFFLED)] == pytest.approx([0] * 5, abs=1e-7)
+    assert f"{turn:.1f}" in planted["defects"][0]["message"]
+
+
+def test_python_burmester_flags_the_order_defect(fourbar_file, shuffled_csv):
+    with pytest.raises(SynthesisError) as exc:
+        ls.synthesize(ls.load(fourbar_file), method="burmester", motion="C", link="theta3", targets=shuffled_csv)
+    assert exc.value.report["certificate"]["defects"] == ["order"]
+    # the same poses in the crank's order are met by a certified design
+    ordered = shuffled_csv.parent / "ordered.csv"
+    ordered.write_text("x,y,angle\n" + "".join(f"{x!r},{y!r},{a!r}\n" for x, y, a in map(pose, sorted(SHUFFLED))))
+    res = ls.synthesize(ls.load(fourbar_file), method="burmester", motion="C", link="theta3", targets=ordered)
+    assert res.report["certificate"]["defects"] == []
+
+
 # -- one-line errors, exit 2 -----------------------------------------------------------------------------------
 
 def test_cli_malformed_pose_file(fourbar_file, tmp_path):
