@@ -93,16 +93,16 @@ def test_shaper_shaking_moment_balances_the_frame_reactions():
     m = 0.0
     fx = fy = 0.0
     for joint in ("O2", "O4"):
-        f = fs.joint_forces[f"F_{joint}"][0]
+        f = fs.joint_forces[f"F_{joint}"]
         m -= cross(sw[f"{joint}_x"][0] * mm, sw[f"{joint}_y"][0] * mm, f)
         fx, fy = fx - f[0], fy - f[1]
-    g = fs.guide_reactions["ram_guide"][0]  # (F_x, F_y, couple) on the ram from the frame, at its com E
+    g = fs.guide_reactions["ram_guide"]  # (F_x, F_y, couple) on the ram from the frame, at its com E
     m -= cross(sw["E_x"][0] * mm, sw["E_y"][0] * mm, g[:2]) + g[2]
     fx, fy = fx - g[0], fy - g[1]
-    m -= fs.drive[0]  # the motor's stator takes −T
-    np.testing.assert_allclose(fs.shaking_force[0], [fx, fy], rtol=1e-12, atol=1e-9)
-    assert fs.shaking_moment[0] == pytest.approx(m, rel=1e-12, abs=1e-9)
-    assert fs.shaking_moment[0] == pytest.approx(-96.31, abs=0.005)
+    m -= fs.drive  # the motor's stator takes −T
+    np.testing.assert_allclose(fs.shaking_force, [fx, fy], rtol=1e-12, atol=1e-9)
+    assert fs.shaking_moment == pytest.approx(m, rel=1e-12, abs=1e-9)
+    assert fs.shaking_moment == pytest.approx(-96.31, abs=0.005)
 
 
 # ------------------------------------------------------------------------- the |F| column
