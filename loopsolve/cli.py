@@ -346,9 +346,7 @@ def _synthesis_parser(sub) -> None:
 
 
 def cmd_synthesize(args) -> int:
-    import json
-
-    from .errors import ModelError, SynthesisError
+    from .errors import ModelError
     from .synthrun import synthesize
 
     for out in (args.output, args.report):
@@ -376,26 +374,14 @@ def cmd_synthesize(args) -> int:
         if name in vary:
             raise ModelError(f"--vary {name} given twice")
         vary[name] = (lo, hi)
-    try:
-        res = synthesize(mech, path=args.path, function=args.function, motion=args.motion, link=args.link,
-                         targets=args.targets, inputs=args.inputs, vary=vary, crank=args.crank,
-                         transmission=args.transmission, runs=args.runs, seed=args.seed, mode=args.mode,
-                         popsize=args.popsize, maxiter=args.maxiter, restarts=args.restarts, workers=args.workers,
-                         scheduler=args.scheduler, progress=None if not args.quiet else False,
-                         input_range=input_range)
-    except SynthesisError as exc:
-        if args.report and exc.report is not None:
-            _write(json.dumps(exc.report, indent=2) + "\n", args.report)
-        raise
-    text = json.dumps(res.report, indent=2) + "\n"
-    if args.report:
-        _write(text, args.report)
-    if args.output:
-        _write(res.to_toml(), args.output)
-    if not args.report:
-        sys.stdout.write(text)
-    else:
-        rep = res.report
+    rep = _synthesis_output(args, lambda: synthesize(
+        mech, path=args.path, function=args.function, motion=args.motion, link=args.link,
+        targets=args.targets, inputs=args.inputs, vary=vary, crank=args.crank,
+        transmission=args.transmission, runs=args.runs, seed=args.seed, mode=args.mode,
+        popsize=args.popsize, maxiter=args.maxiter, restarts=args.restarts, workers=args.workers,
+        scheduler=args.scheduler, progress=None if not args.quiet else False,
+        input_range=input_range), "")
+    if rep is not None:
         print(f"objective {rep['objective']:.6g} (mode {rep['mode']}, certified); wrote {args.report}"
               + (f" and {args.output}" if args.output else ""), file=sys.stderr)
     return EXIT_OK
@@ -414,22 +400,15 @@ def _parse_range(text):
     return (lo, hi)
 
 
-def _classic_synthesize(args, input_range) -> int:
-    """``synthesize --method freudenstein|burmester``: exit 3 (report still written) when not usable."""
+def _synthesis_output(args, run, label: str):
+    """Run a synthesis, write its report (also the failed one's, then re-raise) and ``-o`` model;
+    print the report when no ``--report`` file is given. Returns the report when it went to a file."""
     import json
 
-    from .errors import ModelError, SynthesisError
-    from .synthrun import synthesize
+    from .errors import SynthesisError
 
-    for flag, given in (("--path", args.path), ("--vary", args.vary), ("--inputs", args.inputs),
-                        ("--crank", args.crank), ("--transmission", args.transmission),
-                        ("--workers", args.workers), ("--scheduler", args.scheduler)):
-        if given:
-            raise ModelError(f"{flag} is not used by --method {args.method} (it is for the general method)")
-    mech = _load(args.model)
     try:
-        res = synthesize(mech, method=args.method, targets=args.targets, function=args.function,
-                         motion=args.motion, link=args.link, input_range=input_range)
+        res = run()
     except SynthesisError as exc:
         if args.report and exc.report is not None:
             _write(json.dumps(exc.report, indent=2) + "\n", args.report)
@@ -441,8 +420,26 @@ def _classic_synthesize(args, input_range) -> int:
         _write(res.to_toml(), args.output)
     if not args.report:
         sys.stdout.write(text)
-    else:
-        print(f"{args.method}: objective {res.report['objective']:.6g} (certified); wrote {args.report}"
+        return None
+    return res.report
+
+
+def _classic_synthesize(args, input_range) -> int:
+    """``synthesize --method freudenstein|burmester``: exit 3 (report still written) when not usable."""
+    from .errors import ModelError
+    from .synthrun import synthesize
+
+    for flag, given in (("--path", args.path), ("--vary", args.vary), ("--inputs", args.inputs),
+                        ("--crank", args.crank), ("--transmission", args.transmission),
+                        ("--workers", args.workers), ("--scheduler", args.scheduler)):
+        if given:
+            raise ModelError(f"{flag} is not used by --method {args.method} (it is for the general method)")
+    mech = _load(args.model)
+    rep = _synthesis_output(args, lambda: synthesize(mech, method=args.method, targets=args.targets,
+                                                     function=args.function, motion=args.motion, link=args.link,
+                                                     input_range=input_range), args.method)
+    if rep is not None:
+        print(f"{args.method}: objective {rep['objective']:.6g} (certified); wrote {args.report}"
               + (f" and {args.output}" if args.output else ""), file=sys.stderr)
     return EXIT_OK
 
