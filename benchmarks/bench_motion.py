@@ -32,26 +32,12 @@ import numpy as np
 
 import loopsolve as ls
 
-O2 = np.array([1.0, 2.0])
-T1 = math.radians(10.0)
-R1, R2, R3, R4, RP, GP = 60.0, 25.0, 70.0, 45.0, 30.0, math.radians(40.0)
-O4 = O2 + R1 * np.array([math.cos(T1), math.sin(T1)])
+# the planted crank-rocker and its poses: the same linkage as bench_burmester.py (run from this folder)
+from bench_burmester import GP, O2, O4, R1, R2, R3, R4, RP, T1, pose  # noqa: E402,F401
+
 CRANK = (20, 70, 120, 170, 220)
 VARY = {"r1": (5, 100), "r2": (5, 100), "r3": (5, 100), "r4": (5, 100), "x0": (-50, 50), "y0": (-50, 50),
         "theta0": (-180, 180), "rcx": (-60, 60), "rcy": (-60, 60)}
-
-
-def pose(t2_deg: float):
-    """Coupler point and coupler angle of the planted crank-rocker at crank angle t2 (circle intersection)."""
-    t2 = math.radians(t2_deg)
-    A = O2 + R2 * np.array([math.cos(t2), math.sin(t2)])
-    d = O4 - A
-    L = float(np.hypot(*d))
-    a = (R3 * R3 - R4 * R4 + L * L) / (2 * L)
-    B = A + a * d / L + math.sqrt(R3 * R3 - a * a) * np.array([-d[1], d[0]]) / L
-    th3 = math.atan2(B[1] - A[1], B[0] - A[0])
-    P = A + RP * np.array([math.cos(th3 + GP), math.sin(th3 + GP)])
-    return float(P[0]), float(P[1]), math.degrees(th3)
 
 
 def burmester_recovery(poses):

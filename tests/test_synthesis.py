@@ -275,20 +275,7 @@ def _crank_rocker():
 def _poses(mech, inputs_deg, signs):
     """Poses of the four-bar at the inputs in the given modes, by circle intersection (internal units)."""
     p = {x.name: x.value for x in mech.parameters}
-    out = []
-    for x, s in zip(inputs_deg, signs):
-        t = math.radians(x)
-        A = np.array([p["r2"] * math.cos(t), p["r2"] * math.sin(t)])
-        O4 = np.array([p["r1"], 0.0])
-        d = np.linalg.norm(O4 - A)
-        u = (O4 - A) / d
-        along = (d * d + p["r3"] ** 2 - p["r4"] ** 2) / (2 * d)
-        h = math.sqrt(p["r3"] ** 2 - along ** 2)
-        n = np.array([-u[1], u[0]])
-        for B in (A + along * u + h * n, A + along * u - h * n):
-            v3, v4 = B - A, B - O4
-            if np.sign(v3[1] * v4[0] - v3[0] * v4[1]) == s:
-                out.append([t, math.atan2(v3[1], v3[0]), math.atan2(v4[1], v4[0])])
+    out = [[math.radians(x), *map(math.radians, fourbar_angles(p, x, sg))] for x, sg in zip(inputs_deg, signs)]
     return np.array(out).T
 
 
