@@ -113,6 +113,49 @@ def _dips(margins, f):
     return False
 
 
+def _first_without(test, xe, c, lc, sig0, ch, angles):
+    """Per design ``c[r]``, the first index into ``xe`` after its last row ``lc[r]`` without a root in its
+    mode, or −1 (its root at the last row is not the tracked one, a value is undecided, or every value
+    to the end has a root). Evaluated in windows of 4, 16, 64, ... values, all designs at once."""
+    n, L = len(c), len(xe)
+    kb = np.full(n, -1)
+    lo = np.array(lc, dtype=int)
+    pending = np.arange(n)
+    is_len = np.array([k is Kind.LENGTH for k in test.ck.kinds])
+    w = 4
+    first = True
+    while len(pending):
+        ranges = [np.arange(lo[r], min(lo[r] + w, L)) for r in pending]
+        kk = np.concatenate(ranges)
+        dj = np.repeat(c[pending], [len(v) for v in ranges])
+        ok, dec, Z, _ = _in_mode(test, xe[kk], dj, sig0[:, dj])
+        o, nxt = 0, []
+        for r, rg in zip(pending, ranges):
+            m = len(rg)
+            okj, decj = ok[o:o + m], dec[o:o + m]
+            if first:  # the tracked row: the root in the mode must be it (angles modulo 2π)
+                j = c[r]
+                dz = Z[:, o] - ch.Z[0][:, int(lc[r]), j]
+                if angles:
+                    dz[angles] = (dz[angles] + math.pi) % (2 * math.pi) - math.pi
+                if not okj[0] or not np.all(np.abs(dz) <= 1e-7 * np.where(is_len, test.scale[j], 1.0)):
+                    o += m
+                    continue
+            o += m
+            f = int(np.argmax(~okj)) if not okj.all() else m
+            if not decj[:f + 1].all():
+                continue
+            if f < m:
+                kb[r] = rg[f]
+            elif rg[-1] < L - 1:
+                nxt.append(r)
+                lo[r] = rg[-1] + 1
+        pending = np.array(nxt, dtype=int)
+        first = False
+        w *= 4
+    return kb
+
+
 def locate_limits(ck, P, xs, x_end, cand, last, irregular, sig0, ch, rates, derivatives):
     """Designs ``cand`` that left the lockstep path (their last row ``last``, their mode ``sig0``
     ``(nb, D)``): locate the limit each approaches and fill its rows up to it, all designs at once.
@@ -141,32 +184,12 @@ def locate_limits(ck, P, xs, x_end, cand, last, irregular, sig0, ch, rates, deri
     if dirn * (x_end - xs[-1]) <= 0:
         xe = xe[:-1]
     angles = [i for _, _, iz in test.blocks for i in iz if ck.kinds[i] is Kind.ANGLE]
-    # 1. every grid value from each design's last row on: its root in its mode, and the first without
-    n, L = len(c), len(xe)
-    lc = last[c]
-    cnt = L - lc  # from the last row (included) to the end
-    dj = np.repeat(c, cnt)
-    kk = np.concatenate([np.arange(int(a), L) for a in lc])
-    ok, dec, Zg, _ = _in_mode(test, xe[kk], dj, sig0[:, dj])
-    starts = np.concatenate([[0], np.cumsum(cnt)[:-1]])
-    keep, kb = [], []
-    for r, j in enumerate(c):
-        o, m = starts[r], cnt[r]
-        okj, decj = ok[o:o + m], dec[o:o + m]
-        if not okj[0] or okj.all() or not decj.all():
-            continue
-        # the tracked row: the root in the mode must be it (angles modulo 2π)
-        dz = Zg[:, o] - ch.Z[0][:, int(lc[r]), j]
-        if angles:
-            dz[angles] = (dz[angles] + math.pi) % (2 * math.pi) - math.pi
-        tol = 1e-7 * np.where([ck.kinds[i] is Kind.LENGTH for i in range(len(dz))], test.scale[j], 1.0)
-        if not np.all(np.abs(dz) <= tol):
-            continue
-        keep.append(r)
-        kb.append(int(lc[r]) + int(np.argmax(~okj)))
-    if not keep:
+    # 1. from each design's last row on, in growing windows: the first grid value without a root in its mode
+    kb = _first_without(test, xe, c, last[c], sig0, ch, angles)
+    found = kb > 0
+    if not found.any():
         return cand, none
-    c, kb = c[keep], np.array(kb)
+    c, kb = c[found], kb[found]
     # 2. pieces of 5°/64 from the last row to that value: the first piece without a root brackets the limit
     h = abs(float(xs[1] - xs[0]))
     per = 64 if ck.kinds[test.ix] is not Kind.ANGLE else max(4, math.ceil(64 * h / math.radians(5.0) - 1e-9))
