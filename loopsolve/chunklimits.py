@@ -26,6 +26,11 @@ lengths: four-bars, slider-cranks, six-bars, fans of dyads):
   mode, polished by Newton to round-off, angles continued from the row before; rates and points
   from them, as the lockstep rows.
 
+* **Designs the lockstep path did not bring to the start** (a limit between the guesses' input
+  and the start, Newton from the guesses needing damping) start here as the single sweep starts
+  (:func:`loopsolve.solve.start_position`): at the start, the root with the signature the
+  guesses name (angles in (−π, π]), when it is regular (:func:`_start_here`).
+
 Designs dropped near a change point or for a signature change (``irregular``), designs whose
 root in the mode at the last row is not the tracked one, and designs any step cannot decide are
 left for the single sweep.
@@ -156,6 +161,46 @@ def _first_without(test, xe, c, lc, sig0, ch, angles):
     return kb
 
 
+def _start_here(test, ck, P, x0, cols, last, sig0, ch, rates, derivatives):
+    """Start the designs ``cols`` that the lockstep path did not bring to the start (a limit between the
+    guesses' input and the start, Newton from the guesses needing damping): row 0 is the root in the
+    mode the guesses name, as :func:`loopsolve.solve.start_position` takes it (the unique root with that
+    signature, angles in (−π, π]). Sets ``last`` to 0 and ``sig0`` to that mode where it is regular;
+    returns those designs."""
+    from .lockstep import REGULAR_MIN, _fill_rows
+    from .solve import initial_z
+
+    mech = ck.mechanism
+    none = np.zeros(0, dtype=int)
+    if not len(cols) or not all(mech.variable(n).guess is not None for n in ck.unknowns):
+        return none
+    ops = test.ops
+    z = initial_z(ck, warn=False)
+    x_guess = mech.variable(ck.inputs[0]).guess
+    z[test.ix] = x0 if x_guess is None else x_guess
+    Zg = np.repeat(z[:, None], len(cols), axis=1)
+    with np.errstate(all="ignore"):
+        req = ops.guess_signs(ops.jac(Zg, P[:, cols]))  # the mode the guesses name, per design
+        ok, dec, Z, _ = _in_mode(test, np.full(len(cols), x0), cols, req)
+        Pc = P[:, cols]
+        for _ in range(3):  # polish to round-off
+            Z[ops.iu] = Z[ops.iu] + ops.solve(ops.jac(Z, Pc), -ops.phi(Z, Pc))
+        sg, reg = ops.signs_and_regularity(ops.jac(Z, Pc), test.scale[cols])
+        res = np.max(np.abs(ops.phi(Z, Pc)), axis=0)
+    ang = [int(i) for i in ops.iu if ck.kinds[int(i)] is Kind.ANGLE]
+    Z[ang] = -((-Z[ang] + math.pi) % (2 * math.pi) - math.pi)  # into (−π, π]
+    edge = np.any(np.abs(np.abs(Z[ang]) - math.pi) < 1e-6, axis=0) if ang else np.zeros(len(cols), dtype=bool)
+    good = (ok & dec & np.all(req != 0, axis=0) & np.all(sg == req, axis=0) & (reg >= REGULAR_MIN) & ~edge
+            & (res <= 1e-12 * test.scale[cols]))
+    if not good.any():
+        return none
+    cg = np.asarray(cols)[good]
+    _fill_rows(ck, ops, Z[:, good], P[:, cg], ch, np.zeros(len(cg), dtype=int), cg, rates, derivatives)
+    last[cg] = 0
+    sig0[:, cg] = req[:, good]
+    return cg
+
+
 def locate_limits(ck, P, xs, x_end, cand, last, irregular, sig0, ch, rates, derivatives):
     """Designs ``cand`` that left the lockstep path (their last row ``last``, their mode ``sig0``
     ``(nb, D)``): locate the limit each approaches and fill its rows up to it, all designs at once.
@@ -175,10 +220,12 @@ def locate_limits(ck, P, xs, x_end, cand, last, irregular, sig0, ch, rates, deri
     test = AssemblyTest(ck, ops, P, design_scale(ck, P))
     if not test.usable:
         return cand, none
-    c = cand[(last[cand] >= 0) & ~irregular[cand]]
+    xs = np.asarray(xs, dtype=float)
+    last, sig0 = last.copy(), sig0.copy()
+    here = _start_here(test, ck, P, xs[0], cand[last[cand] < 0], last, sig0, ch, rates, derivatives)
+    c = cand[(last[cand] >= 0) & ~irregular[cand] | np.isin(cand, here)]  # the path before the start is not theirs
     if not len(c):
         return cand, none
-    xs = np.asarray(xs, dtype=float)
     xe = np.append(xs, x_end)  # the grid, then the end of the range
     dirn = 1.0 if xs[-1] > xs[0] else -1.0
     if dirn * (x_end - xs[-1]) <= 0:

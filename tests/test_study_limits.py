@@ -158,3 +158,25 @@ def test_sixbar_limits_equal_their_single_sweep(monkeypatch):
         m = mech.with_parameters(**{n: float(v[j, i]) for i, n in enumerate(names)})
         _equals_single_sweep(ds, j, m, ("theta_coupler", "theta_rocker", "theta_link5", "theta_link6",
                                         "theta_link6_vel", "D_x"))
+
+
+@pytest.mark.filterwarnings("ignore:.*limit position")
+def test_designs_with_a_limit_between_the_guesses_and_the_start_start_in_the_chunk(monkeypatch):
+    """The engine slider-crank's guesses are at θ2 = 30°; a crank more than twice the rod cannot be
+    assembled there (r2 sin 30° > r3), so the lockstep path from the guesses never reaches the start
+    θ2 = 0. Such designs start in the chunk as their single sweep starts (the root in the mode the
+    guesses name, at the start) and stop at the closed-form limit r2 sin θ2 = r3."""
+    from loopsolve.designs import Designs
+
+    mech = ls.load(ls.models_dir() / "engine_slider_crank.toml")
+    rng = np.random.default_rng(23)
+    r2 = np.concatenate([rng.uniform(300, 400, 40), rng.uniform(30, 50, 20)])
+    r3 = np.concatenate([rng.uniform(100, 140, 40), rng.uniform(120, 160, 20)])
+    ds, alone = _study_and_alone(mech, Designs(("r2", "r3"), {"r2": r2, "r3": r3}), monkeypatch)
+    assert ds.status.values.tolist() == ["limit"] * 40 + ["ok"] * 20
+    assert not alone and ds.lockstep.values.all()
+    for j in list(range(40)) + [40, 50]:
+        m = mech.with_parameters(r2=float(r2[j]), r3=float(r3[j]))
+        _equals_single_sweep(ds, j, m, ("theta3", "r1", "theta3_vel", "r1_vel", "C_x"))
+        if j < 40:
+            assert float(ds.stop.values[j]) == pytest.approx(math.degrees(math.asin(r3[j] / r2[j])), abs=1e-8)
