@@ -233,7 +233,7 @@ def locate_limits(ck, P, xs, x_end, cand, last, irregular, sig0, ch, rates, deri
     angles = [i for _, _, iz in test.blocks for i in iz if ck.kinds[i] is Kind.ANGLE]
     # 1. from each design's last row on, in growing windows: the first grid value without a root in its mode
     kb = _first_without(test, xe, c, last[c], sig0, ch, angles)
-    found = kb > 0
+    found = kb >= 0
     if not found.any():
         return cand, none
     c, kb = c[found], kb[found]
