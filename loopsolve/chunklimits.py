@@ -26,6 +26,9 @@ lengths: four-bars, slider-cranks, six-bars, fans of dyads):
   mode, polished by Newton to round-off, angles continued from the row before; rates and points
   from them, as the lockstep rows.
 
+* **No limit.** A design with a root in its mode at every piece to the end of the range (the
+  lockstep path dropped it for a steep slope, not for a limit) has its rows filled the same way
+  to the end, status ``ok``, when no discriminant dips on the way.
 * **Designs the lockstep path did not bring to the start** (a limit between the guesses' input
   and the start, Newton from the guesses needing damping) start here as the single sweep starts
   (:func:`loopsolve.solve.start_position`): at the start, the root with the signature the
@@ -120,8 +123,8 @@ def _dips(margins, f):
 
 def _first_without(test, xe, c, lc, sig0, ch, angles):
     """Per design ``c[r]``, the first index into ``xe`` after its last row ``lc[r]`` without a root in its
-    mode, or −1 (its root at the last row is not the tracked one, a value is undecided, or every value
-    to the end has a root). Evaluated in windows of 4, 16, 64, ... values, all designs at once."""
+    mode; ``len(xe)`` where every value to the end has one; −1 where its root at the last row is not
+    the tracked one or a value is undecided. In windows of 4, 16, 64, ... values, all designs at once."""
     n, L = len(c), len(xe)
     kb = np.full(n, -1)
     lo = np.array(lc, dtype=int)
@@ -155,6 +158,8 @@ def _first_without(test, xe, c, lc, sig0, ch, angles):
             elif rg[-1] < L - 1:
                 nxt.append(r)
                 lo[r] = rg[-1] + 1
+            else:
+                kb[r] = L  # a root in its mode at every value to the end
         pending = np.array(nxt, dtype=int)
         first = False
         w *= 4
@@ -206,7 +211,8 @@ def locate_limits(ck, P, xs, x_end, cand, last, irregular, sig0, ch, rates, deri
     ``(nb, D)``): locate the limit each approaches and fill its rows up to it, all designs at once.
 
     Sets status ``limit``, stop, event, warning, mode and rows in ``ch`` as the single sweep gives
-    them; returns ``(designs left for the single sweep, designs done here)``.
+    them (a design without a limit in the range: its rows and mode, status ``ok``); returns
+    ``(designs left for the single sweep, designs done here)``.
     """
     from .assemblable import AssemblyTest
     from .lockstep import _fill_rows, _Ops, design_scale, display_value_of
@@ -237,7 +243,11 @@ def locate_limits(ck, P, xs, x_end, cand, last, irregular, sig0, ch, rates, deri
     if not found.any():
         return cand, none
     c, kb = c[found], kb[found]
-    # 2. pieces of 5°/64 from the last row to that value: the first piece without a root brackets the limit
+    # 2. pieces of 5°/64 from the last row to that value (or the end): the first piece without a root
+    # brackets the limit; a design with a root in every piece to the end is completed without one
+    L = len(xe)
+    reach = kb == L
+    kb = np.where(reach, L - 1, kb)
     h = abs(float(xs[1] - xs[0]))
     per = 64 if ck.kinds[test.ix] is not Kind.ANGLE else max(4, math.ceil(64 * h / math.radians(5.0) - 1e-9))
     spans = [np.linspace(xe[int(last[j])], xe[k], per * (k - int(last[j])) + 1) for j, k in zip(c, kb)]
@@ -250,19 +260,22 @@ def locate_limits(ck, P, xs, x_end, cand, last, irregular, sig0, ch, rates, deri
         okj, decj = okf[o:o + m], decf[o:o + m]
         margins = [None if g is None else g[o:o + m] for g in mf]
         o += m
-        f = int(np.argmax(~okj))
-        if not decj.all() or f == 0 or okj[f] or _dips(margins, f):
+        f = m if okj.all() else int(np.argmax(~okj))
+        if not decj.all() or f == 0 or (f == m) != reach[r] or _dips(margins, f):
             continue
         xa_.append(xx[f - 1])
-        xb_.append(xx[f])
+        xb_.append(xx[f] if f < m else xx[f - 1])
         keep.append(r)
     if not keep:
         return cand, none
-    c, kb = c[keep], kb[keep]
-    xf = _bisect(test, np.array(xa_), np.array(xb_), c, sig0[:, c])
+    c, kb, reach = c[keep], kb[keep], reach[keep]
+    xf = np.where(reach, dirn * np.inf, 0.0)
+    lim = ~reach
+    if lim.any():
+        xf[lim] = _bisect(test, np.array(xa_)[lim], np.array(xb_)[lim], c[lim], sig0[:, c[lim]])
     # 3. the rows between each design's last lockstep row and the limit, all designs at once
-    rows_of = [np.array([k for k in range(int(last[j]) + 1, min(int(k_bad), K)) if dirn * (xs[k] - x_lim) < 0],
-                        dtype=int) for j, x_lim, k_bad in zip(c, xf, kb)]
+    rows_of = [np.array([k for k in range(int(last[j]) + 1, K if to_end else min(int(k_bad), K))
+                         if dirn * (xs[k] - x_lim) < 0], dtype=int) for j, x_lim, k_bad, to_end in zip(c, xf, kb, reach)]
     rk = np.concatenate(rows_of) if rows_of else np.zeros(0, dtype=int)
     rj = np.repeat(c, [len(v) for v in rows_of])
     failed = set()
@@ -281,8 +294,13 @@ def locate_limits(ck, P, xs, x_end, cand, last, irregular, sig0, ch, rates, deri
             o += len(rws)
         _fill_rows(ck, ops, Z, Pj, ch, rk, rj, rates, derivatives)
     done = []
-    for j, x_lim, rws in zip(c, xf, rows_of):
+    for j, x_lim, rws, to_end in zip(c, xf, rows_of, reach):
         if int(j) in failed:
+            continue
+        ch.mode[j] = "".join(np.where(sig0[:, j] > 0, "+", np.where(sig0[:, j] < 0, "-", "0")))
+        ch.lockstep[j] = True
+        done.append(int(j))
+        if to_end:  # a regular path to the end of the range: no event, status ok
             continue
         end = int(last[j]) + 1 + len(rws)
         for arr in ch.Z:
@@ -296,8 +314,5 @@ def locate_limits(ck, P, xs, x_end, cand, last, irregular, sig0, ch, rates, deri
         # the warning the single sweep gives at this stop (sweep._announce_stop), summarized per study
         ch.warnings.append((j, f"the sweep stops at a limit position (toggle) at {ck.inputs[0]} = "
                                f"{disp:.10g}{_input_unit(ck)}"))
-        ch.mode[j] = "".join(np.where(sig0[:, j] > 0, "+", np.where(sig0[:, j] < 0, "-", "0")))
-        ch.lockstep[j] = True
-        done.append(int(j))
     done = np.array(done, dtype=int)
     return np.setdiff1d(cand, done), done

@@ -180,3 +180,26 @@ def test_designs_with_a_limit_between_the_guesses_and_the_start_start_in_the_chu
         _equals_single_sweep(ds, j, m, ("theta3", "r1", "theta3_vel", "r1_vel", "C_x"))
         if j < 40:
             assert float(ds.stop.values[j]) == pytest.approx(math.degrees(math.asin(r3[j] / r2[j])), abs=1e-8)
+
+
+@pytest.mark.filterwarnings("ignore:.*limit position")
+def test_watt_sixbar_designs_are_all_decided_in_the_chunk(monkeypatch):
+    """Watt I six-bars (guesses drawn at θ2 = 60°, studied from 0°): designs with a limit between the
+    guesses and the start, designs the lockstep path dropped for a steep slope late in the cycle (no
+    limit: completed to the end), limits of either dyad — none is swept alone, and every design
+    equals its own sweep."""
+    from loopsolve.designs import Designs
+
+    names = ("r_crank", "r_link5", "r_link6")
+    mech = ls.load(ls.models_dir() / "watt1_sixbar.toml")
+    rng = np.random.default_rng(5)
+    v = np.column_stack([rng.uniform(20, 40, 150), rng.uniform(40, 90, 150), rng.uniform(30, 80, 150)])
+    ds, alone = _study_and_alone(mech, Designs(names, {n: v[:, i] for i, n in enumerate(names)}), monkeypatch)
+    status = ds.status.values
+    assert not alone
+    assert (status == "limit").sum() >= 40 and (status == "ok").sum() >= 50
+    assert ds.lockstep.values[status != "not-assemblable"].all()
+    for j in np.flatnonzero(status != "not-assemblable"):
+        m = mech.with_parameters(**{n: float(v[j, i]) for i, n in enumerate(names)})
+        _equals_single_sweep(ds, j, m, ("theta_coupler", "theta_rocker", "theta_link5", "theta_link6",
+                                        "theta_link5_vel", "G_x"))
