@@ -24,9 +24,10 @@ design of a chunk along the same input values:
    the chunk decides at once which designs cannot be assembled at the start and locates their
    nearest assemblable inputs (:func:`_not_assemblable`), and locates the limit position of
    designs that left the path approaching one, filling their rows up to it
-   (:func:`loopsolve.chunklimits.locate_limits`): status, stop, nearest inputs, events, mode and
-   rows as their single sweep gives them (the limits located by bisection to round-off, the
-   tracker's to 1e-9).
+   (:func:`loopsolve.chunklimits.locate_limits`; it also starts the designs the path did not
+   bring from the guesses to the start, and completes those dropped for a steep slope): status,
+   stop, nearest inputs, events, mode and rows as their single sweep gives them (the limits
+   located by bisection to round-off, the tracker's to 1e-9).
 5. **Hand-off.** Any other design for which a check fails — near a change point, a signature
    change, a start that cannot be decided, a model the test does not recognize — is not
    guessed at: it is swept alone by the public :func:`loopsolve.sweep` with its own parameter
