@@ -96,6 +96,16 @@ def _in_mode(test, x, cols, sig):
     return ok, dec, Z, margins
 
 
+def _in_mode_pieces(test, x, cols, sig, size=50_000):
+    """``(ok, decided, margins)`` of :func:`_in_mode` at many inputs, ``size`` at a time (bounded memory)."""
+    parts = [_in_mode(test, x[a:a + size], cols[a:a + size], sig[:, a:a + size]) for a in range(0, len(x), size)]
+    ok = np.concatenate([p[0] for p in parts])
+    dec = np.concatenate([p[1] for p in parts])
+    margins = [None if parts[0][3][b] is None else np.concatenate([p[3][b] for p in parts])
+               for b in range(len(parts[0][3]))]
+    return ok, dec, margins
+
+
 def _bisect(test, good, bad, cols, sig):
     """The boundary between ``good`` (a root in the mode) and ``bad`` inputs, per design, to round-off."""
     good, bad = good.copy(), bad.copy()
@@ -252,7 +262,7 @@ def locate_limits(ck, P, xs, x_end, cand, last, irregular, sig0, ch, rates, deri
     per = 64 if ck.kinds[test.ix] is not Kind.ANGLE else max(4, math.ceil(64 * h / math.radians(5.0) - 1e-9))
     spans = [np.linspace(xe[int(last[j])], xe[k], per * (k - int(last[j])) + 1) for j, k in zip(c, kb)]
     dsp = np.repeat(c, [len(v) for v in spans])
-    okf, decf, _, mf = _in_mode(test, np.concatenate(spans), dsp, sig0[:, dsp])
+    okf, decf, mf = _in_mode_pieces(test, np.concatenate(spans), dsp, sig0[:, dsp])
     xa_, xb_, keep = [], [], []
     o = 0
     for r, xx in enumerate(spans):
