@@ -22,6 +22,9 @@ lengths: four-bars, slider-cranks, six-bars, fans of dyads):
   point: such a design goes to the single sweep, whose tracer tells them apart.
 * **Location.** Bisection on the same test, all designs at once, to round-off (the tracer
   locates the fold to about 1e-9 in the input; the test that compares both allows that).
+* **Necks.** Where the design has a root in its mode again within 1e-3 rad past the located
+  limit (probes at 1e-3 · 2^−k), the gap is a near change point, which the tracer passes with a
+  ``singular`` event when it is narrow enough: such a design goes to the single sweep.
 * **Rows.** The rows between the last lockstep row and the limit are the designs' roots in their
   mode, polished by Newton to round-off, angles continued from the row before; rates and points
   from them, as the lockstep rows.
@@ -48,6 +51,10 @@ import numpy as np
 from .units import Kind
 
 __all__ = ["locate_limits"]
+
+#: a limit with a root in the mode again within this (radians, or lengths over the scale) is a neck
+_NECK = 1e-3
+_PROBES = 31  # probes at _NECK · 2^−k past the limit
 
 
 def _in_mode(test, x, cols, sig):
@@ -283,6 +290,16 @@ def locate_limits(ck, P, xs, x_end, cand, last, irregular, sig0, ch, rates, deri
     lim = ~reach
     if lim.any():
         xf[lim] = _bisect(test, np.array(xa_)[lim], np.array(xb_)[lim], c[lim], sig0[:, c[lim]])
+        # a gap narrower than _NECK (a root in the mode again just past the limit) is a near change point,
+        # which the tracer may pass with a singular event: the single sweep decides
+        cl = c[lim]
+        width = _NECK * (1.0 if ck.kinds[test.ix] is Kind.ANGLE else test.scale[cl])
+        off = 2.0 ** -np.arange(_PROBES)
+        xp = (xf[lim] + dirn * np.outer(width * np.ones(len(cl)), off).T).T
+        okp, _, _, _ = _in_mode(test, xp.ravel(), np.repeat(cl, _PROBES), sig0[:, np.repeat(cl, _PROBES)])
+        neck = np.zeros(len(c), dtype=bool)
+        neck[np.flatnonzero(lim)] = okp.reshape(len(cl), _PROBES).any(axis=1)
+        c, kb, reach, xf = c[~neck], kb[~neck], reach[~neck], xf[~neck]
     # 3. the rows between each design's last lockstep row and the limit, all designs at once
     rows_of = [np.array([k for k in range(int(last[j]) + 1, K if to_end else min(int(k_bad), K))
                          if dirn * (xs[k] - x_lim) < 0], dtype=int) for j, x_lim, k_bad, to_end in zip(c, xf, kb, reach)]

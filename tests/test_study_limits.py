@@ -203,3 +203,37 @@ def test_watt_sixbar_designs_are_all_decided_in_the_chunk(monkeypatch):
         m = mech.with_parameters(**{n: float(v[j, i]) for i, n in enumerate(names)})
         _equals_single_sweep(ds, j, m, ("theta_coupler", "theta_rocker", "theta_link5", "theta_link6",
                                         "theta_link5_vel", "G_x"))
+
+
+@pytest.mark.filterwarnings("ignore:.*limit position")
+@pytest.mark.filterwarnings("ignore:.*singular")
+def test_slider_cranks_near_a_change_point_equal_their_single_sweep():
+    """r2 = r3 + e + δ: for δ > 0 a gap around θ2 = 90° of half-width ≈ √(2δ/r2) rad, for δ < 0 a
+    neck. Within about 1e-10 of the change point (δ = 1e-9 here, 1.3e-12 of r2) the tracer passes the
+    gap with a singular event; wider gaps stop the sweep at the limit asin((r3 + e)/r2). A gap
+    narrower than 1e-3 rad is left to the single sweep, so the study equals it for every δ."""
+    from loopsolve.designs import Designs
+
+    mech = ls.load(SLIDER)
+    deltas = [1e-1, 1e-3, 1e-6, 1e-9, -1e-9, -1e-6, -1e-3, -1e-1]
+    r3, e = 700.0, 50.0
+    r2 = np.array([r3 + e + dd for dd in deltas])
+    d = Designs(("r2", "r3", "e"), {"r2": r2, "r3": np.full(len(r2), r3), "e": np.full(len(r2), e)})
+    ds = ls.study(mech, d, 0, 360, STEP, derivatives=1, progress=False)
+    for j, dd in enumerate(deltas):
+        m = mech.with_parameters(r2=float(r2[j]), r3=r3, e=e)
+        sw = m.sweep(0, 360, STEP, derivatives=1, progress=False)
+        events = "; ".join(f"{ev.kind.value}@{ev.input:.10g}" for ev in sw.events)
+        if dd == 1e-9:  # passed as a change point
+            assert ds.status.values[j] == "ok" and events.startswith("singular@")
+        if ds.status.values[j] == "limit":
+            assert float(ds.stop.values[j]) == pytest.approx(sw.events[0].input, abs=6e-8)
+            first = math.degrees(math.asin((r3 + e) / r2[j])) if dd > 0 else 180 + math.degrees(
+                math.asin((r3 - e) / r2[j]))
+            assert float(ds.stop.values[j]) == pytest.approx(first, abs=1e-6)
+        else:
+            assert ds.events.values[j] == events
+        assert ds.status.values[j] == ("ok" if dd == 1e-9 else "limit")
+        rows = {float(x): i for i, x in enumerate(sw.columns[sw.input])}
+        for x, i in rows.items():
+            assert ds.theta3.values[j, int(round(x / STEP))] == pytest.approx(sw.columns["theta3"][i], rel=1e-12)
