@@ -25,7 +25,8 @@ Run from the repository root::
     python benchmarks/bench_study.py                    # both parts
     python benchmarks/bench_study.py --part kernel      # part 1 only
     python benchmarks/bench_study.py --part handoff     # issue 21's rows 2 and 3: designs not assemblable
-                                                        # at the start, limits, the mixed box
+                                                        # at the start, limits (four-bars, slider-cranks),
+                                                        # the mixed box
     nice python benchmarks/bench_study.py --part zarr --designs 20000
 """
 
@@ -240,6 +241,7 @@ def part_handoff(args):
           f"{int(outs['limit'].lockstep.sum())} in lockstep; r2, r3, r4 in {JAM_BOX}): {t_jam:.3f} s "
           f"[{times['limit'][1]:.3f}], {t_jam / n * 1e3:.2f} ms per design")
     print(f"ROW 2b limit-design study / ordinary study: {t_jam / t_ok:.1f}x")
+    _slider_crank_limits(args)
 
     m = args.kernel_designs
     d = sample(MIXED_BOX, m, seed=4)
@@ -262,6 +264,35 @@ def part_handoff(args):
         print(f"pylinkage numba kernel looped over the {len(outs['pylinkage'])} designs it can start: "
               f"{t_pl:.3f} s [{times['pylinkage'][1]:.3f}]")
         print(f"ROW 3  mixed-box study / pylinkage loop: {t_ls / t_pl:.2f}x  (goal <= 1x)")
+
+
+SC_MODEL = ROOT / "models" / "prob2_offset_slider_crank.toml"
+SC_BOX = {"r2": (400.0, 560.0), "r3": (1400.0, 1700.0), "e": (0.0, 200.0)}  # crank shorter than the rod: ok
+SC_LIMIT_BOX = {"r2": (1100.0, 1400.0), "r3": (500.0, 900.0), "e": (0.0, 100.0)}  # longer: a limit on the way
+
+
+def _slider_crank_limits(args):
+    """Row 2c: offset slider-cranks whose crank is longer than the rod (they stop where
+    |r2 sin θ2 − e| = r3) against ordinary ones, the same number, 361 points, pos/vel/acc."""
+    from loopsolve.designs import sample
+
+    mech = ls.load(SC_MODEL)
+    n = args.handoff_designs
+    ls.study(mech, sample(SC_BOX, 10, seed=0), 0, 360, 1, derivatives=2, progress=False)  # warm up
+
+    def run(d):
+        return lambda: ls.study(mech, d, 0, 360, 1, derivatives=2, chunk_size=args.chunk_kernel, progress=False)
+
+    times, outs = best_times({"limit": run(sample(SC_LIMIT_BOX, n, seed=6)),
+                              "ordinary": run(sample(SC_BOX, n, seed=7))}, args.repeats)
+    t_lim, t_ok = times["limit"][0], times["ordinary"][0]
+    sl = outs["limit"].status.values
+    print(f"== {n} offset slider-cranks stopping at a limit ({int((sl == 'limit').sum())}/{n} limit, "
+          f"{int(outs['limit'].lockstep.sum())} in lockstep; {SC_LIMIT_BOX}) vs {n} ordinary ({SC_BOX}), "
+          f"361 points, pos/vel/acc ==")
+    print(f"limit designs: {t_lim:.3f} s [{times['limit'][1]:.3f}], {t_lim / n * 1e3:.2f} ms per design; "
+          f"ordinary: {t_ok:.3f} s [{times['ordinary'][1]:.3f}], {t_ok / n * 1e3:.2f} ms per design")
+    print(f"ROW 2c slider-crank limit-design study / ordinary slider-crank study: {t_lim / t_ok:.1f}x")
 
 
 def _rss_peak_mb():

@@ -188,12 +188,6 @@ class AssemblyTest:
             decided &= np.abs(self._phi(base, ((i, t * s),), cols)[e] - (D * t * s + f0)) <= tol
         return decided, decided, [(-f0 / D,)]
 
-    def dyad_roots(self, x, cols):
-        """Both roots ``((a, b), (a, b))`` of a one-dyad model at inputs ``x`` of designs ``cols``, and
-        whether the test decided them (the circle intersection of :func:`loopsolve.modes._dyad_roots`)."""
-        ok, decided = self.at(x, cols)
-        return self._roots, ok & decided
-
     def nearest(self, x0: float, cols) -> list[tuple[float, ...] | None]:
         """Nearest assemblable inputs (internal units) below and above ``x0`` for the designs ``cols``,
         none of which is assemblable at ``x0``; None for a design this cannot decide (a length input,

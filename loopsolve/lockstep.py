@@ -22,10 +22,12 @@ design of a chunk along the same input values:
 4. **Designs that leave the path.** For a model whose blocks the closed-form assembly test of
    :mod:`loopsolve.assemblable` recognizes (dyads of two angles, single unknowns),
    the chunk decides at once which designs cannot be assembled at the start and locates their
-   nearest assemblable inputs (:func:`_not_assemblable`), and for one-dyad models locates the
-   limit position of designs that left the path approaching one, filling their rows up to it
-   (:func:`_limits`): status, stop, nearest inputs, events, mode and rows as their single
-   sweep gives them (the limits located by bisection to round-off, the tracker's to 1e-9).
+   nearest assemblable inputs (:func:`_not_assemblable`), and locates the limit position of
+   designs that left the path approaching one, filling their rows up to it
+   (:func:`loopsolve.chunklimits.locate_limits`; it also starts the designs the path did not
+   bring from the guesses to the start, and completes those dropped for a steep slope): status,
+   stop, nearest inputs, events, mode and rows as their single sweep gives them (the limits
+   located by bisection to round-off, the tracker's to 1e-9).
 5. **Hand-off.** Any other design for which a check fails — near a change point, a signature
    change, a start that cannot be decided, a model the test does not recognize — is not
    guessed at: it is swept alone by the public :func:`loopsolve.sweep` with its own parameter
@@ -404,7 +406,9 @@ def sweep_chunk(mech, names, values, start, stop, step, *, speed=None, accel=Non
     if lockstep and len(single):
         single = _not_assemblable(ck, P, xs, xs_disp, single, ch)
         x_end = input_value(ck, stop, ck.inputs[0], reduce=False)
-        single, limits = _limits(ck, P, xs, xs_disp, x_end, single, last, irregular, sig0, ch, rates, derivatives)
+        from .chunklimits import locate_limits
+
+        single, limits = locate_limits(ck, P, xs, x_end, single, last, irregular, sig0, ch, rates, derivatives)
     for j in np.flatnonzero(~alive):
         if j in limits:
             continue
@@ -445,135 +449,6 @@ def _not_assemblable(ck, P, xs, xs_disp, cand, ch) -> np.ndarray:
         ch.events[j] = _no_path(str(err).splitlines()[0], ck.mechanism)
         done.append(j)
     return np.setdiff1d(cand, np.array(done, dtype=int))
-
-
-def _limits(ck, P, xs, xs_disp, x_end, cand, last, irregular, sig0, ch, rates, derivatives):
-    """Designs ``cand`` that left the lockstep path approaching a limit position: locate it and fill
-    their remaining rows, all designs at once; returns ``(left for the single sweep, done here)``.
-
-    For a model of one dyad (:class:`loopsolve.assemblable.AssemblyTest`): the first grid row
-    after the design's last lockstep row where it cannot be assembled (or the end of the range)
-    brackets the limit; the stretch from the last row is cut into pieces of 5°/64 and the
-    limit located by bisection on the assembly test between the last assemblable piece and the
-    next (a dip of the discriminant on the way, which could hide a narrower gap, hands off). The rows before it are the
-    dyad's closed-form root with the design's signature (the mode it was tracked in; one dyad
-    changes signature only at its limit), polished by Newton, angles continued from the row
-    before. Designs dropped near a change point or for a signature change, or whose bracket
-    finds no limit, go to the single sweep (which tells those apart).
-    """
-    from .assemblable import AssemblyTest
-    from .solve import _input_unit
-
-    none = np.zeros(0, dtype=int)
-    K = len(xs)
-    if K < 2 or not len(cand):
-        return cand, none
-    test = AssemblyTest(ck, _Ops(ck), P, design_scale(ck, P))
-    if not (test.usable and len(test.blocks) == 1 and test.blocks[0][0] == "dyad"):
-        return cand, none
-    c = cand[(last[cand] >= 0) & ~irregular[cand]]
-    if not len(c):
-        return cand, none
-    xe = np.append(np.asarray(xs, dtype=float), x_end)  # the grid, then the end of the range
-    dirn = 1.0 if xs[-1] > xs[0] else -1.0
-    if dirn * (x_end - xs[-1]) <= 0:
-        xe = xe[:-1]
-    n = len(c)
-    # 1. the first grid value after each design's last row where it cannot be assembled
-    ks = np.arange(len(xe))
-    ok, dec = test.at(np.tile(xe, n), np.repeat(c, len(xe)))
-    ok, dec = ok.reshape(n, -1), dec.reshape(n, -1)
-    after = ks[None, :] > last[c][:, None]
-    bad = after & ~ok
-    found = bad.any(axis=1) & np.all(dec | ~after, axis=1)
-    kb = np.where(found, np.argmax(bad, axis=1), -1)
-    # no assemblable gap between the last row and kb: every grid value between is assemblable (checked)
-    c, kb = c[found], kb[found]
-    if not len(c):
-        return cand, none
-    # 2. from the last row to that value in pieces of 5°/64 (an angle input; else 64 per grid
-    # step, and at least 4): the first piece that cannot be
-    # assembled brackets the limit. A dip of the dyad's discriminant on the way (a local minimum
-    # below 1 % of its largest value) may hide a gap narrower than a piece: such a design goes to
-    # the single sweep, whose tracer cannot step across one.
-    h = abs(float(xs[1] - xs[0]))
-    per = 64 if ck.kinds[test.ix] is not Kind.ANGLE else max(4, math.ceil(64 * h / math.radians(5.0) - 1e-9))
-    spans = [np.linspace(xe[int(last[j])], xe[k], per * (k - int(last[j])) + 1) for j, k in zip(c, kb)]
-    okf, decf = test.at(np.concatenate(spans), np.repeat(c, [len(v) for v in spans]))  # all designs at once
-    h2f = test._last[-1]
-    xa_, xb_, keep = [], [], []
-    o = 0
-    for j, k, xx in zip(c, kb, spans):
-        okj, decj, h2 = okf[o:o + len(xx)], decf[o:o + len(xx)], h2f[o:o + len(xx)]
-        o += len(xx)
-        f = int(np.argmax(~okj))
-        if not decj.all() or f == 0 or okj[f]:
-            continue
-        h = h2[:f]
-        dip = (h[1:-1] <= h[:-2]) & (h[1:-1] <= h[2:]) & (h[1:-1] < 1e-2 * np.max(h)) if f > 2 else np.zeros(0, bool)
-        if dip.any():
-            continue
-        xa_.append(xx[f - 1])
-        xb_.append(xx[f])
-        keep.append((j, k))
-    if not keep:
-        return cand, none
-    c = np.array([j for j, _ in keep])
-    kb = np.array([k for _, k in keep])
-    xf = test._bisect(np.array(xa_), np.array(xb_), c)
-    # 3. the rows between each design's last lockstep row and the limit, all designs at once
-    ops = _Ops(ck)
-    iu = ops.iu
-    ia, ib = test.blocks[0][2]
-    rows_of = {int(j): [k for k in range(int(last[j]) + 1, min(int(k_bad), K)) if dirn * (xs[k] - x_lim) < 0]
-               for j, x_lim, k_bad in zip(c, xf, kb)}
-    rk = np.array([k for j in c for k in rows_of[int(j)]], dtype=int)  # (design, row) pairs
-    rj = np.array([j for j in c for _ in rows_of[int(j)]], dtype=int)
-    failed = set()
-    if len(rk):
-        xr = np.asarray(xs, dtype=float)[rk]
-        roots, okr = test.dyad_roots(xr, rj)
-        failed = set(rj[~okr].tolist())
-        Z = np.repeat(test.z0[:, None], len(rk), axis=1)
-        Z[test.ix] = xr
-        Pj = P[:, rj]
-        Zc = Z.copy()
-        Zc[ia], Zc[ib] = roots[0]
-        sg, _ = ops.signs_and_regularity(ops.jac(Zc, Pj), test.scale[rj])
-        pick = sg[0] == sig0[0, rj]  # the root in the design's mode
-        Z[ia] = np.where(pick, roots[0][0], roots[1][0])
-        Z[ib] = np.where(pick, roots[0][1], roots[1][1])
-        with np.errstate(all="ignore"):
-            for _ in range(3):  # polish to round-off
-                Z[iu] = Z[iu] + ops.solve(ops.jac(Z, Pj), -ops.phi(Z, Pj))
-        o = 0
-        for j in c:  # angles continued from the row before
-            prev = ch.Z[0][:, int(last[j]), j]
-            for q in range(o, o + len(rows_of[int(j)])):
-                for i in (ia, ib):
-                    Z[i, q] = prev[i] + (Z[i, q] - prev[i] + math.pi) % (2 * math.pi) - math.pi
-                prev = Z[:, q]
-            o += len(rows_of[int(j)])
-        _fill_rows(ck, ops, Z, Pj, ch, rk, rj, rates, derivatives)
-    for j, x_lim in zip(c, xf):
-        if int(j) in failed:
-            continue
-        end = int(last[j]) + 1 + len(rows_of[int(j)])
-        for arr in ch.Z:
-            arr[:, end:, j] = np.nan
-        if ch.points is not None:
-            ch.points[..., end:, j] = np.nan
-        disp = display_value_of(ck, float(x_lim))
-        ch.status[j] = "limit"
-        ch.stop[j] = disp
-        ch.events[j] = f"limit@{disp:.10g}"
-        # the warning the single sweep gives at this stop (sweep._announce_stop), summarized per study
-        ch.warnings.append((j, f"the sweep stops at a limit position (toggle) at {ck.inputs[0]} = "
-                               f"{disp:.10g}{_input_unit(ck)}"))
-        ch.mode[j] = "".join(np.where(sig0[:, j] > 0, "+", np.where(sig0[:, j] < 0, "-", "0")))
-        ch.lockstep[j] = True
-    done = np.array([j for j in c if ch.status[j] == "limit"], dtype=int)
-    return np.setdiff1d(cand, done), done
 
 
 def _fill_rows(ck, ops, Z, P, ch, rows, cols, rates, derivatives):
