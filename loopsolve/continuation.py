@@ -554,8 +554,12 @@ class Tracer:
                                         f"{self._label(a.sig)}; the rows stop here"))
                 break
             if not natural and any((xb - xa) * out > 0 and (xa - bound) * out >= 0
+                                   and (a.t[n] * out > 0 or self.g.hi - self.g.lo <= k.x_tol)
                                    for bound, out in ((self.g.lo, -1.0), (self.g.hi, 1.0))):
-                break  # a node on an end of the range (a one-row sweep's start) and the step leaves it
+                # a node on an end of the range (a one-row sweep's start) and the step leaves it. A step
+                # that comes back out of the range although the tangent pointed into it went round a
+                # limit position just inside the range: that is located below, not a silent stop
+                break
             if not natural:
                 for bound, out in ((self.g.lo, -1.0), (self.g.hi, 1.0)):
                     if (xb - xa) * out > 0 and ((xa - bound) * (xb - bound) < 0 or (xb == bound and xa != bound)):

@@ -568,3 +568,30 @@ class TestLimitRows:
         x = full["theta2"]
         assert x[0] == pytest.approx(lo, abs=1e-9) and x[-1] == pytest.approx(lo, abs=1e-9)
         assert np.sum(np.abs(x - hi) < 1e-9) == 1 and len(full) == 2 * 12 + 1
+
+
+# A sweep that starts just before a limit position: the tracker's first arclength step goes round the
+# limit and comes back out of the range. It used to stop there silently (one row, no event, no warning:
+# found by the in-chunk limit tests, design r2 = 1010.47, r3 = 636.12, e = -130.80 of prob2 swept from 30°);
+# the limit must be reported where the closed form puts it, |e - r2 sin θ2| = r3.
+_NEAR_LIMIT = dict(r2=1010.4744132940376, r3=636.1194251148528, e=-130.79819087070194)
+
+
+@pytest.mark.parametrize("step", [0.001, 0.5, 3.0, 10.0])
+@pytest.mark.parametrize("gap", [1e-7, 1e-5, 1e-3, 5.5e-3, 0.1, 2.0])
+@pytest.mark.parametrize("side", ["up", "down"])
+def test_a_limit_just_after_the_start_is_reported_not_a_silent_stop(side, gap, step):
+    r2, r3, e = _NEAR_LIMIT["r2"], _NEAR_LIMIT["r3"], _NEAR_LIMIT["e"]
+    lim = math.degrees(math.asin((e + r3) / r2))  # ≈ 30.0055°: reachable below it
+    mech = ls.load(ls.models_dir() / "prob2_offset_slider_crank.toml").with_parameters(**_NEAR_LIMIT)
+    if side == "down":  # the mirror limit ≈ 149.9945°, reachable above it, swept downwards
+        lim = 180.0 - lim
+        start, stop = lim + gap, lim + gap - 6.0
+    else:
+        start, stop = lim - gap, lim - gap + 6.0
+    with pytest.warns(ls.LoopsolveWarning, match="limit position"):
+        sw = mech.sweep(start, stop, step, method="tracked")
+    limits = [ev for ev in sw.events if ev.kind.value == "limit"]
+    assert len(limits) == 1 and limits[0].input == pytest.approx(lim, abs=1e-7)
+    x = np.degrees(sw.z[:, 0])
+    assert np.all((x - lim) * (1 if side == "up" else -1) <= 1e-9)  # no row beyond the limit
