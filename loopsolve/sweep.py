@@ -15,7 +15,7 @@ import sys
 
 import numpy as np
 
-from . import batch
+from . import batch, numbakin
 from .continuation import (Kernel, Path, RowSolution, StepControl, Tracer, fill_node_rows, first_node,
                            solve_rows_scalar)
 from .errors import AssemblyError, ConvergenceError, ModelError, SingularPositionError, SolveError, warn
@@ -356,7 +356,7 @@ def sweep(mech, start, stop, step, *, speed=None, accel=None, jerk=None, input: 
           mode: str | None = None, guess: dict | None = None, compiled=None,
           through_limits: bool = False, progress: bool | None = None, method: str = "auto",
           derivatives: int = 3, control: StepControl = StepControl(), settings: Newton = Newton(),
-          max_rows: int = MAX_ROWS, limit_rows: bool = False) -> Sweep:
+          max_rows: int = MAX_ROWS, limit_rows: bool = False, engine: str | None = None) -> Sweep:
     """Sweep the input from ``start`` to ``stop`` by ``step`` (display units), tracking the mode.
 
     Parameters
@@ -397,6 +397,10 @@ def sweep(mech, start, stop, step, *, speed=None, accel=None, jerk=None, input: 
     limit_rows : bool
         Also a row at every limit position the sweep reaches (off the grid: the located input,
         the positions there, NaN rates), so that plotted branches meet at their fold.
+    engine : {"python", "numba", "auto"}, optional
+        Who takes the tracer's regular natural steps: Python, or the compiled fast lane
+        (:mod:`loopsolve.fastlane`, needs the ``fast`` extra: numba); ``"auto"`` is numba when
+        installed. Default: ``$LOOPSOLVE_ENGINE``, else ``"python"``. The rows agree to round-off.
 
     Returns
     -------
@@ -434,6 +438,7 @@ def sweep(mech, start, stop, step, *, speed=None, accel=None, jerk=None, input: 
         raise ModelError(f"method {method!r}: expected 'auto', 'tracked' or 'batched'")
     if derivatives not in (1, 2, 3):
         raise ModelError(f"derivatives={derivatives!r}: expected 1 (velocities), 2 (accelerations) or 3 (jerks)")
+    fast = numbakin.use_numba(engine)
     ck = compiled if compiled is not None else mech.compile(input)
     x0, x1, h, kind, deg = _parse_range(ck, start, stop, step)
     g = _make_grid(x0, x1, h, kind, through_limits, deg, max_rows=max_rows)
@@ -457,6 +462,8 @@ def sweep(mech, start, stop, step, *, speed=None, accel=None, jerk=None, input: 
     try:
         tracer = Tracer(kern, g, control, land=not use_batch, through_limits=through_limits, x_start=x0,
                          bar=None if use_batch else bar)
+        if fast:
+            tracer.fast = numbakin.fast_lane(kern)
         path = tracer.trace(first)
         rows = _enumerate_rows(kern, path, g)
         if use_batch:
