@@ -17,6 +17,9 @@ from loopsolve.cli import main
 from loopsolve.solve import solve_position
 from loopsolve.sweep import StepControl, _progress, default_range, grid, nearest_assemblable, reachable_ranges
 
+#: every test here runs with the pure-Python tracer and with the compiled fast lane (conftest.py)
+pytestmark = pytest.mark.usefixtures("both_engines")
+
 TWO_PI = 2 * math.pi
 RAD = math.radians
 
