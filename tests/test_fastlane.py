@@ -11,6 +11,7 @@
 
 from __future__ import annotations
 
+import hashlib
 import importlib.util
 import math
 import os
@@ -22,14 +23,14 @@ import pytest
 
 import loopsolve as ls
 from loopsolve import classic as C
-from loopsolve import fastlane, numbakin
+from loopsolve import compiled, fastlane, numbakin
 from loopsolve.cli import main
 from loopsolve.errors import LoopsolveWarning, MissingDependencyError
 from loopsolve.kernel import Kernel, rho_2x3
 from loopsolve.modes import assembly_modes
 from loopsolve.sweep import Grid, default_range
 
-pytest.importorskip("numba")
+numba = pytest.importorskip("numba")
 
 MODELS = sorted(Path(ls.models_dir()).glob("*.toml"))
 
@@ -247,27 +248,28 @@ class TestNumbaCache:
         for p in [cache, pyc, src] + [pyc / e for e in entries]:
             assert not os.stat(p).st_mode & 0o022
 
-    @pytest.mark.parametrize("plant", ["group_writable_pycache", "symlinked_entry"])
-    def test_foreign_or_open_cache_is_not_used(self, tmp_path, monkeypatch, plant):
+    def test_foreign_or_open_cache_is_not_used(self, tmp_path, monkeypatch):
         cache = tmp_path / "cache"
         monkeypatch.setenv("LOOPSOLVE_CACHE_DIR", str(cache))
         ck = ls.fourbar(60, 25, 70, 45).compile()
-        key_stem = "nb_" + __import__("hashlib").sha256(
-            f"{__import__('numba').__version__}\n{numbakin.numba_source(ck)}".encode()).hexdigest()[:24]
+        stem = "nb_" + hashlib.sha256(f"{numba.__version__}\n{numbakin.numba_source(ck)}".encode()).hexdigest()[:24]
         pyc = cache / "__pycache__"
         pyc.mkdir(parents=True)
         os.chmod(cache, 0o700)
-        if plant == "group_writable_pycache":
-            os.chmod(pyc, 0o775)
-        else:
-            os.chmod(pyc, 0o700)
-            (tmp_path / "evil").write_bytes(b"not numba")
-            os.symlink(tmp_path / "evil", pyc / f"{key_stem}.run2-1.py311.nbi")
+        os.chmod(pyc, 0o700)
+        (tmp_path / "evil").write_bytes(b"not numba")
+        link = pyc / f"{stem}.run2-1.py311.nbi"
+        os.symlink(tmp_path / "evil", link)
+        with pytest.raises(compiled._Untrusted, match="not a regular file"):  # a planted symlink
+            numbakin._check_pycache(cache, stem)
+        link.unlink()
+        os.chmod(pyc, 0o775)  # a __pycache__ others can write to: the whole sweep is compiled in memory
         monkeypatch.setattr(numbakin, "_MEMO", {})
         monkeypatch.setattr(numbakin, "_BY_MODULE", {})
         with pytest.warns(LoopsolveWarning, match="not using the compile cache"):
             mod = numbakin._numba_module(ck)
-        assert mod.__file__.startswith("<loopsolve numba")  # compiled in memory
+        assert mod.__file__.startswith("<loopsolve numba")
+        assert not any(e.startswith(stem) for e in os.listdir(pyc))
         sw = ls.sweep(ck.mechanism, 0, 90, 30, compiled=ck, engine="numba", method="tracked")
         t3, t4 = C.fourbar_position(60, 25, 70, 45, np.radians(sw["theta2"]), 1)
         assert np.max(np.abs(np.radians(sw["theta4"]) - t4)) < 1e-10
