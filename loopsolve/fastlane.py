@@ -277,11 +277,16 @@ class FastLane:
     :meth:`Tracer.trace <loopsolve.continuation.Tracer.trace>` calls on natural steps.
     """
 
-    def __init__(self, kern, run):
+    def __init__(self, kern, run, *, lazy: bool = False):
         self.k = kern
         self.run = run
         self.p = np.asarray(kern.p, dtype=float)
         self.ex = np.asarray(kern.ex, dtype=float)
+        #: with ``lazy``, a path that the fast lane traces whole in one call, from its first node to
+        #: the end of the range, is kept as arrays (:attr:`whole`) instead of nodes: the path then
+        #: holds only its first node, and :meth:`whole_rows` gives the rows
+        self.lazy = lazy
+        self.whole = None
 
     def _config(self, tracer, closing: bool, start_sig: str):
         from .continuation import _NEAR_SINGULAR, _RHO_TOUCH, _TRUST
@@ -314,9 +319,11 @@ class FastLane:
         f, iv = self._config(tracer, tracer.through and folds > 0, start_sig)
         natural = True
         first_x = nodes[-1].z[k.ix]
+        g = tracer.g
+        whole = self.lazy and len(nodes) == 1  # may trace the whole path in one call
         while True:
             a = nodes[-1]
-            cap = min(tracer.c.max_nodes + 1 - len(nodes), 4096)
+            cap = min(tracer.c.max_nodes + 1 - len(nodes), 2 * (g.kmax - g.kmin) + 4096 if whole else 4096)
             if cap <= 0:
                 break
             if a.rho is None:
@@ -333,6 +340,12 @@ class FastLane:
             count, status, h = self.run(np.asarray(a.z, dtype=float), np.asarray(a.t, dtype=float),
                                         1 if a.sig == "+" else -1, float(a.rho), has_prev, pt, float(xp), float(h),
                                         self.p, self.ex, f, iv, oz, ot, oj, of, oi)
+            if whole and status == END:
+                self.whole = (oz[:count], of[:count, 0], oi[:count])
+                if tracer.bar is not None:
+                    tracer.bar.update(len(g.crossed(first_x, oz[count - 1, k.ix])))
+                return h, prev_natural, natural, True
+            whole = False
             if count:
                 zs, ts, js, fs, gi = oz[:count].tolist(), ot[:count].tolist(), oj[:count].tolist(), \
                     of[:count].tolist(), oi[:count].tolist()
@@ -350,3 +363,21 @@ class FastLane:
         if tracer.bar is not None:
             tracer.bar.update(len(tracer.g.crossed(first_x, nodes[-1].z[k.ix])))
         return h, prev_natural, natural, status == END
+
+    def whole_rows(self, first):
+        """Rows of a path traced whole (:attr:`whole`): ``(ks, node, Z, res, its)`` in path order, the
+        grid indices, node numbers along the path, positions ``(nvar, N)``, residuals and iterations.
+
+        Every natural step lands on the next grid value within its reach, so the grid values the
+        path crosses are exactly its nodes with a grid index (and the first node when it has one).
+        """
+        oz, res, oi = self.whole
+        on = np.flatnonzero(oi[:, 0] != NOGRID)
+        ks, Z, r, its, node = oi[on, 0], oz[on].T, res[on], oi[on, 1], on + 1
+        if first.grid is not None:
+            ks = np.concatenate(([first.grid], ks))
+            Z = np.concatenate((np.asarray(first.z, dtype=float)[:, None], Z), axis=1)
+            r = np.concatenate(([first.residual], r))
+            its = np.concatenate(([first.n_iter], its))
+            node = np.concatenate(([0], node))
+        return ks, node, np.ascontiguousarray(Z), r, its

@@ -177,11 +177,11 @@ def _numba_module(ck) -> ModuleType:
     return module
 
 
-def fast_lane(kern):
+def fast_lane(kern, *, lazy: bool = False):
     """The compiled fast lane of a :class:`~loopsolve.kernel.Kernel`, or None where it has none
     (more than one block or a block larger than 2×2: the tracer then runs in Python)."""
     if not kern.single2:
         return None
     from .fastlane import FastLane
 
-    return FastLane(kern, _numba_module(kern.ck).run2)
+    return FastLane(kern, _numba_module(kern.ck).run2, lazy=lazy)

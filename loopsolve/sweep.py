@@ -209,6 +209,16 @@ def _enumerate_rows(kern: Kernel, path: Path, g: Grid) -> Rows:
 
 
 
+def _whole_rows(fast, first, g: Grid, nv: int):
+    """Rows and positions of a path the compiled fast lane traced whole (:meth:`FastLane.whole_rows`)."""
+    ks, node, Z, res, its = fast.whole_rows(first)
+    rows = Rows(ks, np.full(len(ks), -1, dtype=np.int64), node, g.values(ks))
+    sol = RowSolution(len(ks), nv)
+    sol.Z, sol.res, sol.its = Z, res, its
+    sol.code[:] = sol.code_of(first.sig)
+    return rows, sol
+
+
 def solve_rows_tracked(tracer: Tracer, path: Path, rows: Rows, g: Grid) -> RowSolution:
     """Positions of every row: nodes as they are, other crossings by a corrector from the segment."""
     sol = RowSolution(len(rows), tracer.k.nv)
@@ -463,12 +473,15 @@ def sweep(mech, start, stop, step, *, speed=None, accel=None, jerk=None, input: 
         tracer = Tracer(kern, g, control, land=not use_batch, through_limits=through_limits, x_start=x0,
                          bar=None if use_batch else bar)
         if fast:
-            tracer.fast = numbakin.fast_lane(kern)
+            tracer.fast = numbakin.fast_lane(kern, lazy=not use_batch)
         path = tracer.trace(first)
-        rows = _enumerate_rows(kern, path, g)
-        if use_batch:
+        if tracer.fast is not None and tracer.fast.whole is not None:  # traced whole by the fast lane
+            rows, sol = _whole_rows(tracer.fast, first, g, kern.nv)
+        elif use_batch:
+            rows = _enumerate_rows(kern, path, g)
             sol = batch.solve_rows(tracer, path, rows, g)
         else:
+            rows = _enumerate_rows(kern, path, g)
             sol = solve_rows_tracked(tracer, path, rows, g)
     finally:
         if bar is not None:

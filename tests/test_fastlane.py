@@ -37,7 +37,7 @@ MODELS = sorted(Path(ls.models_dir()).glob("*.toml"))
 
 @pytest.fixture
 def spy(monkeypatch):
-    """Counts the nodes the fast lane appends and the times it hands control back."""
+    """Counts the nodes the fast lane takes (appended to the path, or kept whole) and its calls."""
     calls = {"advance": 0, "nodes": 0}
     orig = fastlane.FastLane.advance
 
@@ -45,7 +45,7 @@ def spy(monkeypatch):
         n0 = len(path.nodes)
         out = orig(self, tracer, path, *args)
         calls["advance"] += 1
-        calls["nodes"] += len(path.nodes) - n0
+        calls["nodes"] += len(path.nodes) - n0 + (len(self.whole[0]) if self.whole is not None else 0)
         return out
 
     monkeypatch.setattr(fastlane.FastLane, "advance", advance)
