@@ -258,8 +258,76 @@ def run2(z, t, sig, rho, has_prev, pt, xp, h, p, ex, f, iv, oz, ot, oj, of, oi):
     return count, 3, h
 
 
+def norm2(a, b):
+    big = max(abs(a), abs(b))
+    if not big < math.inf:
+        return big  # inf, or NaN
+    if big == 0.0:
+        return 0.0
+    return big * math.sqrt((a / big) ** 2 + (b / big) ** 2)
+
+
+def start2(zg, z, p, i0, i1, tol, rtol, max_iter):
+    """The sweep's start by loopsolve.newton's damped Newton (one 2×2 block), from ``z`` (modified),
+    in the mode the guesses ``zg`` name. Returns (1, residual, iterations) when it converged in that
+    mode with a regular Jacobian all the way; (0, ., .) for anything else (Python decides)."""
+    A, B, C, D = jac(zg, p)  # noqa: F821
+    d = A * D - B * C
+    norms = math.sqrt(A * A + C * C) * math.sqrt(B * B + D * D)
+    if not abs(d) > 2e-9 * norms:  # GUESS_SINGULAR (with a margin): the guesses name no mode
+        return 0, 0.0, 0
+    want = 1 if d > 0 else -1
+    x0, x1 = z[i0], z[i1]
+    f0, f1 = phi(z, p)  # noqa: F821
+    fn = max(abs(f0), abs(f1))
+    polished = False
+    for it in range(1, max_iter + 1):
+        if not fn < math.inf:
+            return 0, fn, it
+        A, B, C, D = jac(z, p)  # noqa: F821
+        big = max(abs(A), abs(B), abs(C), abs(D))
+        if not (0.0 < big < math.inf):
+            return 0, fn, it
+        a, b, c, dd = A / big, B / big, C / big, D / big
+        g0, g1 = f0 / big, f1 / big
+        fro = a * a + b * b + c * c + dd * dd
+        det = a * dd - b * c
+        disc = math.sqrt(max(fro * fro - 4 * det * det, 0.0))
+        s1 = math.sqrt((fro + disc) / 2)
+        if not abs(det) / s1 > s1 * 1e-8:  # cond ≥ 1e8: near-singular, Python's regularized step
+            return 0, fn, it
+        d0 = (b * g1 - dd * g0) / det
+        d1 = (c * g0 - a * g1) / det
+        f2 = norm2(f0, f1)
+        t = 1.0
+        while True:
+            z[i0] = x0 + t * d0
+            z[i1] = x1 + t * d1
+            n0, n1 = phi(z, p)  # noqa: F821
+            f2n = norm2(n0, n1)
+            if f2n < math.inf and (f2n <= math.sqrt(1 - 1e-4 * t) * f2 or f2 <= tol * 1e-3):
+                break
+            t *= 0.5
+            if t < 1e-10:
+                return 0, fn, it
+        step = max(abs(t * d0), abs(t * d1))
+        x0, x1 = z[i0], z[i1]
+        f0, f1 = n0, n1
+        fn = max(abs(f0), abs(f1))
+        if fn <= tol:
+            if polished or step <= rtol * (1.0 + max(abs(x0), abs(x1))):
+                A, B, C, D = jac(z, p)  # noqa: F821
+                d = A * D - B * C
+                norms = math.sqrt(A * A + C * C) * math.sqrt(B * B + D * D)
+                if not abs(d) > 1e-6 * norms or (1 if d > 0 else -1) != want:
+                    return 0, fn, it  # another mode, or a near-singular start: Python decides
+                return 1, fn, it
+            polished = True
+    return 0, fn, max_iter
+
+
 #: the template functions, in the order they are written into the generated module
-TEMPLATE_FUNCTIONS = (grid_value, grid_next_after, natural_target, rho_2x3, step2, run2)
+TEMPLATE_FUNCTIONS = (grid_value, grid_next_after, natural_target, rho_2x3, step2, run2, norm2, start2)
 
 
 def template_source() -> str:
@@ -277,9 +345,10 @@ class FastLane:
     :meth:`Tracer.trace <loopsolve.continuation.Tracer.trace>` calls on natural steps.
     """
 
-    def __init__(self, kern, run, *, lazy: bool = False):
+    def __init__(self, kern, run, *, lazy: bool = False, start=None):
         self.k = kern
         self.run = run
+        self.start_run = start
         self.p = np.asarray(kern.p, dtype=float)
         self.ex = np.asarray(kern.ex, dtype=float)
         #: with ``lazy``, a path that the fast lane traces whole in one call, from its first node to
@@ -287,6 +356,36 @@ class FastLane:
         #: holds only its first node, and :meth:`whole_rows` gives the rows
         self.lazy = lazy
         self.whole = None
+
+    def start(self, x: float, *, mode=None, guess=None, settings=None):
+        """The sweep's start ``(z, residual, n_iter)`` at input ``x`` by the compiled Newton, or None.
+
+        The common case of :func:`loopsolve.solve.start_position` — no ``mode``, every unknown
+        guessed, Newton from the guesses converging without regularization or stall into the mode
+        the guesses name, with the unknown angles within (−π, π] — by the same damped Newton
+        (:mod:`loopsolve.newton`), compiled. None for everything else: the caller then runs
+        ``start_position``, which decides (other modes, warnings, errors) as always.
+        """
+        from .newton import Newton
+        from .solve import guess_pose, initial_z
+        from .units import Kind
+
+        if mode is not None:
+            return None
+        ck, k = self.k.ck, self.k
+        settings = settings if settings is not None else Newton()
+        zg = guess_pose(ck, x, guess=guess)
+        if zg is None or not np.all(np.isfinite(zg)):
+            return None
+        z = initial_z(ck, guess=guess, warn=False)
+        z[k.ix] = x
+        ok, res, it = self.start_run(zg, z, self.p, k.iu[0], k.iu[1], settings.atol * ck.scale, settings.rtol,
+                                     settings.max_iter)
+        if not ok:
+            return None
+        if any(ck.kinds[i] is Kind.ANGLE and not abs(z[i]) <= math.pi for i in k.iu):
+            return None  # turns away: start_position reduces and polishes
+        return z, float(res), int(it)
 
     def _config(self, tracer, closing: bool, start_sig: str):
         from .continuation import _NEAR_SINGULAR, _RHO_TOUCH, _TRUST

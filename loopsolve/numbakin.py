@@ -184,4 +184,5 @@ def fast_lane(kern, *, lazy: bool = False):
         return None
     from .fastlane import FastLane
 
-    return FastLane(kern, _numba_module(kern.ck).run2, lazy=lazy)
+    module = _numba_module(kern.ck)
+    return FastLane(kern, module.run2, lazy=lazy, start=module.start2)

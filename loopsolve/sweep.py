@@ -454,8 +454,10 @@ def sweep(mech, start, stop, step, *, speed=None, accel=None, jerk=None, input: 
     g = _make_grid(x0, x1, h, kind, through_limits, deg, max_rows=max_rows)
     x0 = g.value(0)  # start exactly on the first grid value (the two may differ by an ulp)
     rates = input_rates(ck, speed, accel, jerk)
-    z0, _, _ = start_position(ck, x0, mode=mode, guess=guess, settings=settings)
     kern = Kernel(ck)
+    lane = numbakin.fast_lane(kern, lazy=method != "batched") if fast else None
+    started = lane.start(x0, mode=mode, guess=guess, settings=settings) if lane is not None else None
+    z0, _, _ = started or start_position(ck, x0, mode=mode, guess=guess, settings=settings)
     d = 1.0 if g.step > 0 else -1.0
     first = first_node(kern, z0, d, allow_fold=True)
     if first.kind == "fold" and abs(display_value(ck, first.z[kern.ix]) - display_value(ck, x0)) > _AT_LIMIT:
@@ -472,8 +474,9 @@ def sweep(mech, start, stop, step, *, speed=None, accel=None, jerk=None, input: 
     try:
         tracer = Tracer(kern, g, control, land=not use_batch, through_limits=through_limits, x_start=x0,
                          bar=None if use_batch else bar)
-        if fast:
-            tracer.fast = numbakin.fast_lane(kern, lazy=not use_batch)
+        if lane is not None:
+            lane.lazy = not use_batch
+            tracer.fast = lane
         path = tracer.trace(first)
         if tracer.fast is not None and tracer.fast.whole is not None:  # traced whole by the fast lane
             rows, sol = _whole_rows(tracer.fast, first, g, kern.nv)

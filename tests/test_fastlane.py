@@ -273,3 +273,40 @@ class TestNumbaCache:
         sw = ls.sweep(ck.mechanism, 0, 90, 30, compiled=ck, engine="numba", method="tracked")
         t3, t4 = C.fourbar_position(60, 25, 70, 45, np.radians(sw["theta2"]), 1)
         assert np.max(np.abs(np.radians(sw["theta4"]) - t4)) < 1e-10
+
+
+class TestCompiledStart:
+    """FastLane.start: the common case of start_position, compiled; None (Python decides) otherwise."""
+
+    def lane(self, mech):
+        ck = mech.compile()
+        return ck, numbakin.fast_lane(Kernel(ck))
+
+    def test_same_start_as_start_position(self):
+        from loopsolve.solve import start_position
+
+        rng = np.random.default_rng(7)
+        for mode in ("open", "crossed"):
+            ck, lane = self.lane(ls.fourbar(60, 25, 70, 45, mode=mode))
+            for x in rng.uniform(-math.pi, math.pi, 40):
+                got = lane.start(float(x))
+                ref = start_position(ck, float(x))
+                assert got is not None
+                assert np.max(np.abs(got[0] - ref[0])) <= 1e-13
+                assert ck.signature(got[0]) == ck.signature(ref[0])
+
+    def test_refuses_what_python_must_decide(self):
+        ck, lane = self.lane(ls.fourbar(60, 25, 70, 45))
+        assert lane.start(0.3, mode="crossed") is None  # a mode asked for: start_position's search
+        on_line = {"theta3": 0.5, "theta4": 0.5}  # θ4 = θ3: a singular configuration names no mode
+        assert lane.start(0.3, guess=on_line) is None
+        # guesses of the other mode (θ3 ≈ θ4 + 60° is crossed): Newton may end in either; the mode
+        # the guesses name is what the sweep must start in, whichever engine
+        crossed = {"theta3": math.radians(110), "theta4": math.radians(50)}
+        for x in np.linspace(-3, 3, 13):
+            got = lane.start(float(x), guess=crossed)
+            if got is not None:
+                assert ck.signature(got[0]) == "+"
+        mech = ck.mechanism
+        py, nb = _agree(mech, 0, 350, 10, guess=crossed)
+        assert set(nb.modes) == {"+"}
