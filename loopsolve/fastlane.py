@@ -326,8 +326,49 @@ def start2(zg, z, p, i0, i1, tol, rtol, max_iter):
     return 0, fn, max_iter
 
 
+def rates2(Z, r1, r2, r3, p, i0, i1, ix, derivatives, singular_cond, Z1, Z2, Z3, cond):
+    """loopsolve.batch.rates_v for one 2×2 block, row by row: velocities, accelerations, jerks
+    (NaN beyond ``derivatives``) and the condition numbers; NaN rates where cond > singular_cond."""
+    nv, n = Z.shape
+    z = np.empty(nv)
+    for j in range(n):
+        for i in range(nv):
+            z[i] = Z[i, j]
+            Z1[i, j] = 0.0
+            Z2[i, j] = 0.0
+            Z3[i, j] = 0.0
+        Z1[ix, j], Z2[ix, j], Z3[ix, j] = r1, r2, r3
+        A, B, C, D = jac(z, p)  # noqa: F821
+        fro = A * A + B * B + C * C + D * D
+        adet = abs(A * D - B * C)
+        disc = math.sqrt(max(fro * fro - 4 * adet * adet, 0.0))
+        s1 = math.sqrt((fro + disc) / 2)
+        s2 = adet / s1
+        cond[j] = s1 / s2 if s2 > 0 else math.inf
+        det = A * D - B * C
+        b0, b1 = rhs1(z, Z1[:, j], p)  # noqa: F821
+        Z1[i0, j] = (D * b0 - B * b1) / det
+        Z1[i1, j] = (A * b1 - C * b0) / det
+        if derivatives >= 2:
+            b0, b1 = rhs2(z, Z1[:, j], Z2[:, j], p)  # noqa: F821
+            Z2[i0, j] = (D * b0 - B * b1) / det
+            Z2[i1, j] = (A * b1 - C * b0) / det
+        else:
+            Z2[i0, j] = Z2[i1, j] = math.nan
+        if derivatives >= 3:
+            b0, b1 = rhs3(z, Z1[:, j], Z2[:, j], Z3[:, j], p)  # noqa: F821
+            Z3[i0, j] = (D * b0 - B * b1) / det
+            Z3[i1, j] = (A * b1 - C * b0) / det
+        else:
+            Z3[i0, j] = Z3[i1, j] = math.nan
+        if not cond[j] <= singular_cond:
+            for i in range(nv):
+                Z1[i, j] = Z2[i, j] = Z3[i, j] = math.nan
+            Z1[ix, j], Z2[ix, j], Z3[ix, j] = r1, r2, r3
+
+
 #: the template functions, in the order they are written into the generated module
-TEMPLATE_FUNCTIONS = (grid_value, grid_next_after, natural_target, rho_2x3, step2, run2, norm2, start2)
+TEMPLATE_FUNCTIONS = (grid_value, grid_next_after, natural_target, rho_2x3, step2, run2, norm2, start2, rates2)
 
 
 def template_source() -> str:
@@ -345,10 +386,11 @@ class FastLane:
     :meth:`Tracer.trace <loopsolve.continuation.Tracer.trace>` calls on natural steps.
     """
 
-    def __init__(self, kern, run, *, lazy: bool = False, start=None):
+    def __init__(self, kern, run, *, lazy: bool = False, start=None, rates=None):
         self.k = kern
         self.run = run
         self.start_run = start
+        self.rates_run = rates
         self.p = np.asarray(kern.p, dtype=float)
         self.ex = np.asarray(kern.ex, dtype=float)
         #: with ``lazy``, a path that the fast lane traces whole in one call, from its first node to
@@ -356,6 +398,18 @@ class FastLane:
         #: holds only its first node, and :meth:`whole_rows` gives the rows
         self.lazy = lazy
         self.whole = None
+
+    def rates(self, Z, rates, derivatives: int = 3):
+        """:func:`loopsolve.batch.rates_v` (without known Jacobians), compiled: ``Z1, Z2, Z3, cond``."""
+        from .batch import SINGULAR_COND
+
+        k = self.k
+        nv, n = Z.shape
+        Z1, Z2, Z3 = np.empty((nv, n)), np.empty((nv, n)), np.empty((nv, n))
+        cond = np.empty(n)
+        self.rates_run(np.ascontiguousarray(Z, dtype=float), float(rates[0]), float(rates[1]), float(rates[2]),
+                       self.p, k.iu[0], k.iu[1], k.ix, int(derivatives), SINGULAR_COND, Z1, Z2, Z3, cond)
+        return Z1, Z2, Z3, cond
 
     def start(self, x: float, *, mode=None, guess=None, settings=None):
         """The sweep's start ``(z, residual, n_iter)`` at input ``x`` by the compiled Newton, or None.

@@ -1,6 +1,6 @@
 """The ``numba`` engine: the generated kinematics and the tracer's fast lane compiled to machine code.
 
-:func:`fast_lane` takes the scalar functions Φ, Φ_q and b₁ that :mod:`loopsolve.compiled`
+:func:`fast_lane` takes the scalar functions Φ, Φ_q and b₁–b₃ that :mod:`loopsolve.compiled`
 generated for a model (plain ``math`` code), rewrites them to return tuples, appends the fast
 lane's step loop (:mod:`loopsolve.fastlane`) and compiles the module with
 ``numba.njit(cache=True)``. The module is written to the loopsolve cache directory as
@@ -48,7 +48,7 @@ _LOCK = threading.Lock()
 #: the numba module of each generated kinematics module (held with it: ids are not reused)
 _BY_MODULE: dict[int, tuple[ModuleType, ModuleType]] = {}
 #: the model's generated functions the fast lane calls
-_MODEL_FUNCTIONS = ("phi", "jac", "rhs1")
+_MODEL_FUNCTIONS = ("phi", "jac", "rhs1", "rhs2", "rhs3")
 
 
 def use_numba(engine: str | None) -> bool:
@@ -185,4 +185,4 @@ def fast_lane(kern, *, lazy: bool = False):
     from .fastlane import FastLane
 
     module = _numba_module(kern.ck)
-    return FastLane(kern, module.run2, lazy=lazy, start=module.start2)
+    return FastLane(kern, module.run2, lazy=lazy, start=module.start2, rates=module.rates2)

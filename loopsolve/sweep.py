@@ -507,7 +507,10 @@ def sweep(mech, start, stop, step, *, speed=None, accel=None, jerk=None, input: 
         missing = ~(sol.J_ok if every else sol.J_ok[ok])
         if missing.any():
             J[:, missing] = ck.module.jac_v(Z[:, missing], ck.p).reshape(J.shape[0], -1)
-    Z1, Z2, Z3, cond = batch.rates_v(ck, Z, rates, J=J, derivatives=derivatives)
+    if lane is not None and J is None:  # the same rates, compiled
+        Z1, Z2, Z3, cond = lane.rates(Z, rates, derivatives)
+    else:
+        Z1, Z2, Z3, cond = batch.rates_v(ck, Z, rates, J=J, derivatives=derivatives)
     code, res, its = (sol.code, sol.res, sol.its) if every else (sol.code[ok], sol.res[ok], sol.its[ok])
     bad = ~(cond <= batch.SINGULAR_COND)
     if np.any(bad):

@@ -55,8 +55,9 @@ def spy(monkeypatch):
 def _close(a, b, tol=1e-12):
     a, b = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
     assert a.shape == b.shape
-    both = np.isnan(a) & np.isnan(b)
-    err = np.where(both, 0.0, np.abs(a - b) / (1.0 + np.abs(b)))
+    same = (np.isnan(a) & np.isnan(b)) | (a == b)  # also equal infinities
+    with np.errstate(invalid="ignore"):
+        err = np.where(same, 0.0, np.abs(a - b) / (1.0 + np.abs(b)))
     assert not np.isnan(err).any()
     return float(err.max(initial=0.0))
 
@@ -310,3 +311,22 @@ class TestCompiledStart:
         mech = ck.mechanism
         py, nb = _agree(mech, 0, 350, 10, guess=crossed)
         assert set(nb.modes) == {"+"}
+
+
+@pytest.mark.parametrize("derivatives", [1, 2, 3])
+def test_compiled_rates_are_rates_v(derivatives):
+    """FastLane.rates against loopsolve.batch.rates_v, with a singular row (θ3 = θ4: NaN rates)."""
+    from loopsolve.batch import rates_v
+
+    ck = ls.fourbar(60, 25, 70, 45).compile()
+    lane = numbakin.fast_lane(Kernel(ck))
+    rng = np.random.default_rng(11)
+    Z = rng.uniform(-math.pi, math.pi, (3, 50))
+    Z[2, 7] = Z[1, 7]  # Φ_q singular there
+    rates = (2.0, -0.5, 0.25)
+    got = lane.rates(Z, rates, derivatives)
+    ref = rates_v(ck, Z.copy(), rates, derivatives=derivatives)
+    for g, r in zip(got, ref):
+        assert np.array_equal(np.isnan(g), np.isnan(r))
+        assert _close(g, r) <= 1e-12
+    assert np.isinf(got[3][7]) and np.isnan(got[0][1:, 7]).all() and got[0][0, 7] == 2.0
