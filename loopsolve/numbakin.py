@@ -42,7 +42,7 @@ from .errors import MissingDependencyError, ModelError
 __all__ = ["ENGINES", "use_numba", "fast_lane", "numba_source"]
 
 ENGINES = ("python", "numba", "auto")
-FORMAT = 1  # bump when the layout of the generated numba module changes
+FORMAT = 2  # bump when the generated numba module or its compile options change
 _MEMO: dict[str, ModuleType] = {}
 _LOCK = threading.Lock()
 #: the numba module of each generated kinematics module (held with it: ids are not reused)
@@ -167,9 +167,14 @@ def _numba_module(ck) -> ModuleType:
     # the entry's first line is its header (a comment): one blank line keeps the line numbers
     exec(compile("\n" + source, origin, "exec"), module.__dict__)
     jit = numba.njit(cache=cache, error_model="numpy")
+    # the model's functions are inlined where they are called, so that LLVM shares the sines and
+    # cosines that Φ_q and b₁–b₃ take of the same angles (the rates of a row)
+    inline = numba.njit(cache=cache, error_model="numpy", inline="always")
     from .fastlane import TEMPLATE_FUNCTIONS
 
-    for name in _MODEL_FUNCTIONS + tuple(fn.__name__ for fn in TEMPLATE_FUNCTIONS):
+    for name in _MODEL_FUNCTIONS:
+        setattr(module, name, inline(getattr(module, name)))
+    for name in tuple(fn.__name__ for fn in TEMPLATE_FUNCTIONS):
         setattr(module, name, jit(getattr(module, name)))
     with _LOCK:
         _MEMO[key] = module

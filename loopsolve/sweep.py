@@ -212,7 +212,8 @@ def _enumerate_rows(kern: Kernel, path: Path, g: Grid) -> Rows:
 def _whole_rows(fast, first, g: Grid, nv: int):
     """Rows and positions of a path the compiled fast lane traced whole (:meth:`FastLane.whole_rows`)."""
     ks, node, Z, res, its = fast.whole_rows(first)
-    rows = Rows(ks, np.full(len(ks), -1, dtype=np.int64), node, g.values(ks))
+    # every row is a node that landed exactly on its grid value (Grid.value, compiled)
+    rows = Rows(ks, np.full(len(ks), -1, dtype=np.int64), node, Z[fast.k.ix].copy())
     sol = RowSolution(len(ks), nv)
     sol.Z, sol.res, sol.its = Z, res, its
     sol.code[:] = sol.code_of(first.sig)
