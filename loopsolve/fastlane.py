@@ -379,6 +379,25 @@ def template_source() -> str:
 # ----------------------------------------------------------------------------- Python side
 
 
+def _compiled(fn, lane, *args):
+    """``fn(*args)``, or None when numba cannot compile it for this model (one warning, then the
+    lane is off and the Python path does the work)."""
+    if lane.failed:
+        return None
+    try:
+        return fn(*args)
+    except Exception as exc:
+        if not type(exc).__module__.startswith("numba"):
+            raise
+        from .errors import warn
+
+        lane.failed = True
+        warn(f"{lane.k.ck.mechanism.source or lane.k.ck.mechanism.name}: numba could not compile this model's "
+             f"fast lane ({type(exc).__name__}: {str(exc).splitlines()[0] if str(exc) else ''}); the Python "
+             "tracer is used")
+        return None
+
+
 class FastLane:
     """The fast lane of one :class:`~loopsolve.kernel.Kernel` (a model with a single 2×2 block).
 
@@ -391,6 +410,7 @@ class FastLane:
         self.run = run
         self.start_run = start
         self.rates_run = rates
+        self.failed = False  # numba could not compile this model's lane: the Python path does the work
         self.p = np.asarray(kern.p, dtype=float)
         self.ex = np.asarray(kern.ex, dtype=float)
         #: with ``lazy``, a path that the fast lane traces whole in one call, from its first node to
@@ -407,8 +427,12 @@ class FastLane:
         nv, n = Z.shape
         Z1, Z2, Z3 = np.empty((nv, n)), np.empty((nv, n)), np.empty((nv, n))
         cond = np.empty(n)
-        self.rates_run(np.ascontiguousarray(Z, dtype=float), float(rates[0]), float(rates[1]), float(rates[2]),
-                       self.p, k.iu[0], k.iu[1], k.ix, int(derivatives), SINGULAR_COND, Z1, Z2, Z3, cond)
+        if _compiled(self.rates_run, self, np.ascontiguousarray(Z, dtype=float), float(rates[0]), float(rates[1]),
+                     float(rates[2]), self.p, k.iu[0], k.iu[1], k.ix, int(derivatives), SINGULAR_COND, Z1, Z2, Z3,
+                     cond) is None and self.failed:
+            from .batch import rates_v
+
+            return rates_v(k.ck, Z, rates, derivatives=derivatives)
         return Z1, Z2, Z3, cond
 
     def start(self, x: float, *, mode=None, guess=None, settings=None):
@@ -433,8 +457,11 @@ class FastLane:
             return None
         z = initial_z(ck, guess=guess, warn=False)
         z[k.ix] = x
-        ok, res, it = self.start_run(zg, z, self.p, k.iu[0], k.iu[1], settings.atol * ck.scale, settings.rtol,
-                                     settings.max_iter)
+        out = _compiled(self.start_run, self, zg, z, self.p, k.iu[0], k.iu[1], settings.atol * ck.scale,
+                        settings.rtol, settings.max_iter)
+        if out is None:
+            return None
+        ok, res, it = out
         if not ok:
             return None
         if any(ck.kinds[i] is Kind.ANGLE and not abs(z[i]) <= math.pi for i in k.iu):
@@ -490,9 +517,12 @@ class FastLane:
             oj = np.empty((cap, 4))
             of = np.empty((cap, 2))
             oi = np.empty((cap, 2), dtype=np.int64)
-            count, status, h = self.run(np.asarray(a.z, dtype=float), np.asarray(a.t, dtype=float),
-                                        1 if a.sig == "+" else -1, float(a.rho), has_prev, pt, float(xp), float(h),
-                                        self.p, self.ex, f, iv, oz, ot, oj, of, oi)
+            out = _compiled(self.run, self, np.asarray(a.z, dtype=float), np.asarray(a.t, dtype=float),
+                            1 if a.sig == "+" else -1, float(a.rho), has_prev, pt, float(xp), float(h),
+                            self.p, self.ex, f, iv, oz, ot, oj, of, oi)
+            if out is None:
+                return h, prev_natural, natural, False  # the Python tracer goes on from here
+            count, status, h = out
             if whole and status == END:
                 self.whole = (oz[:count], of[:count, 0], oi[:count])
                 if tracer.bar is not None:

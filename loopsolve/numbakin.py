@@ -69,7 +69,16 @@ def use_numba(engine: str | None) -> bool:
     if engine == "numba" and not installed:
         raise MissingDependencyError(f"{src}='numba' needs numba: pip install 'loopsolve[fast]' (or use "
                                      "engine='python')")
-    return installed
+    if not installed:
+        return False
+    try:
+        import numba  # noqa: F401
+    except Exception as exc:  # installed but broken (e.g. a numpy it does not support)
+        if engine == "auto":
+            return False
+        raise MissingDependencyError(f"{src}='numba': numba is installed but does not import "
+                                     f"({type(exc).__name__}: {exc}); use engine='python'") from None
+    return True
 
 
 def _model_function(source: str, name: str) -> str:

@@ -330,3 +330,25 @@ def test_compiled_rates_are_rates_v(derivatives):
         assert np.array_equal(np.isnan(g), np.isnan(r))
         assert _close(g, r) <= 1e-12
     assert np.isinf(got[3][7]) and np.isnan(got[0][1:, 7]).all() and got[0][0, 7] == 2.0
+
+
+def test_a_model_numba_cannot_compile_falls_back_to_python_with_one_warning(monkeypatch):
+    from numba.core.errors import TypingError
+
+    def broken(*args):
+        raise TypingError("Failed in nopython mode pipeline (step: nopython frontend)")
+
+    real = numbakin.fast_lane
+
+    def lane(kern, **kw):
+        fl = real(kern, **kw)
+        fl.run = fl.start_run = fl.rates_run = broken
+        return fl
+
+    mech = ls.fourbar(60, 25, 70, 45)
+    ref = mech.sweep(0, 350, 10, engine="python")
+    monkeypatch.setattr(numbakin, "fast_lane", lane)
+    with pytest.warns(LoopsolveWarning, match="numba could not compile") as rec:
+        sw = mech.sweep(0, 350, 10, engine="numba")
+    assert len([w for w in rec if "numba could not compile" in str(w.message)]) == 1
+    assert np.array_equal(sw.z, ref.z) and np.array_equal(sw.z2, ref.z2)
