@@ -56,6 +56,16 @@ def use_numba(engine: str | None) -> bool:
 
     Raises :class:`MissingDependencyError` for ``"numba"`` without numba installed, and
     :class:`ModelError` for an unknown engine name.
+
+    Examples
+    --------
+    >>> from loopsolve.numbakin import use_numba
+    >>> use_numba("python")
+    False
+    >>> use_numba("cuda")
+    Traceback (most recent call last):
+    ...
+    loopsolve.errors.ModelError: engine='cuda': expected one of python, numba, auto
     """
     src = "engine"
     if engine is None:
