@@ -555,8 +555,11 @@ class FastLane:
         path crosses are exactly its nodes with a grid index (and the first node when it has one).
         """
         oz, res, oi = self.whole
-        on = np.flatnonzero(oi[:, 0] != NOGRID)
-        ks, Z, r, its, node = oi[on, 0], oz[on].T, res[on], oi[on, 1], on + 1
+        if oi[:, 0].min(initial=0) != NOGRID:  # the usual case: every node is a row
+            ks, Z, r, its, node = oi[:, 0], oz.T, res, oi[:, 1], np.arange(1, len(oz) + 1)
+        else:
+            on = np.flatnonzero(oi[:, 0] != NOGRID)
+            ks, Z, r, its, node = oi[on, 0], oz[on].T, res[on], oi[on, 1], on + 1
         if first.grid is not None:
             ks = np.concatenate(([first.grid], ks))
             Z = np.concatenate((np.asarray(first.z, dtype=float)[:, None], Z), axis=1)
