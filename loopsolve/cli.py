@@ -199,6 +199,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--method", choices=("auto", "tracked", "batched"), default="auto",
                    help="tracked: continuation to every output point; batched: vectorized Newton warm-started "
                    "from a coarse tracked pass (same results); auto: batched for dense grids (default)")
+    p.add_argument("--engine", choices=("python", "numba", "auto"), default=None,
+                   help="who takes the tracer's regular steps: python, or numba (the compiled fast lane, needs "
+                   "the fast extra; auto: numba when installed); default $LOOPSOLVE_ENGINE, else python")
     p.add_argument("--format", choices=("table", "csv", "json"), default="table")
     p.add_argument("-o", "--output", help="write to this file instead of standard output")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
@@ -576,7 +579,8 @@ def _sweep_for(args):
     return sweep(mech, start, stop, args.step, speed=args.speed, accel=args.accel, jerk=args.jerk,
                  input=args.input, mode=args.mode, through_limits=through,
                  progress=None if not args.quiet else False, method=getattr(args, "method", "auto"),
-                 max_rows=args.max_rows, limit_rows=args.command in ("plot", "view"))
+                 max_rows=args.max_rows, limit_rows=args.command in ("plot", "view"),
+                 engine=getattr(args, "engine", None))
 
 
 def cmd_vectors(args) -> int:

@@ -241,6 +241,7 @@ def _module_from_source(source: str, key: str, origin: str) -> ModuleType:
     module.__file__ = origin
     code = compile(source, origin, "exec")
     exec(code, module.__dict__)
+    module._SOURCE = source  # the text, for the numba engine (loopsolve.numbakin)
     return module
 
 

@@ -159,6 +159,7 @@ class Tracer:
         self.near = _NEAR_SINGULAR  # regularity below which a node is refused (see trace)
         self.cos_turn = math.cos(control.max_turn)
         self.cos_grow = math.cos(control.max_turn / 3)
+        self.fast = None  # compiled fast lane of regular natural steps (loopsolve.fastlane), or None
 
     # ------------------------------------------------------------------ helpers
     def _display(self, x):
@@ -494,6 +495,7 @@ class Tracer:
         folds = 0
         start_sig = first.sig
         passing = None  # the node a pass step across a branch point was last tried from
+        fast_ok = self.fast is not None
         while True:
             a = nodes[-1]
             if len(nodes) > c.max_nodes:
@@ -501,6 +503,14 @@ class Tracer:
                                     f"stopped after {c.max_nodes} internal steps (StepControl.max_nodes); the rows "
                                     "stop here"))
                 break
+            if fast_ok and natural and a.kind == "regular":
+                # the compiled fast lane takes the regular natural steps; the first step it does not
+                # take is taken below, in Python, and it is called again after a node accepted here
+                h, prev_natural, natural, stop = self.fast.advance(self, path, prev_natural, h, folds, start_sig)
+                fast_ok = False
+                if stop:
+                    break
+                continue
             at_bound = False
             if a.rho is None:
                 a.rho = k.rho(a.z, a.J if a.J is not None else k.jac_f(a.z, k.p))
@@ -648,6 +658,7 @@ class Tracer:
                             end = True
             nodes.append(b)
             seg_sig.append(b.sig)
+            fast_ok = self.fast is not None
             if self.bar is not None:
                 self.bar.update(len(self.g.crossed(a.z[k.ix], b.z[k.ix])))
             if end:

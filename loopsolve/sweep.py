@@ -15,7 +15,7 @@ import sys
 
 import numpy as np
 
-from . import batch
+from . import batch, numbakin
 from .continuation import (Kernel, Path, RowSolution, StepControl, Tracer, fill_node_rows, first_node,
                            solve_rows_scalar)
 from .errors import AssemblyError, ConvergenceError, ModelError, SingularPositionError, SolveError, warn
@@ -209,6 +209,17 @@ def _enumerate_rows(kern: Kernel, path: Path, g: Grid) -> Rows:
 
 
 
+def _whole_rows(fast, first, g: Grid, nv: int):
+    """Rows and positions of a path the compiled fast lane traced whole (:meth:`FastLane.whole_rows`)."""
+    ks, node, Z, res, its = fast.whole_rows(first)
+    # every row is a node that landed exactly on its grid value (Grid.value, compiled)
+    rows = Rows(ks, np.full(len(ks), -1, dtype=np.int64), node, Z[fast.k.ix].copy())
+    sol = RowSolution(len(ks), nv)
+    sol.Z, sol.res, sol.its = Z, res, its
+    sol.code[:] = sol.code_of(first.sig)
+    return rows, sol
+
+
 def solve_rows_tracked(tracer: Tracer, path: Path, rows: Rows, g: Grid) -> RowSolution:
     """Positions of every row: nodes as they are, other crossings by a corrector from the segment."""
     sol = RowSolution(len(rows), tracer.k.nv)
@@ -356,7 +367,7 @@ def sweep(mech, start, stop, step, *, speed=None, accel=None, jerk=None, input: 
           mode: str | None = None, guess: dict | None = None, compiled=None,
           through_limits: bool = False, progress: bool | None = None, method: str = "auto",
           derivatives: int = 3, control: StepControl = StepControl(), settings: Newton = Newton(),
-          max_rows: int = MAX_ROWS, limit_rows: bool = False) -> Sweep:
+          max_rows: int = MAX_ROWS, limit_rows: bool = False, engine: str | None = None) -> Sweep:
     """Sweep the input from ``start`` to ``stop`` by ``step`` (display units), tracking the mode.
 
     Parameters
@@ -397,6 +408,10 @@ def sweep(mech, start, stop, step, *, speed=None, accel=None, jerk=None, input: 
     limit_rows : bool
         Also a row at every limit position the sweep reaches (off the grid: the located input,
         the positions there, NaN rates), so that plotted branches meet at their fold.
+    engine : {"python", "numba", "auto"}, optional
+        Who takes the tracer's regular natural steps: Python, or the compiled fast lane
+        (:mod:`loopsolve.fastlane`, needs the ``fast`` extra: numba); ``"auto"`` is numba when
+        installed. Default: ``$LOOPSOLVE_ENGINE``, else ``"python"``. The rows agree to round-off.
 
     Returns
     -------
@@ -434,13 +449,16 @@ def sweep(mech, start, stop, step, *, speed=None, accel=None, jerk=None, input: 
         raise ModelError(f"method {method!r}: expected 'auto', 'tracked' or 'batched'")
     if derivatives not in (1, 2, 3):
         raise ModelError(f"derivatives={derivatives!r}: expected 1 (velocities), 2 (accelerations) or 3 (jerks)")
+    fast = numbakin.use_numba(engine)
     ck = compiled if compiled is not None else mech.compile(input)
     x0, x1, h, kind, deg = _parse_range(ck, start, stop, step)
     g = _make_grid(x0, x1, h, kind, through_limits, deg, max_rows=max_rows)
     x0 = g.value(0)  # start exactly on the first grid value (the two may differ by an ulp)
     rates = input_rates(ck, speed, accel, jerk)
-    z0, _, _ = start_position(ck, x0, mode=mode, guess=guess, settings=settings)
     kern = Kernel(ck)
+    lane = numbakin.fast_lane(kern, lazy=method != "batched") if fast else None
+    started = lane.start(x0, mode=mode, guess=guess, settings=settings) if lane is not None else None
+    z0, _, _ = started or start_position(ck, x0, mode=mode, guess=guess, settings=settings)
     d = 1.0 if g.step > 0 else -1.0
     first = first_node(kern, z0, d, allow_fold=True)
     if first.kind == "fold" and abs(display_value(ck, first.z[kern.ix]) - display_value(ck, x0)) > _AT_LIMIT:
@@ -457,11 +475,17 @@ def sweep(mech, start, stop, step, *, speed=None, accel=None, jerk=None, input: 
     try:
         tracer = Tracer(kern, g, control, land=not use_batch, through_limits=through_limits, x_start=x0,
                          bar=None if use_batch else bar)
+        if lane is not None:
+            lane.lazy = not use_batch
+            tracer.fast = lane
         path = tracer.trace(first)
-        rows = _enumerate_rows(kern, path, g)
-        if use_batch:
+        if tracer.fast is not None and tracer.fast.whole is not None:  # traced whole by the fast lane
+            rows, sol = _whole_rows(tracer.fast, first, g, kern.nv)
+        elif use_batch:
+            rows = _enumerate_rows(kern, path, g)
             sol = batch.solve_rows(tracer, path, rows, g)
         else:
+            rows = _enumerate_rows(kern, path, g)
             sol = solve_rows_tracked(tracer, path, rows, g)
     finally:
         if bar is not None:
@@ -484,7 +508,10 @@ def sweep(mech, start, stop, step, *, speed=None, accel=None, jerk=None, input: 
         missing = ~(sol.J_ok if every else sol.J_ok[ok])
         if missing.any():
             J[:, missing] = ck.module.jac_v(Z[:, missing], ck.p).reshape(J.shape[0], -1)
-    Z1, Z2, Z3, cond = batch.rates_v(ck, Z, rates, J=J, derivatives=derivatives)
+    if lane is not None and J is None:  # the same rates, compiled
+        Z1, Z2, Z3, cond = lane.rates(Z, rates, derivatives)
+    else:
+        Z1, Z2, Z3, cond = batch.rates_v(ck, Z, rates, J=J, derivatives=derivatives)
     code, res, its = (sol.code, sol.res, sol.its) if every else (sol.code[ok], sol.res[ok], sol.its[ok])
     bad = ~(cond <= batch.SINGULAR_COND)
     if np.any(bad):

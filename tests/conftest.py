@@ -1,4 +1,5 @@
-"""Fixtures shared by the output and cache tests: a tiny file system that can be filled up."""
+"""Fixtures shared by the output and cache tests (a tiny file system that can be filled up) and by
+the tracker tests (both engines)."""
 
 import os
 import subprocess
@@ -44,3 +45,20 @@ def full_fs(tiny_fs):
     """The tiny tmpfs, already full."""
     fill_disk(tiny_fs)
     return tiny_fs
+
+
+@pytest.fixture(scope="module", params=["python", "numba"])
+def both_engines(request):
+    """Every test of a module that uses it (``pytestmark = pytest.mark.usefixtures("both_engines")``)
+    runs twice: with the pure-Python tracer and with the compiled fast lane (``LOOPSOLVE_ENGINE``)."""
+    if request.param == "numba":
+        pytest.importorskip("numba")
+    old = os.environ.get("LOOPSOLVE_ENGINE")
+    os.environ["LOOPSOLVE_ENGINE"] = request.param
+    try:
+        yield request.param
+    finally:
+        if old is None:
+            os.environ.pop("LOOPSOLVE_ENGINE", None)
+        else:
+            os.environ["LOOPSOLVE_ENGINE"] = old

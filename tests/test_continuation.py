@@ -19,6 +19,9 @@ import pytest
 import loopsolve as ls
 from loopsolve.results import EventKind
 
+#: every test here runs with the pure-Python tracer and with the compiled fast lane (conftest.py)
+pytestmark = pytest.mark.usefixtures("both_engines")
+
 DEG = 180.0 / math.pi
 TOL_ROW = 1e-6  # deg
 TOL_LIMIT = 1e-6  # deg

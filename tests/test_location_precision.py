@@ -18,6 +18,9 @@ import pytest
 import loopsolve as ls
 from loopsolve.cli import main
 
+#: every test here runs with the pure-Python tracer and with the compiled fast lane (conftest.py)
+pytestmark = pytest.mark.usefixtures("both_engines")
+
 LIMIT_TOL = 1e-9  # in the input's display unit (degrees, or the model's length unit)
 CHANGE_TOL = 5e-8  # "about 1e-8": measured 2e-8..3e-8 on the batched path
 

@@ -17,6 +17,9 @@ from loopsolve.modes import (Mode, _dyad_roots, all_solutions, assembly_modes, f
                              select_mode)
 from loopsolve.solve import initial_z
 
+#: every test here runs with the pure-Python tracer and with the compiled fast lane (conftest.py)
+pytestmark = pytest.mark.usefixtures("both_engines")
+
 TWO_PI = 2 * math.pi
 
 

@@ -17,6 +17,9 @@ from loopsolve.cli import main
 from loopsolve.solve import solve_position
 from loopsolve.sweep import StepControl, _progress, default_range, grid, nearest_assemblable, reachable_ranges
 
+#: every test here runs with the pure-Python tracer and with the compiled fast lane (conftest.py)
+pytestmark = pytest.mark.usefixtures("both_engines")
+
 TWO_PI = 2 * math.pi
 RAD = math.radians
 
@@ -485,13 +488,14 @@ class TestStopAnnounced:
         assert f"{lim:.10g}" not in sw.events[0].message  # the table prints the input next to it
 
     @pytest.mark.parametrize("fmt", ["table", "csv", "json"])
-    def test_cli_warns_on_stderr_in_every_format(self, tmp_path, fmt):
+    def test_cli_warns_on_stderr_in_every_format(self, tmp_path, tmp_path_factory, fmt):
         import os
         import subprocess
         import sys
 
         out = tmp_path / f"out.{fmt}"
-        env = {**os.environ, "LOOPSOLVE_CACHE_DIR": str(tmp_path / "cache")}
+        # one cache for the three formats: with the numba engine the model is compiled once
+        env = {**os.environ, "LOOPSOLVE_CACHE_DIR": str(tmp_path_factory.getbasetemp() / "cli_warns_cache")}
         r = subprocess.run([sys.executable, "-m", "loopsolve.cli", "sweep", str(ls.models_dir() / "double_rocker.toml"),
                             "--from", "60", "--to", "180", "--step", "10", "--format", fmt, "-o", str(out)],
                            capture_output=True, text=True, env=env)
