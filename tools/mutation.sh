@@ -8,7 +8,7 @@
 # changed.
 #
 #   tools/mutation.sh                          # every mutant of every configured module (hours)
-#   tools/mutation.sh 'loopsolve.compiled*'    # one module (mutant names are module.function__mutmut_N)
+#   tools/mutation.sh 'loopsolve.symbolic.compiled*'    # one module (mutant names are module.function__mutmut_N)
 #   MUTATION_SAMPLE=10 tools/mutation.sh       # a reproducible sample: every 10th mutant of each module
 #   MUTATION_SAMPLE=60 MUTATION_MODULES="studies view" tools/mutation.sh   # ... of these modules only
 #   tools/mutation.sh --summary                # only print the survival rate per module and the verdicts

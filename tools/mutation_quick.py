@@ -25,15 +25,15 @@ import time
 from collections import defaultdict
 from pathlib import Path
 
-STUDY = ["tests/test_study_angle_parameter.py", "tests/test_study_units.py", "tests/test_study_range_end.py",
-         "tests/test_study_slider_crank.py", "tests/test_metrics_swing.py", "tests/test_metrics_time_ratio.py",
-         "tests/test_study_modes.py", "tests/test_study.py"]
-FORCES = ["tests/test_force_outputs.py", "tests/test_body_quantities.py", "tests/test_forces.py"]
+STUDY = ["tests/design/test_study_angle_parameter.py", "tests/design/test_study_units.py", "tests/design/test_study_range_end.py",
+         "tests/design/test_study_slider_crank.py", "tests/design/test_metrics_swing.py", "tests/design/test_metrics_time_ratio.py",
+         "tests/design/test_study_modes.py", "tests/design/test_study.py"]
+FORCES = ["tests/dynamics/test_force_outputs.py", "tests/dynamics/test_body_quantities.py", "tests/dynamics/test_forces.py"]
 #: the test files of each module, fast ones first (pytest -x stops at the first failure)
-TESTS = {"bodies": FORCES + ["tests/test_diagram_bodies.py"], "dynamics": FORCES + ["tests/test_diagram_bodies.py"],
-         "forceresults": FORCES, "simulation": FORCES, "lockstep": STUDY, "studies": STUDY + ["tests/test_study_progress.py"],
+TESTS = {"bodies": FORCES + ["tests/model/test_diagram_bodies.py"], "dynamics": FORCES + ["tests/model/test_diagram_bodies.py"],
+         "forceresults": FORCES, "simulation": FORCES, "lockstep": STUDY, "studies": STUDY + ["tests/design/test_study_progress.py"],
          "sensitivity": STUDY, "designs": STUDY, "metrics": STUDY,
-         "view": ["tests/test_page_values.py", "tests/test_view.py"]}
+         "view": ["tests/output/test_page_values.py", "tests/output/test_view.py"]}
 
 
 def main(argv=None) -> int:
