@@ -33,7 +33,7 @@ __all__ = ["phi_p_module", "phi_p_v", "generate_phi_p_source", "fused_module", "
 
 _MEMO: dict[str, ModuleType] = {}
 _LOCK = threading.Lock()
-_FORMAT = 1
+_FORMAT = 2  # 2: the generated module imports from loopsolve.symbolic.compiled
 
 
 def parameter_derivative_source(kin, exprs, *, func: str, what: str, count: str) -> str:

@@ -49,7 +49,7 @@ __all__ = ["CompiledKinematics", "compile_mechanism", "cache_dir", "generate_sou
 
 _MEMO: dict[str, ModuleType] = {}
 _LOCK = threading.Lock()
-FORMAT = 4  # bump when the generated module's layout changes
+FORMAT = 5  # bump when the generated module's layout changes (5: imports from loopsolve.symbolic.compiled)
 
 
 def cache_dir() -> Path | None:

@@ -511,7 +511,7 @@ def test_not_assemblable_designs_of_a_fan_of_dyads(tmp_path, monkeypatch):
 
     from loopsolve.design import lockstep
 
-    sys.path.insert(0, str(Path(__file__).parent))
+    sys.path.insert(0, str(Path(__file__).parents[1]))  # tests/, where fanmodels.py is
     from fanmodels import fan_model
 
     path = tmp_path / "fan.toml"

@@ -18,7 +18,7 @@ import pytest
 import loopsolve as ls
 from loopsolve.errors import ModelError, SynthesisError
 
-MODELS = Path(__file__).resolve().parent.parent / "models"
+MODELS = Path(__file__).resolve().parents[2] / "models"
 FOURBAR = MODELS / "prob1_fourbar.toml"
 
 

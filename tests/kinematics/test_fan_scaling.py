@@ -16,7 +16,7 @@ import pytest
 
 import loopsolve as ls
 
-sys.path.insert(0, str(Path(__file__).parent))
+sys.path.insert(0, str(Path(__file__).parents[1]))  # tests/, where fanmodels.py is
 from fanmodels import crank_range, fan_lengths, fan_model  # noqa: E402
 
 N = 40

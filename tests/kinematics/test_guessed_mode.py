@@ -26,7 +26,7 @@ import pytest
 
 import loopsolve as ls
 
-REPRO = Path(__file__).resolve().parents[2] / "shared" / "repro" / "study_mode_98.toml"
+REPRO = Path(__file__).resolve().parents[3] / "shared" / "repro" / "study_mode_98.toml"
 REPRO_TEXT = """
 name = "Crank-rocker four-bar"
 units = { length = "mm", angle = "deg" }

@@ -34,7 +34,7 @@ import loopsolve as ls
 from loopsolve.kinematics import classic
 from loopsolve.kinematics.solve import initial_z, solve_position
 
-DATA = Path(__file__).parent / "data" / "thesis_crank_rocker.json"
+DATA = Path(__file__).parents[1] / "data" / "thesis_crank_rocker.json"
 REF = json.loads(DATA.read_text())
 EXCEL = REF["published_excel_table"]
 SW = REF["solidworks_motion_export"]
@@ -80,7 +80,7 @@ def test_reference_copy_matches_shared_reference():
     import hashlib
 
     assert hashlib.sha256(DATA.read_bytes()).hexdigest() == SHARED_REFERENCE_SHA256
-    shared = Path(__file__).resolve().parents[2] / "shared" / "reference" / "thesis_crank_rocker.json"
+    shared = Path(__file__).resolve().parents[3] / "shared" / "reference" / "thesis_crank_rocker.json"
     if shared.exists():  # the shared tree sits beside the repository in the project workspace
         assert json.loads(shared.read_text()) == REF
     assert "001_6bcfc5c45935de12" in REF["source"]

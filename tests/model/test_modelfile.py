@@ -17,7 +17,7 @@ import loopsolve as ls
 from loopsolve.errors import ModelError, ModelFileError
 from loopsolve.model.modelfile import MAX_FILE_SIZE
 
-DATA = Path(__file__).parent / "data"
+DATA = Path(__file__).parents[1] / "data"
 
 GOOD = """\
 name = "four-bar"
@@ -301,7 +301,7 @@ def test_python_builder_errors_are_model_errors_without_a_path():
 def test_design_example_loads_exactly_as_written():
     """tests/data/design_example.toml is the DESIGN.md model-file block, verbatim."""
     path = DATA / "design_example.toml"
-    design = Path(__file__).resolve().parents[2] / "shared" / "DESIGN.md"
+    design = Path(__file__).resolve().parents[3] / "shared" / "DESIGN.md"
     if design.exists():  # the shared notes sit beside the repository in the project workspace
         blocks = re.findall(r"```toml\n(.*?)```", design.read_text(), re.S)
         assert blocks[0] == path.read_text()
