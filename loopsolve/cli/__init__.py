@@ -565,7 +565,7 @@ def _sweep_for(args):
     start, stop, through = args.start, args.stop, args.through_limits
     if start is None or stop is None:
         from ..kinematics.solve import display_value, input_value
-        from ..kinematics.sweep import default_range
+        from ..kinematics.reach import default_range
 
         ck = mech.compile(args.input)
         step = display_value(ck, input_value(ck, args.step, reduce=False))

@@ -266,7 +266,7 @@ def grid_values(ck, start, stop, step, *, max_rows=None, max_rows_error=None):
     d0 = math.degrees(x0) if d0 is None else d0
     dh = math.copysign(abs(hd), x1 - x0) if x1 != x0 else abs(hd)
     v = d0 + dh * k
-    from ..kinematics.sweep import exact_radians  # the single sweep's grid rule, so rows agree to the bit
+    from ..kinematics.grid import exact_radians  # the single sweep's grid rule, so rows agree to the bit
 
     return exact_radians(v), v
 
@@ -424,7 +424,7 @@ def _not_assemblable(ck, P, xs, xs_disp, cand, ch) -> np.ndarray:
     Their status, stop, nearest inputs and event are those :func:`_single` would record from the
     single sweep's :class:`AssemblyError` (the same test, samples and message)."""
     from ..kinematics.assemblable import AssemblyTest
-    from ..kinematics.sweep import no_assembly_error
+    from ..kinematics.reach import no_assembly_error
 
     test = AssemblyTest(ck, _Ops(ck), P, design_scale(ck, P))
     if not test.usable:

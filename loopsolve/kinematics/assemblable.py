@@ -198,7 +198,7 @@ class AssemblyTest:
         """Nearest assemblable inputs (internal units) below and above ``x0`` for the designs ``cols``,
         none of which is assemblable at ``x0``; None for a design this cannot decide (a length input,
         an undecided sample). The logic of :func:`loopsolve.sweep._nearest_local` on its samples."""
-        from .sweep import _input_samples
+        from .reach import _input_samples
         from .kernel import Kernel
 
         cols = np.asarray(cols)

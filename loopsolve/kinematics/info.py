@@ -87,7 +87,7 @@ def info(mech: Mechanism, *, input=None) -> dict:
 def _reachable_ranges(ck) -> list[list[float]]:
     """Assemblable intervals of the driving input found by the tracker (display units)."""
     from .solve import display_value
-    from .sweep import reachable_ranges
+    from .reach import reachable_ranges
 
     return [[display_value(ck, a), display_value(ck, b)] for a, b in reachable_ranges(ck)]
 

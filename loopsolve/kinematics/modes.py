@@ -505,7 +505,7 @@ def select_mode(mech, x_internal: float, mode: str, *, compiled=None) -> np.ndar
             + f"; the modes at {name} = {disp:g} are: {_mode_names(mech, _modes_at(ck, x_internal))}")
     modes = _modes_at(ck, x_internal)
     if not modes:
-        from .sweep import nearest_assemblable
+        from .reach import nearest_assemblable
 
         near = nearest_assemblable(ck, x_internal)
         raise AssemblyError(

@@ -405,7 +405,7 @@ def start_position(ck: CompiledKinematics, x: float, *, mode=None, guess: dict |
             f"{_input_unit(ck)}: the mechanism assembles there only in mode(s) {_mode_names(ck.mechanism, modes)}; "
             "choose one of them with --mode (mode=) or guesses in it, or another input value",
             mode=sig, modes=tuple(m.signature for m in modes), input_value=disp, result=partial)
-    from .sweep import assembly_failure
+    from .reach import assembly_failure
 
     if failure is None:
         failure = AssemblyError("no real solution")
@@ -501,7 +501,7 @@ def solve(mech: Mechanism, at=None, *, speed=None, accel=None, jerk=None, input:
         from .modes import _modes_at
 
         if not _modes_at(ck, x):
-            from .sweep import assembly_failure
+            from .reach import assembly_failure
 
             err = assembly_failure(ck, x, exc)
             near = getattr(err, "nearest", None) or ()

@@ -272,7 +272,7 @@ def _tracer_points(state) -> list[str]:
 
 def point_curves(mech, state, names, *, step=None) -> dict:
     """Paths of the points ``names`` over the default sweep of ``mech`` in the state's mode."""
-    from ..kinematics.sweep import default_range
+    from ..kinematics.reach import default_range
 
     if not names:
         return {}

@@ -15,7 +15,7 @@ import pytest
 
 import loopsolve as ls
 from loopsolve.kinematics import batch
-from loopsolve.kinematics.sweep import grid
+from loopsolve.kinematics.grid import grid
 
 MODELS = ls.models_dir()
 
@@ -271,7 +271,7 @@ def test_batched_slider_crank_points_sent_to_the_other_mode_are_caught(monkeypat
 def test_grid_refuses_a_zero_or_non_finite_step(step):
     """``grid`` (public) raises the ModelError naming --step, not a ZeroDivisionError or a NaN grid.
 
-    Kills loopsolve.kinematics.sweep.x_grid__mutmut_1 (``or`` -> ``and``: nothing is refused).
+    Kills loopsolve.kinematics.grid.x_grid__mutmut_1 (``or`` -> ``and``: nothing is refused).
     """
     with pytest.raises(ls.ModelError, match="--step must be a nonzero number"):
         grid(0.0, 10.0, step)
@@ -285,13 +285,13 @@ def test_stalled_newton_error_keeps_the_partial_solution():
     partial solution: the input at 60°, the first loop closed in the open mode (law of cosines), the
     second loop open. ``assembly_failure`` turns that stall into a ConvergenceError keeping it too.
 
-    Kills loopsolve.kinematics.sweep.x_assembly_failure__mutmut_22 and loopsolve.kinematics.sweep.x_assembly_failure__mutmut_32
+    Kills loopsolve.kinematics.reach.x_assembly_failure__mutmut_22 and loopsolve.kinematics.reach.x_assembly_failure__mutmut_32
     (``result`` dropped).
     """
     from test_modes import watt_sixbar
 
     from loopsolve.kinematics.solve import initial_z, solve_position
-    from loopsolve.kinematics.sweep import assembly_failure
+    from loopsolve.kinematics.reach import assembly_failure
 
     mech = watt_sixbar().with_parameters(r5=40)
     with pytest.raises(ls.ModeError) as exc:
@@ -326,9 +326,9 @@ def test_reachable_ranges_of_a_slider_far_from_its_guess():
     pivot (C = 40 + s), guessed at s = -10 (length scale 10). |C| lies in [r3 - r2, r3 + r2], so
     s ∈ [-45, -41] ∪ [-39, -35]: both within 4 length scales of the guess, both found.
 
-    Kills loopsolve.kinematics.sweep.x_reachable_ranges__mutmut_10 (samples centred on 0 instead of the guess).
+    Kills loopsolve.kinematics.reach.x_reachable_ranges__mutmut_10 (samples centred on 0 instead of the guess).
     """
-    from loopsolve.kinematics.sweep import nearest_assemblable, reachable_ranges
+    from loopsolve.kinematics.reach import nearest_assemblable, reachable_ranges
 
     b = ls.MechanismBuilder("far slider")
     b.parameter("r2", 2).parameter("r3", 3)
@@ -397,7 +397,7 @@ def test_corrector_subdivides_a_segment_whose_guess_is_poor():
     without its orientation row).
     """
     from loopsolve.kinematics.continuation import Kernel, StepControl, Tracer, first_node
-    from loopsolve.kinematics.sweep import Grid
+    from loopsolve.kinematics.grid import Grid
 
     r = (4.0, 3.0, 3.5, 5.0)
     mech = ls.fourbar(*r)
@@ -590,9 +590,9 @@ def test_reachable_ranges_ending_exactly_at_half_a_turn():
     The second range ends on a limit exactly at 180°, where the samples wrap, but it does not go
     through ±180°: the two ranges stay apart.
 
-    Kills loopsolve.kinematics.sweep.x_reachable_ranges__mutmut_170 (ranges merged across ±π).
+    Kills loopsolve.kinematics.reach.x_reachable_ranges__mutmut_170 (ranges merged across ±π).
     """
-    from loopsolve.kinematics.sweep import reachable_ranges
+    from loopsolve.kinematics.reach import reachable_ranges
 
     mech = ls.slider_crank(5, 2, offset=2, theta2=20)
     got = [tuple(math.degrees(v) for v in r) for r in reachable_ranges(mech.compile())]

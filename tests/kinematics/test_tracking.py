@@ -15,7 +15,9 @@ import loopsolve as ls
 from loopsolve.kinematics import classic as C
 from loopsolve.cli import main
 from loopsolve.kinematics.solve import solve_position
-from loopsolve.kinematics.sweep import StepControl, _progress, default_range, grid, nearest_assemblable, reachable_ranges
+from loopsolve.kinematics.sweep import StepControl, _progress
+from loopsolve.kinematics.reach import default_range, nearest_assemblable, reachable_ranges
+from loopsolve.kinematics.grid import grid
 
 TWO_PI = 2 * math.pi
 RAD = math.radians
