@@ -30,6 +30,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..model.units import Kind
+from .continuation import RowSolution, fill_node_rows, solve_rows_scalar
 
 __all__ = ["rates_v", "block_solve_v", "block_dets_v", "SINGULAR_COND"]
 
@@ -222,8 +223,6 @@ def solve_rows(tracer, path, rows, g):
     Returns the tracker's row solution (positions, mode codes, residuals, iterations) with the
     Jacobians of the vectorized rows kept for the rates.
     """
-    from .continuation import RowSolution, fill_node_rows, solve_rows_scalar
-
     kern = tracer.k
     ck = kern.ck
     n, ix, nv = kern.n, kern.ix, kern.nv

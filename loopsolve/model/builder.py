@@ -12,6 +12,7 @@ from typing import Any
 
 from ..errors import ModelError
 from .mechanism import Mechanism
+from .diagram import diagram_to_spec
 from .spec import build_mechanism
 
 __all__ = ["MechanismBuilder"]
@@ -163,8 +164,6 @@ class MechanismBuilder:
     def build(self) -> Mechanism:
         """Validate and return the :class:`Mechanism` (all problems reported at once)."""
         if self._spec.get("joints") or self._spec.get("links"):
-            from .diagram import diagram_to_spec
-
             busy = [k for k in ("variables", "vectors", "loops", "points") if self._spec.get(k)]
             if busy:
                 raise ModelError("a mechanism is declared either by joints and links (a kinematic diagram) "

@@ -828,7 +828,7 @@ def to_vector_model(model: str | os.PathLike | Mapping[str, Any] | Mechanism) ->
     >>> print(text.split("[[loops]]")[1].strip().splitlines()[1])
     equation = "r_crank + r_coupler + r_rocker = r_ground_O4"
     """
-    from .modelfile import dumps, load
+    from .modelfile import dumps, load  # lazily: modelfile imports this module (to read diagrams)
 
     if isinstance(model, Mechanism):
         mech = model

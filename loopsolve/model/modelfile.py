@@ -17,6 +17,7 @@ from typing import Any
 
 from ..errors import ModelError, ModelFileError
 from .mechanism import Mechanism
+from .diagram import diagram_to_spec
 from .spec import build_mechanism
 
 __all__ = ["load", "loads", "dumps", "models_dir"]
@@ -168,8 +169,6 @@ def loads(text: str, *, source: str = "<string>") -> Mechanism:
             raise ModelFileError(
                 f"{source}: a model has either [joints]/[links] (a kinematic diagram) or "
                 "[vectors]/[[loops]], not both", path=source)
-        from .diagram import diagram_to_spec
-
         data = diagram_to_spec(data, source=source)
     return build_mechanism(data, source=source)
 
