@@ -30,7 +30,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..model.units import Kind
-from .continuation import RowSolution, fill_node_rows, solve_rows_scalar
+from .rows import RowSolution, fill_node_rows, solve_rows_scalar
 
 __all__ = ["rates_v", "block_solve_v", "block_dets_v", "SINGULAR_COND"]
 
