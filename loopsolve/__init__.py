@@ -153,6 +153,45 @@ def export_cad(mech, output, at=None, **kwargs):
     return _export_cad(mech, output, at, **kwargs)
 
 
+# The flat modules' names before the subpackages (issue 24, ARCHITECTURE.md): ``ls.classic`` and
+# ``from loopsolve import classic`` still give loopsolve.kinematics.classic, imported on first use
+# (so ``import loopsolve`` stays as light as before); ``model``, ``symbolic`` and ``dynamics`` are the
+# subpackages, which answer for the names of the module they replace. New code imports the new paths.
+_MOVED = {
+    "spec": "model.spec", "expr": "model.expr", "exprcheck": "model.exprcheck", "units": "model.units",
+    "unitlib": "model.unitlib", "files": "model.files", "modelfile": "model.modelfile",
+    "builder": "model.builder", "factories": "model.factories", "model": "model",
+    "topology": "model.topology", "diagram": "model.diagram", "diagrambodies": "model.diagrambodies",
+    "bodies": "model.bodies", "symbolic": "symbolic", "compiled": "symbolic.compiled",
+    "texprint": "symbolic.texprint", "newton": "kinematics.newton", "kernel": "kinematics.kernel",
+    "solve": "kinematics.solve", "modes": "kinematics.modes", "continuation": "kinematics.continuation",
+    "sweep": "kinematics.sweep", "batch": "kinematics.batch", "assemblable": "kinematics.assemblable",
+    "results": "kinematics.results", "export": "kinematics.export", "info": "kinematics.info",
+    "classic": "kinematics.classic", "declcheck": "dynamics.declcheck",
+    "kinetostatics": "dynamics.kinetostatics", "dynamics": "dynamics", "eom": "dynamics.eom",
+    "simulation": "dynamics.simulation", "forceresults": "dynamics.forceresults",
+    "designs": "design.designs", "lockstep": "design.lockstep", "studies": "design.studies",
+    "metrics": "design.metrics", "sensitivity": "design.sensitivity", "synthesis": "design.synthesis",
+    "synthbatch": "design.synthbatch", "certify": "design.certify", "synthrun": "design.synthrun",
+    "freudenstein": "design.freudenstein", "burmester": "design.burmester",
+    "classicsynth": "design.classicsynth", "linkcheck": "design.linkcheck", "structerr": "design.structerr",
+    "plotting": "output.plotting", "forceplots": "output.forceplots", "drawstyle": "output.drawstyle",
+    "geometry": "output.geometry", "view": "output.view", "cad": "output.cad", "latex": "output.latex",
+    "latex_dynamics": "output.latex_dynamics",
+}
+
+
+def __getattr__(name):
+    path = _MOVED.get(name)
+    if path is None:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    import importlib
+
+    module = importlib.import_module(f".{path}", __name__)
+    globals()[name] = module
+    return module
+
+
 __all__ = [
     "__version__",
     "AssemblyError",
