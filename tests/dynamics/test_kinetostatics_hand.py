@@ -1,4 +1,5 @@
-"""Tests that kill surviving mutants of loopsolve/dynamics/kinetostatics.py (issue 13, mutation testing).
+"""Joint forces and driving torques by Newton–Euler against hand computations (written for the
+surviving mutants of loopsolve/dynamics/kinetostatics.py, issue 13).
 
 Every expected value is computed here, independently of the Newton–Euler code under test:
 closed-form positions of an inclined slider-crank (law of cosines) with derivatives by complex step,

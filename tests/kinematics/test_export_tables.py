@@ -1,5 +1,5 @@
-"""Tests for mutants of loopsolve.kinematics.export and loopsolve.kinematics.solve that survived ``tools/mutation.sh``
-(issue 13) and change what a user sees: the numbers in the heading of a state table, the
+"""Tables, CSV and JSON of states and sweeps show what they should (written for mutants of
+loopsolve.kinematics.export and loopsolve.kinematics.solve that survived ``tools/mutation.sh``, issue 13): the numbers in the heading of a state table, the
 section headings, the input column and the mode column of a sweep table, the event lines, the
 empty CSV cells of undefined rates, the JSON layout, the message of overflowing rates and the
 error at a limit position. Every expected number is computed here by hand (closed forms of the
@@ -383,7 +383,7 @@ def test_the_guesses_mode_holds_in_the_other_range_of_a_double_rocker():
     (theta3 = -99.6°, theta4 = 148.4° at 60°) keep the crossed mode there.
 
     Kills loopsolve.kinematics.solve.x__guessed_mode__mutmut_34 and x__guessed_mode__mutmut_1 (the guessed mode
-    dropped; test_mutation_survivors' four-bar test does not kill them)."""
+    dropped; test_solve's four-bar test of the guesses' mode does not kill them)."""
     text = DOUBLE_ROCKER.read_text(encoding="utf-8")
     open_ = ls.loads(text, source="double_rocker.toml")
     crossed = ls.loads(text.replace("guess = -2.5", "guess = -99.6").replace("guess = 109.5", "guess = 148.4"),
@@ -550,3 +550,17 @@ def test_driving_the_slider_keeps_the_guesses_mode():
         t2 = math.degrees(math.acos((r1 * r1 + 25 - 64) / (10 * r1)))
         assert s["theta2"] == pytest.approx(t2, abs=1e-9)
         assert s["theta3"] == pytest.approx(-math.degrees(math.asin(5 * math.sin(math.radians(t2)) / 8)), abs=1e-9)
+
+
+def test_state_table_ends_with_its_last_section(capsys):
+    """loopsolve.kinematics.export.x_state_table__mutmut_136 appended text after the last section."""
+    mech = ls.slider_crank(5, 8, theta2=45)
+    out = export.to_table(mech.solve(45))
+    assert out.endswith("\n") and not out.endswith("\n\n")
+    last = out.rstrip("\n").splitlines()[-1].split()
+    # the last section is the points table: its last row is the slider C, with 8 numbers
+    assert last[0] == "C" and len(last) == 9
+    assert last[1] == f"{5 * math.cos(math.pi / 4) + math.sqrt(64 - 12.5):g}"  # x of C, 6 digits
+    assert main(["solve", str(ls.models_dir() / "example1_slider_crank.toml")]) == 0
+    printed = capsys.readouterr().out
+    assert printed.endswith("\n") and printed.rstrip("\n").splitlines()[-1].split()[0] == "C"

@@ -492,3 +492,88 @@ def test_whitworth_ram(capsys):
             f"time ratio {advance / (360 - advance):.6g}") in lines
     assert (f"    time ratio {advance / (360 - advance):.6g} (advance {advance:.6g}, "
             f"return {360 - advance:.6g} deg)") in lines
+
+
+def _cos_angle(a, b, opposite):
+    """Angle [deg] between sides a and b of a triangle, from the side opposite it (law of cosines)."""
+    return math.degrees(math.acos((a * a + b * b - opposite * opposite) / (2 * a * b)))
+
+
+
+def test_info_fourbar_values_by_hand():
+    """loopsolve.kinematics.info.x_info__mutmut_39/189/239 renamed the variables' key, dropped the crank length
+    from the input range and reported the transmission angle's maximum twice."""
+    data = ls.load(ls.models_dir() / "thesis_crank_rocker.toml").info()
+    assert [(v["name"], v["kind"], v["input"]) for v in data["variables"]] == [
+        ("theta2", "angle", True), ("theta3", "angle", False), ("theta4", "angle", False)]
+    (fb,) = data["fourbars"]
+    assert fb["links"] == {"ground": "r1", "input": "r2", "coupler": "r3", "output": "r4"}
+    assert (fb["grashof"], fb["input_motion"]) == ("crank-rocker", "turns fully")
+    # transmission angle (coupler r3 = 70 to rocker r4 = 45) is extreme with the crank along the ground:
+    # the diagonal B-O4 is then r1 - r2 = 35 or r1 + r2 = 85
+    lo, hi = fb["transmission_angle_range"]
+    assert lo == _approx(_cos_angle(70, 45, 35)) and hi == _approx(_cos_angle(70, 45, 85))
+    data = ls.load(ls.models_dir() / "double_rocker.toml").info()
+    (fb,) = data["fourbars"]
+    assert fb["grashof"] == "double rocker"
+    # r1 = 60, r2 = 50, r3 = 20, r4 = 45: the crank stops where B-O4 = r3 + r4 = 65 or |r3 - r4| = 25
+    a, b = _cos_angle(60, 50, 65), _cos_angle(60, 50, 25)
+    assert [list(r) for r in fb["input_range"]] == [[_approx(-a), _approx(-b)], [_approx(b), _approx(a)]]
+
+
+
+def test_info_quick_return_by_hand():
+    """loopsolve.kinematics.info.x_info__mutmut_139 lost the angle conversion of the quick-return figures."""
+    (qr,) = ls.load(ls.models_dir() / "quick_return.toml").info()["quick_return"]
+    # crank r2 = 100 on pivot distance d = 200: the lever's extremes are tangent to the crank circle,
+    # crank angle between them 2*acos(r2/d) for the return, the rest for the advance
+    ret = math.degrees(2 * math.acos(100 / 200))
+    assert qr["return_angle"] == _approx(ret) and qr["advance_angle"] == _approx(360 - ret)
+    assert qr["time_ratio"] == _approx((360 - ret) / ret)
+    assert qr["rocking_angle"] == _approx(2 * math.degrees(math.asin(100 / 200)))
+
+
+
+def test_info_topology_of_a_diagram_model():
+    """loopsolve.kinematics.info.x_info__mutmut_89 renamed the joints count of a diagram model's topology."""
+    topo = ls.load(ls.models_dir() / "thesis_crank_rocker_diagram.toml").info()["topology"]
+    assert (topo["links"], topo["joints"]) == (4, 4)  # ground, crank, coupler, rocker; four pins
+
+
+
+def _approx(x):
+    return pytest.approx(x, abs=1e-9)
+
+
+
+def test_info_table_lines_by_hand(capsys):
+    """loopsolve.kinematics.info.x_format_info__mutmut_15/115/165/215 and x__quick_returns__mutmut_156/256:
+    the printed ``loopsolve info`` lines of a four-bar and of a crank-shaper (crank 40 on frame 100)."""
+    assert main(["info", str(ls.models_dir() / "thesis_crank_rocker.toml")]) == 0
+    out = capsys.readouterr().out
+    first = out.splitlines()[0]
+    assert first.startswith("Crank-rocker four-bar  (") and first.endswith("thesis_crank_rocker.toml)")
+    assert "crank-rocker (input r2 25, coupler r3 70, output r4 45, ground r1 60)" in out
+    assert f"transmission angle (deg): {_cos_angle(70, 45, 35):.6g} to {_cos_angle(70, 45, 85):.6g}" in out
+    assert main(["info", str(ls.models_dir() / "crank_shaper.toml")]) == 0
+    out = capsys.readouterr().out
+    ret = math.degrees(2 * math.acos(40 / 100))
+    assert "crank r_crank = 40, frame d = 100, lever theta_lever, slide s_slot" in out
+    assert f"time ratio {(360 - ret) / ret:.6g} (advance {360 - ret:.6g}, return {ret:.6g} deg)" in out
+    assert f"lever swing {2 * math.degrees(math.asin(0.4)):.6g} deg" in out
+    (qr,) = ls.load(ls.models_dir() / "crank_shaper.toml").info()["quick_return"]
+    (ram,) = qr["rams"]
+    # the ram's extremes are at the lever's (rod term even in the lever angle): stroke = 2 |O4 D| sin(swing/2)
+    lever = math.hypot(74.278135, 185.695338)
+    assert ram["max"] - ram["min"] == pytest.approx(2 * lever * 0.4, rel=1e-8)
+    assert f"({ram['min']:.6g} to {ram['max']:.6g})" in out
+    assert ram["advance_angle"] + ram["return_angle"] == _approx(360)
+
+
+
+def test_info_table_of_a_model_without_a_file():
+    """loopsolve.kinematics.info.x_format_info__mutmut_15 printed garbage after the name of a Python-built model."""
+    from loopsolve.kinematics.info import format_info
+
+    mech = ls.fourbar(60, 25, 70, 45)
+    assert format_info(mech.info()).splitlines()[0] == mech.name

@@ -316,3 +316,40 @@ def test_state_repr_is_in_display_units():
     assert float(vals["theta3"].split()[0]) == pytest.approx(0, abs=1e-9)
     assert vals["theta4"] == "90 deg"
     assert "array" not in text and "mode='-'" in text
+
+
+def _fourbar_theta4(t2_deg, sign, r1=60, r2=25, r3=70, r4=45):
+    """theta4 [deg] of a four-bar by the law of cosines; sign picks the assembly (+1 / -1)."""
+    t2 = math.radians(t2_deg)
+    bx, by = r2 * math.cos(t2), r2 * math.sin(t2)
+    d = math.hypot(r1 - bx, by)
+    beta = math.atan2(-by, r1 - bx)
+    gamma = math.acos((r4 * r4 + d * d - r3 * r3) / (2 * r4 * d))
+    return math.degrees(beta + math.pi - sign * gamma) % 360
+
+
+
+def test_the_guesses_mode_holds_far_from_the_guessed_input():
+    """A solve keeps the mode the guesses describe (at the input's guess) wherever it is asked for.
+
+    Written for loopsolve.kinematics.solve.x__guessed_mode__mutmut_1 (that rule dropped), which it does not
+    kill: on four-bars Newton from the guesses stays on their branch anyway (see issue 13's note)."""
+    for mode, sign in (("open", 1), ("crossed", -1)):
+        mech = ls.fourbar(60, 25, 70, 45, theta2=90, mode=mode)
+        for at in range(0, 360, 15):
+            got = mech.solve(float(at))["theta4"] % 360
+            assert abs(math.remainder(got - _fourbar_theta4(at, sign), 360)) < 1e-9, (mode, at)
+
+
+
+def test_a_nan_residual_at_the_start_is_a_solve_error():
+    """loopsolve.kinematics.newton.x_newton__mutmut_59 broke the NOT_FINITE result (a bare TypeError escaped).
+    The vector r1 is r1 + sqrt(r1 - 9) long: from the guess r1 = 5 the residual is NaN at once."""
+    text = (ls.models_dir() / "example1_slider_crank.toml").read_text()
+    text = text.replace('r1 = { length = "r1", angle = 0 }', 'r1 = { length = "r1 + 0.001*sqrt(r1 - 9)", angle = 0 }')
+    text = text.replace("r1 = { guess = 10.7 }", 'r1 = { guess = 5, kind = "length" }')
+    mech = ls.loads(text, source="nan_start.toml")
+    with pytest.raises(ls.SolveError) as info:
+        mech.solve(45)
+    # the loop cannot close where the length is NaN: an assembly error naming the input value, not a bare TypeError
+    assert isinstance(info.value, ls.AssemblyError) and "theta2 = 45" in str(info.value)

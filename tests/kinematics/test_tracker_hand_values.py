@@ -1,4 +1,5 @@
-"""Tests that kill surviving mutants of the tracker (kernel, continuation, sweep, batch).
+"""The tracker (kernel, continuation, sweep, batch) against values worked out by hand
+(written for its surviving mutants, issue 13).
 
 Every expected value is written here independently: four-bar and slider-crank positions by the
 law of cosines / the sine rule, block determinants of the loop Jacobians by hand, link lengths

@@ -193,3 +193,38 @@ def test_math_domain_errors_become_nan_not_exceptions():
     assert mech.solve(45)["r1"] == pytest.approx(_example1_r1_with_extra_term(), abs=1e-12)
     with pytest.raises(ls.SolveError):  # at 180 deg the slider would sit at r1 = 3 < 9: no real solution
         mech.solve(180)
+
+
+def test_a_warm_disk_cache_is_used_without_deriving(tmp_path, monkeypatch):
+    """loopsolve.symbolic.compiled.x__fits__mutmut_17 rejected every good cache file (sympy on every call).
+    In-process twin of test_compiled's subprocess test, which mutmut cannot see."""
+    import loopsolve.symbolic.derivation
+    from loopsolve.symbolic import compiled
+
+    monkeypatch.setattr(compiled, "_MEMO", {})
+    monkeypatch.setenv("LOOPSOLVE_CACHE_DIR", str(tmp_path))
+    mech = ls.load(ls.models_dir() / "thesis_crank_rocker.toml")
+    mech.compile()
+    assert len(list(tmp_path.glob("m_*.py"))) == 1
+    compiled._MEMO.clear()
+
+    def no_sympy(*args, **kwargs):
+        raise AssertionError("derived again although a valid cache file exists")
+
+    monkeypatch.setattr(loopsolve.symbolic.derivation, "derive", no_sympy)
+    ck = mech.compile()
+    assert ck.points == ("B", "C") and ck.unknowns == ("theta3", "theta4")
+
+
+
+def test_angle_literals_with_a_unit_in_expressions():
+    """loopsolve.symbolic.derivation.x_to_sympy__mutmut_12 / x__angle_const__mutmut_1 (no test used a literal
+    such as ``30deg`` inside an expression): in a radian model ``theta2 + 30deg`` is theta2 + pi/6,
+    in a degree model ``theta2 + 0.5rad`` is theta2 + 28.6479 deg."""
+    from test_cache_key import assert_is_a_closure, fourbar_positions, model, solve_rad
+
+    deg = math.pi / 180
+    rad_model = model(angle="rad", ab_angle="theta2 + 30deg", guesses=(0.7, 1.0, 1.7))
+    assert_is_a_closure(*solve_rad(rad_model, 0.7), fourbar_positions(20, 66, 56, 80, 10.0, 0.7 + math.pi / 6))
+    deg_model = model(ab_angle="theta2 + 0.5rad")
+    assert_is_a_closure(*solve_rad(deg_model, 40.0), fourbar_positions(20, 66, 56, 80, 10 * deg, 40 * deg + 0.5))

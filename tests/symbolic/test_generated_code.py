@@ -1,4 +1,5 @@
-"""Tests for surviving mutants of loopsolve.symbolic.compiled and loopsolve.symbolic (issue 13).
+"""The generated code and the derivation give the right numbers: rates, polar splits, the cache
+(written for surviving mutants of loopsolve.symbolic.compiled and loopsolve.symbolic.derivation, issue 13).
 
 Every expected value is computed here: slider-crank closed forms and their derivatives by hand,
 the polar split of a tip acceleration from its definition, the four-bar by law of cosines.
