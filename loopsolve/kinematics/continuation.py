@@ -53,12 +53,12 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from .rows import RowSolution, fill_node_rows, solve_rows_scalar  # noqa: F401  (kinematics/rows.py; public here before)
 from ..errors import SingularPositionError
 from .kernel import ROUNDOFF as _ROUNDOFF
 from .kernel import Kernel, rho_2x3
 from .results import Event, EventKind
 from .solve import _input_unit, display_value
-from .rows import RowSolution, fill_node_rows, solve_rows_scalar  # noqa: F401  (kinematics/rows.py; public here before)
 
 __all__ = ["StepControl", "Kernel", "Node", "Path", "Tracer", "RowSolution", "first_node", "fill_node_rows",
            "solve_rows_scalar"]

@@ -15,6 +15,9 @@ import sys
 
 import numpy as np
 
+from .grid import Grid, exact_radians, grid  # noqa: F401  (grid, exact_radians: public here before the split)
+from .reach import (assembly_failure, default_range, nearest_assemblable, no_assembly_error,  # noqa: F401
+                    reachable_ranges)  # where the input can go: kinematics/reach.py (public here before the split)
 from . import batch
 from .continuation import (Kernel, Path, RowSolution, StepControl, Tracer, fill_node_rows, first_node,
                            solve_rows_scalar)
@@ -23,9 +26,6 @@ from .newton import Newton
 from .results import Event, EventKind, Sweep
 from .solve import _input_unit, display_value, initial_z, input_rates, input_value, start_position
 from ..model.units import Kind
-from .grid import Grid, exact_radians, grid  # noqa: F401  (grid, exact_radians: public here before the split)
-from .reach import (assembly_failure, default_range, nearest_assemblable, no_assembly_error,  # noqa: F401
-                    reachable_ranges)  # where the input can go: kinematics/reach.py (public here before the split)
 
 __all__ = ["StepControl", "sweep", "grid", "reachable_ranges", "default_range", "nearest_assemblable",
            "assembly_failure", "AUTO_BATCH"]
