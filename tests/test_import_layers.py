@@ -14,7 +14,7 @@ import ast
 from pathlib import Path
 
 import loopsolve
-from loopsolve._facade import FACADE, LAYERS
+from loopsolve._facade import FACADE, LAYERS, WITHIN_LAYER
 
 PACKAGE = Path(loopsolve.__file__).parent
 
@@ -111,3 +111,32 @@ def test_the_facade_targets_are_what_the_list_says():
     reached = {(m, f, t.split(".")[0] + "." + t.split(".")[1]) for m, f, t in _upward_imports()
                if any((m, f) == (lm, lf) for lm, lf, _ in FACADE)}
     assert reached <= listed
+
+
+def _back_references():
+    """Lazy imports inside one layer that point back at a module importing the importer at module level."""
+    eager, lazy = {}, {}
+    for path in sorted(PACKAGE.rglob("*.py")):
+        if "__pycache__" in path.parts:
+            continue
+        module, imports = _imports(path)
+        for scope, target in imports:
+            if target.count(".") >= 2 and module.count(".") >= 1 and target.split(".")[1] == module.split(".")[1]:
+                (lazy if scope else eager).setdefault(module, set()).add(target)
+
+    def imported_by(start):  # every module that `start` imports at module level, transitively
+        seen, todo = set(), [start]
+        while todo:
+            for nxt in eager.get(todo.pop(), ()):
+                if nxt not in seen:
+                    seen.add(nxt)
+                    todo.append(nxt)
+        return seen
+
+    return {(m.removeprefix("loopsolve."), t.removeprefix("loopsolve."))
+            for m, targets in lazy.items() for t in targets if m in imported_by(t)}
+
+
+def test_back_references_inside_a_layer_are_the_listed_ones():
+    """No hidden import cycle inside a layer: each lazy import back is listed, with its reason."""
+    assert _back_references() == {(m, t) for m, t, _ in WITHIN_LAYER}

@@ -28,6 +28,8 @@ from pathlib import Path
 STUDY = ["tests/design/test_study_angle_parameter.py", "tests/design/test_study_units.py", "tests/design/test_study_range_end.py",
          "tests/design/test_study_slider_crank.py", "tests/design/test_metrics_swing.py", "tests/design/test_metrics_time_ratio.py",
          "tests/design/test_study_modes.py", "tests/design/test_study.py"]
+TRACKER = ["tests/kinematics/test_tracker_hand_values.py", "tests/kinematics/test_tracking.py",
+           "tests/kinematics/test_location_precision.py"]
 FORCES = ["tests/dynamics/test_force_outputs.py", "tests/dynamics/test_body_quantities.py", "tests/dynamics/test_forces.py"]
 #: the test files of each module, fast ones first (pytest -x stops at the first failure)
 TESTS = {"model.bodies": FORCES + ["tests/model/test_diagram_bodies.py"],
@@ -35,7 +37,8 @@ TESTS = {"model.bodies": FORCES + ["tests/model/test_diagram_bodies.py"],
          "dynamics.forceresults": FORCES, "dynamics.simulation": FORCES, "design.lockstep": STUDY,
          "design.studies": STUDY + ["tests/design/test_study_progress.py"],
          "design.sensitivity": STUDY, "design.designs": STUDY, "design.metrics": STUDY,
-         "output.view": ["tests/output/test_page_values.py", "tests/output/test_view.py"]}
+         "output.view": ["tests/output/test_page_values.py", "tests/output/test_view.py"],
+         "kinematics.grid": TRACKER, "kinematics.reach": TRACKER, "kinematics.rows": TRACKER + ["tests/kinematics/test_batch.py"]}
 
 
 def module_of(name: str) -> str:
