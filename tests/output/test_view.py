@@ -329,3 +329,28 @@ def test_three_thousand_rows_in_browser(browser, tmp_path):
             assert abs(float(cx) - sw[f"{name}_x"][r]) <= 1e-6 and abs(float(cy) - sw[f"{name}_y"][r]) <= 1e-6
     errors = [e for e in browser.get_log("browser") if e["level"] in ("SEVERE", "WARNING")]
     assert not errors, errors
+
+
+def test_the_slider_guide_axis_spans_the_slider_travel(tmp_path):
+    """The page draws a slider's guide axis along the line of sliding over the whole travel:
+    example 1's slider C moves on the x axis between r3 − r2 = 3 in and r2 + r3 = 13 in (the
+    crank at 180° and 0°). Written for loopsolve.output.view.x__scene__mutmut_204 (the axis
+    drawn from ref + d·lo to ref − d·hi, i.e. pointing the wrong way past the pivot)."""
+    from loopsolve.output.view import _scene
+
+    sw = ls.load(ls.models_dir() / "example1_slider_crank.toml").sweep(0, 360, 30)
+    (axis,) = [s["p"] for s in _scene(sw)["static"] if s["c"] == "axis"]
+    x0, y0, x1, y1 = axis
+    assert y0 == pytest.approx(0, abs=1e-12) and y1 == pytest.approx(0, abs=1e-12)
+    assert min(x0, x1) <= 3 and max(x0, x1) >= 13
+
+
+def test_write_html_returns_the_path_it_wrote(tmp_path):
+    """``write_html`` returns the file it wrote, holding the page ``to_html`` gives (the doctest shows
+    it; this is the test mutmut's test selection sees: loopsolve.output.view.x_write_html__mutmut_17)."""
+    from loopsolve.output.view import write_html
+
+    sw = ls.load(ls.models_dir() / "example1_slider_crank.toml").sweep(0, 360, 90)
+    target = tmp_path / "slider.html"
+    out = write_html(sw, target)
+    assert out == target and out.read_text(encoding="utf-8") == to_html(sw)
