@@ -56,7 +56,7 @@ def _private_cache(tmp_path_factory):
     os.environ["LOOPSOLVE_CACHE_DIR"] = str(tmp_path_factory.mktemp("cache"))
     # Forget modules compiled earlier in this process (mutation testing forks test sessions from
     # a process that already ran the suite; a stale in-memory module would hide a mutant).
-    from loopsolve import compiled
+    from loopsolve.symbolic import compiled
 
     compiled._MEMO.clear()
     yield

@@ -8,7 +8,7 @@
    * ``pylinkage``'s numba kernel ``Linkage.step_fast_with_kinematics`` looped over the
      designs the way its optimizers do: one linkage, new constraints and starting pose per
      design (``set_completely``), then the kernel;
-   * the closed form, numpy on all designs at once (:mod:`loopsolve.classic` half-angle
+   * the closed form, numpy on all designs at once (:mod:`loopsolve.kinematics.classic` half-angle
      position, velocity and acceleration formulas on (designs, points) arrays).
 
    Prints the median times, the ratios, and the largest error of loopsolve and pylinkage
@@ -45,7 +45,7 @@ from pathlib import Path
 import numpy as np
 
 import loopsolve as ls
-from loopsolve import classic as C
+from loopsolve.kinematics import classic as C
 
 ROOT = Path(__file__).resolve().parents[1]
 MODEL = ROOT / "models" / "thesis_crank_rocker.toml"
@@ -55,7 +55,7 @@ BOX = {"r2": (15.0, 28.0), "r3": (55.0, 75.0)}  # every design a Grashof crank-r
 
 
 def designs(n, seed=0):
-    from loopsolve.designs import sample
+    from loopsolve.design.designs import sample
 
     return sample(BOX, n, seed=seed)
 
@@ -212,7 +212,7 @@ def part_handoff(args):
     """Issue 21, rows 2 and 3: designs the lockstep path hands off (not assemblable at the start, limits)."""
     import warnings
 
-    from loopsolve.designs import Designs, sample
+    from loopsolve.design.designs import Designs, sample
 
     warnings.filterwarnings("ignore", category=ls.LoopsolveWarning)  # designs stopping at limits
     mech = ls.load(MODEL)
@@ -274,7 +274,7 @@ SC_LIMIT_BOX = {"r2": (1100.0, 1400.0), "r3": (500.0, 900.0), "e": (0.0, 100.0)}
 def _slider_crank_limits(args):
     """Row 2c: offset slider-cranks whose crank is longer than the rod (they stop where
     |r2 sin θ2 − e| = r3) against ordinary ones, the same number, 361 points, pos/vel/acc."""
-    from loopsolve.designs import sample
+    from loopsolve.design.designs import sample
 
     mech = ls.load(SC_MODEL)
     n = args.handoff_designs

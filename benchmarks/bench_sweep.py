@@ -3,7 +3,7 @@
 Thesis crank-rocker four-bar (r1 = 60, r2 = 25, r3 = 70, r4 = 45 mm, open mode, crank at
 10 rpm), positions + velocities + accelerations of the coupler and rocker angles. Prints, in
 one run, the median times, the ratios against the vectorized closed form
-(:mod:`loopsolve.classic`: half-angle position, velocity and acceleration formulas) and each
+(:mod:`loopsolve.kinematics.classic`: half-angle position, velocity and acceleration formulas) and each
 method's largest error against it:
 
 1. a 360-point tracked cycle: loopsolve tracked and batched, closed form, scipy ``fsolve``
@@ -40,7 +40,7 @@ from pathlib import Path
 import numpy as np
 
 import loopsolve as ls
-from loopsolve import classic as C
+from loopsolve.kinematics import classic as C
 
 R1, R2, R3, R4 = 60.0, 25.0, 70.0, 45.0
 OMEGA = 10 * 2 * math.pi / 60  # 10 rpm
@@ -311,7 +311,7 @@ def main(argv=None):
     x = np.radians(np.arange(360.0))
     rows = []
     t_cf, _ = median_time(lambda: closed_form(x), rep * 5)
-    rows.append(("closed form, vectorized numpy (loopsolve.classic)", t_cf, 0.0))
+    rows.append(("closed form, vectorized numpy (loopsolve.kinematics.classic)", t_cf, 0.0))
     for method in ("tracked", "batched"):
         fn = loopsolve_sweep(mech, ck, 0, 359, 1, method)
         fn()

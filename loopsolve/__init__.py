@@ -12,7 +12,9 @@ tracking, and gives velocities, accelerations and jerks, sweeps, plots and the L
 
 __version__ = "0.1.0"
 
-from . import bodies, diagram, errors, expr, newton, topology, units  # noqa: E402
+from . import errors
+from .model import bodies, diagram, expr, topology, units
+from .kinematics import newton  # noqa: E402
 from .errors import (  # noqa: E402
     AssemblyError,
     ModeError,
@@ -29,45 +31,45 @@ from .errors import (  # noqa: E402
     SynthesisError,
     TopologyError,
 )
-from .factories import fourbar, inverted_slider_crank, slider_crank  # noqa: E402
-from .builder import MechanismBuilder  # noqa: E402
-from .model import Mechanism  # noqa: E402
-from .spec import build_mechanism  # noqa: E402
-from .modelfile import dumps, load, loads, models_dir  # noqa: E402
-from .results import Event, EventKind, State, Sweep  # noqa: E402
+from .model.factories import fourbar, inverted_slider_crank, slider_crank  # noqa: E402
+from .model.builder import MechanismBuilder  # noqa: E402
+from .model.mechanism import Mechanism  # noqa: E402
+from .model.spec import build_mechanism  # noqa: E402
+from .model.modelfile import dumps, load, loads, models_dir  # noqa: E402
+from .kinematics.results import Event, EventKind, State, Sweep  # noqa: E402
 
 # the submodules solve and sweep are loaded before the functions of the same names are defined
-# below, so that importing them later cannot replace ``loopsolve.solve``/``loopsolve.sweep``
-from . import solve as _solve_module  # noqa: E402, F401
-from . import sweep as _sweep_module  # noqa: E402, F401
-from . import freudenstein as _freudenstein_module  # noqa: E402, F401
-from . import burmester as _burmester_module  # noqa: E402, F401
+# below, so that importing them later cannot replace ``loopsolve.kinematics.solve``/``loopsolve.kinematics.sweep``
+from .kinematics import solve as _solve_module  # noqa: E402, F401
+from .kinematics import sweep as _sweep_module  # noqa: E402, F401
+from .design import freudenstein as _freudenstein_module  # noqa: E402, F401
+from .design import burmester as _burmester_module  # noqa: E402, F401
 
 
 def derive(mech, input=None):
-    """Symbolic derivation: see :func:`loopsolve.symbolic.derive` (imports sympy)."""
-    from .symbolic import derive as _derive
+    """Symbolic derivation: see :func:`loopsolve.symbolic.derivation.derive` (imports sympy)."""
+    from .symbolic.derivation import derive as _derive
 
     return _derive(mech, input=input)
 
 
 def derive_dynamics(mech, input=None):
-    """The equation of motion in symbols: see :func:`loopsolve.eom.derive_dynamics` (imports sympy)."""
-    from .eom import derive_dynamics as _derive_dynamics
+    """The equation of motion in symbols: see :func:`loopsolve.dynamics.eom.derive_dynamics` (imports sympy)."""
+    from .dynamics.eom import derive_dynamics as _derive_dynamics
 
     return _derive_dynamics(mech, input=input)
 
 
 def compile_mechanism(mech, input=None, *, cache=True):
-    """Compiled kinematics: see :func:`loopsolve.compiled.compile_mechanism`."""
-    from .compiled import compile_mechanism as _compile
+    """Compiled kinematics: see :func:`loopsolve.symbolic.compiled.compile_mechanism`."""
+    from .symbolic.compiled import compile_mechanism as _compile
 
     return _compile(mech, input=input, cache=cache)
 
 
 def solve(mech, at=None, **kwargs):
     """Solve one position: see :func:`loopsolve.solve.solve`."""
-    from .solve import solve as _solve
+    from .kinematics.solve import solve as _solve
 
     return _solve(mech, at, **kwargs)
 
@@ -84,7 +86,7 @@ def guessed_mode(mech, at=None, *, input=None, compiled=None):
     >>> ls.guessed_mode(ls.load(ls.models_dir() / "thesis_crank_rocker.toml"))
     '-'
     """
-    from .solve import guessed_mode as _guessed, input_value
+    from .kinematics.solve import guessed_mode as _guessed, input_value
 
     ck = compiled if compiled is not None else mech.compile(input)
     x = None if at is None else input_value(ck, at)
@@ -93,35 +95,35 @@ def guessed_mode(mech, at=None, *, input=None, compiled=None):
 
 def sweep(mech, start, stop, step, **kwargs):
     """Sweep the input: see :func:`loopsolve.sweep.sweep`."""
-    from .sweep import sweep as _sweep
+    from .kinematics.sweep import sweep as _sweep
 
     return _sweep(mech, start, stop, step, **kwargs)
 
 
 def study(mech, vary, start, stop, step, **kwargs):
-    """Design study over many parameter sets: see :func:`loopsolve.studies.study` (needs the ``study`` extra)."""
-    from .studies import study as _study
+    """Design study over many parameter sets: see :func:`loopsolve.design.studies.study` (needs the ``study`` extra)."""
+    from .design.studies import study as _study
 
     return _study(mech, vary, start, stop, step, **kwargs)
 
 
 def synthesize(mech, **kwargs):
-    """Dimensional synthesis (path, function, motion generation): see :func:`loopsolve.synthrun.synthesize`."""
-    from .synthrun import synthesize as _synthesize
+    """Dimensional synthesis (path, function, motion generation): see :func:`loopsolve.design.synthrun.synthesize`."""
+    from .design.synthrun import synthesize as _synthesize
 
     return _synthesize(mech, **kwargs)
 
 
 def forces(mech, at=None, stop=None, step=None, **kwargs):
-    """Force and torque analysis: see :func:`loopsolve.kinetostatics.forces` (imports sympy once)."""
-    from .kinetostatics import forces as _forces
+    """Force and torque analysis: see :func:`loopsolve.dynamics.kinetostatics.forces` (imports sympy once)."""
+    from .dynamics.kinetostatics import forces as _forces
 
     return _forces(mech, at, stop, step, **kwargs)
 
 
 def simulate(mech, duration, **kwargs):
-    """Forward dynamics: see :func:`loopsolve.simulation.simulate`."""
-    from .simulation import simulate as _simulate
+    """Forward dynamics: see :func:`loopsolve.dynamics.simulation.simulate`."""
+    from .dynamics.simulation import simulate as _simulate
 
     return _simulate(mech, duration, **kwargs)
 
@@ -145,10 +147,49 @@ def burmester_curves(poses, **kwargs):
 
 def export_cad(mech, output, at=None, **kwargs):
     """The linkage at one pose as a CAD drawing (``.dxf`` with ezdxf, or ``.svg``), layers by role: see
-    :func:`loopsolve.cad.export_cad`."""
-    from .cad import export_cad as _export_cad
+    :func:`loopsolve.output.cad.export_cad`."""
+    from .output.cad import export_cad as _export_cad
 
     return _export_cad(mech, output, at, **kwargs)
+
+
+# The flat modules' names before the subpackages (issue 24, ARCHITECTURE.md): ``ls.classic`` and
+# ``from loopsolve import classic`` still give loopsolve.kinematics.classic, imported on first use
+# (so ``import loopsolve`` stays as light as before); ``model``, ``symbolic`` and ``dynamics`` are the
+# subpackages, which answer for the names of the module they replace. New code imports the new paths.
+_MOVED = {
+    "spec": "model.spec", "expr": "model.expr", "exprcheck": "model.exprcheck", "units": "model.units",
+    "unitlib": "model.unitlib", "files": "model.files", "modelfile": "model.modelfile",
+    "builder": "model.builder", "factories": "model.factories", "model": "model",
+    "topology": "model.topology", "diagram": "model.diagram", "diagrambodies": "model.diagrambodies",
+    "bodies": "model.bodies", "symbolic": "symbolic", "compiled": "symbolic.compiled",
+    "texprint": "symbolic.texprint", "newton": "kinematics.newton", "kernel": "kinematics.kernel",
+    "solve": "kinematics.solve", "modes": "kinematics.modes", "continuation": "kinematics.continuation",
+    "sweep": "kinematics.sweep", "batch": "kinematics.batch", "assemblable": "kinematics.assemblable",
+    "results": "kinematics.results", "export": "kinematics.export", "info": "kinematics.info",
+    "classic": "kinematics.classic", "declcheck": "dynamics.declcheck",
+    "kinetostatics": "dynamics.kinetostatics", "dynamics": "dynamics", "eom": "dynamics.eom",
+    "simulation": "dynamics.simulation", "forceresults": "dynamics.forceresults",
+    "designs": "design.designs", "lockstep": "design.lockstep", "studies": "design.studies",
+    "metrics": "design.metrics", "sensitivity": "design.sensitivity", "synthesis": "design.synthesis",
+    "synthbatch": "design.synthbatch", "certify": "design.certify", "synthrun": "design.synthrun",
+    "freudenstein": "design.freudenstein", "burmester": "design.burmester",
+    "classicsynth": "design.classicsynth", "linkcheck": "design.linkcheck", "structerr": "design.structerr",
+    "plotting": "output.plotting", "forceplots": "output.forceplots", "drawstyle": "output.drawstyle",
+    "geometry": "output.geometry", "view": "output.view", "cad": "output.cad", "latex": "output.latex",
+    "latex_dynamics": "output.latex_dynamics",
+}
+
+
+def __getattr__(name):
+    path = _MOVED.get(name)
+    if path is None:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    import importlib
+
+    module = importlib.import_module(f".{path}", __name__)
+    globals()[name] = module
+    return module
 
 
 __all__ = [

@@ -3,8 +3,16 @@ the tracker tests (both engines)."""
 
 import os
 import subprocess
+import sys
+from pathlib import Path
 
 import pytest
+
+# Tests take helpers from one another by module name (``from test_modes import watt_sixbar``):
+# every tests/<package>/ folder is on sys.path, as tests/ itself is (test file names are unique).
+for _folder in sorted(Path(__file__).parent.iterdir()):
+    if _folder.is_dir() and _folder.name not in ("data", "__pycache__") and str(_folder) not in sys.path:
+        sys.path.insert(0, str(_folder))
 
 
 @pytest.fixture

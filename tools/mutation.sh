@@ -8,9 +8,9 @@
 # changed.
 #
 #   tools/mutation.sh                          # every mutant of every configured module (hours)
-#   tools/mutation.sh 'loopsolve.compiled*'    # one module (mutant names are module.function__mutmut_N)
+#   tools/mutation.sh 'loopsolve.symbolic.compiled*'    # one module (mutant names are module.function__mutmut_N)
 #   MUTATION_SAMPLE=10 tools/mutation.sh       # a reproducible sample: every 10th mutant of each module
-#   MUTATION_SAMPLE=60 MUTATION_MODULES="studies view" tools/mutation.sh   # ... of these modules only
+#   MUTATION_SAMPLE=60 MUTATION_MODULES="studies view" tools/mutation.sh   # ... of these modules only (design.studies, output.view)
 #   tools/mutation.sh --summary                # only print the survival rate per module and the verdicts
 #                                              # of tools/mutation_triage/<module>.txt on the survivors
 #
@@ -29,7 +29,7 @@ if [[ "${1:-}" != "--summary" ]]; then
     # MUTATION_MODULES="studies view" limits the sample to those modules
     mods="${MUTATION_MODULES:-.*}"
     mapfile -t names < <(python3 tools/mutation_summary.py --names --every "$MUTATION_SAMPLE" \
-                         | grep -E "^loopsolve\.(${mods// /|})\.")
+                         | grep -E "^loopsolve\.([a-z_]+\.)?(${mods// /|})\.")
   fi
   nice -n 19 mutmut run --max-children "${MUTMUT_CHILDREN:-1}" "${names[@]}" || true
 fi

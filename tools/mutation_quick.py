@@ -11,7 +11,7 @@ so ``tools/mutation.sh --summary`` reports it like a mutmut run. A mutant whose 
 ``mutants/quick.tsv``.
 
     python3 tools/mutation_summary.py --generate
-    nice -n 19 python3 tools/mutation_quick.py --every 140 --until 17:35 studies view
+    nice -n 19 python3 tools/mutation_quick.py --every 140 --until 17:35 design.studies output.view
 """
 
 from __future__ import annotations
@@ -25,15 +25,31 @@ import time
 from collections import defaultdict
 from pathlib import Path
 
-STUDY = ["tests/test_study_angle_parameter.py", "tests/test_study_units.py", "tests/test_study_range_end.py",
-         "tests/test_study_slider_crank.py", "tests/test_metrics_swing.py", "tests/test_metrics_time_ratio.py",
-         "tests/test_study_modes.py", "tests/test_study.py"]
-FORCES = ["tests/test_force_outputs.py", "tests/test_body_quantities.py", "tests/test_forces.py"]
+STUDY = ["tests/design/test_study_angle_parameter.py", "tests/design/test_study_units.py", "tests/design/test_study_range_end.py",
+         "tests/design/test_study_slider_crank.py", "tests/design/test_metrics_swing.py", "tests/design/test_metrics_time_ratio.py",
+         "tests/design/test_study_modes.py", "tests/design/test_study.py"]
+TRACKER = ["tests/kinematics/test_tracker_hand_values.py", "tests/kinematics/test_tracking.py",
+           "tests/kinematics/test_location_precision.py"]
+FORCES = ["tests/dynamics/test_force_outputs.py", "tests/dynamics/test_body_quantities.py", "tests/dynamics/test_forces.py"]
 #: the test files of each module, fast ones first (pytest -x stops at the first failure)
-TESTS = {"bodies": FORCES + ["tests/test_diagram_bodies.py"], "dynamics": FORCES + ["tests/test_diagram_bodies.py"],
-         "forceresults": FORCES, "simulation": FORCES, "lockstep": STUDY, "studies": STUDY + ["tests/test_study_progress.py"],
-         "sensitivity": STUDY, "designs": STUDY, "metrics": STUDY,
-         "view": ["tests/test_page_values.py", "tests/test_view.py"]}
+TESTS = {"model.bodies": FORCES + ["tests/model/test_diagram_bodies.py"],
+         "dynamics.derivation": FORCES + ["tests/model/test_diagram_bodies.py"],
+         "dynamics.forceresults": FORCES, "dynamics.simulation": FORCES, "design.lockstep": STUDY,
+         "design.studies": STUDY + ["tests/design/test_study_progress.py"],
+         "design.sensitivity": STUDY, "design.designs": STUDY, "design.metrics": STUDY,
+         "output.view": ["tests/output/test_page_values.py", "tests/output/test_view.py"],
+         "kinematics.grid": TRACKER, "kinematics.reach": TRACKER, "kinematics.rows": TRACKER + ["tests/kinematics/test_batch.py"]}
+
+
+def module_of(name: str) -> str:
+    """``loopsolve.kinematics.sweep.x_sweep__mutmut_3`` -> ``kinematics.sweep`` (``xǁClassǁmethod`` too)."""
+    parts = name.split(".")
+    i = next(k for k, part in enumerate(parts) if part.startswith(("x_", "xǁ")))
+    return ".".join(parts[1:i])
+
+
+def meta_path(root: Path, mod: str) -> Path:
+    return root / "loopsolve" / (mod.replace(".", "/") + ".py.meta")
 
 
 def main(argv=None) -> int:
@@ -46,7 +62,7 @@ def main(argv=None) -> int:
     root = Path("mutants")
     by = defaultdict(list)
     for mod in args.modules:
-        meta = json.loads((root / "loopsolve" / f"{mod}.py.meta").read_text())
+        meta = json.loads(meta_path(root, mod).read_text())
         names = sorted(meta["exit_code_by_key"], key=lambda n: (n.rpartition("__mutmut_")[0],
                                                                 int(n.rpartition("__mutmut_")[2])))
         by[mod] = names[:: args.every]
@@ -61,7 +77,7 @@ def main(argv=None) -> int:
     for name in order:
         if args.until and time.strftime("%H:%M", time.gmtime()) >= args.until:
             break
-        mod = name.split(".")[1]
+        mod = module_of(name)
         env["MUTANT_UNDER_TEST"] = name
         t0 = time.time()
         try:
@@ -71,10 +87,10 @@ def main(argv=None) -> int:
             tail = [ln for ln in r.stdout.splitlines() if ln.startswith("FAILED") or " passed" in ln][-1:]
         except subprocess.TimeoutExpired:
             code, tail = None, ["timeout: left unchecked"]
-        meta_path = root / "loopsolve" / f"{mod}.py.meta"
-        meta = json.loads(meta_path.read_text())
+        path = meta_path(root, mod)
+        meta = json.loads(path.read_text())
         meta["exit_code_by_key"][name] = code
-        meta_path.write_text(json.dumps(meta))
+        path.write_text(json.dumps(meta))
         log.write(f"{name}\t{code}\t{time.time() - t0:.0f}s\t{' '.join(tail)}\n")
         log.flush()
     return 0

@@ -1,0 +1,152 @@
+"""``loopsolve synthesize``: its arguments, the general and classical methods, the report.
+
+Split from ``loopsolve/cli.py`` (the functions unchanged).
+"""
+
+from __future__ import annotations
+
+import math
+import sys
+
+from .common import EXIT_OK, _check_output, _load, _write
+
+
+def _synthesis_parser(sub) -> None:
+    p = sub.add_parser("synthesize", help="find parameter values for a path, a function or a motion "
+                       "(certified designs only)")
+    p.add_argument("model", help="model file (TOML)")
+    task = p.add_mutually_exclusive_group(required=True)
+    task.add_argument("--path", metavar="POINT", help="path generation: POINT through the targets (CSV x,y)")
+    task.add_argument("--function", metavar="OUT", help="function generation: unknown OUT of the input "
+                      "(CSV input,output)")
+    task.add_argument("--motion", metavar="POINT", help="motion generation: POINT and the --link angle "
+                      "(CSV x,y,angle)")
+    p.add_argument("--link", metavar="VAR", help="with --motion: the angle variable of the guided link")
+    p.add_argument("--targets", required=True, metavar="T.csv", help="targets (CSV with a header line; an "
+                   "input column prescribes the timing)")
+    p.add_argument("--inputs", metavar="X1,X2,...", help="prescribed input value of every target (model units)")
+    p.add_argument("--vary", action="append", metavar="NAME=LOW:HIGH",
+                   help="a design variable and its bounds (model units); repeat for more (general method)")
+    p.add_argument("--method", choices=("general", "freudenstein", "burmester"), default="general",
+                   help="general (default: any model, --vary), or the classical four-bar methods: freudenstein "
+                   "(--function) and burmester (--motion --link, five poses)")
+    p.add_argument("--range", dest="input_range", metavar="LO:HI", help="with --function: the intended input range "
+                   "(model units; default: the targets' inputs), checked and reported as the structural error")
+    p.add_argument("--crank", action="store_true", help="the input must turn fully")
+    p.add_argument("--transmission", metavar="LO:HI", help="transmission angle bounds over the motion (degrees)")
+    p.add_argument("--mode", default="any", metavar="any|guesses|SIGNATURE",
+                   help="assembly mode: the search's choice (any, default), the guesses', or a signature")
+    p.add_argument("--runs", type=int, default=1, metavar="N", help="independent seeded runs (default 1)")
+    p.add_argument("--seed", type=int, default=0, help="seed of the first run (default 0)")
+    p.add_argument("--popsize", type=int, default=15, help="differential evolution: population per variable")
+    p.add_argument("--maxiter", type=int, default=150, help="differential evolution: generations at most per search")
+    p.add_argument("--restarts", type=int, default=4, help="DE searches per assembly mode in a run (default 4)")
+    p.add_argument("--workers", type=int, metavar="N", help="run the runs on a local Dask cluster of N processes")
+    p.add_argument("--scheduler", metavar="ADDRESS", help="run the runs on the Dask cluster at ADDRESS")
+    p.add_argument("-o", "--output", metavar="design.toml", help="write the best design as a model file")
+    p.add_argument("--report", metavar="R.json", help="write the report (JSON)")
+    p.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
+    p.set_defaults(func=cmd_synthesize)
+
+
+
+def cmd_synthesize(args) -> int:
+    from ..errors import ModelError
+    from ..design.synthrun import synthesize
+
+    for out in (args.output, args.report):
+        _check_output(out)
+    input_range = _parse_range(args.input_range) if args.input_range else None
+    if input_range is not None and not args.function:
+        raise ModelError("--range is for function generation (--function OUT)")
+    if args.method != "general":
+        return _classic_synthesize(args, input_range)
+    if not args.vary:
+        raise ModelError("synthesize: the general method needs the design variables (--vary NAME=LOW:HIGH, "
+                         "repeatable), or --method freudenstein|burmester on a four-bar model")
+    mech = _load(args.model)
+    vary = {}
+    for text in args.vary:
+        name, sep, rest = text.partition("=")
+        name = name.strip()
+        parts = rest.split(":")
+        if not sep or not name or len(parts) != 2:
+            raise ModelError(f"--vary {text!r}: expected NAME=LOW:HIGH")
+        try:
+            lo, hi = float(parts[0]), float(parts[1])
+        except ValueError:
+            raise ModelError(f"--vary {text!r}: LOW and HIGH must be numbers") from None
+        if name in vary:
+            raise ModelError(f"--vary {name} given twice")
+        vary[name] = (lo, hi)
+    rep = _synthesis_output(args, lambda: synthesize(
+        mech, path=args.path, function=args.function, motion=args.motion, link=args.link,
+        targets=args.targets, inputs=args.inputs, vary=vary, crank=args.crank,
+        transmission=args.transmission, runs=args.runs, seed=args.seed, mode=args.mode,
+        popsize=args.popsize, maxiter=args.maxiter, restarts=args.restarts, workers=args.workers,
+        scheduler=args.scheduler, progress=None if not args.quiet else False,
+        input_range=input_range), "")
+    if rep is not None:
+        print(f"objective {rep['objective']:.6g} (mode {rep['mode']}, certified); wrote {args.report}"
+              + (f" and {args.output}" if args.output else ""), file=sys.stderr)
+    return EXIT_OK
+
+
+
+def _parse_range(text):
+    from ..errors import ModelError
+
+    parts = str(text).split(":")
+    try:
+        lo, hi = (float(v) for v in parts)
+    except ValueError:
+        raise ModelError(f"--range {text!r}: expected LO:HI (two numbers, model units)") from None
+    if not (math.isfinite(lo) and math.isfinite(hi)) or lo == hi:
+        raise ModelError(f"--range {text!r}: LO and HI must be two different finite numbers")
+    return (lo, hi)
+
+
+
+def _synthesis_output(args, run, label: str):
+    """Run a synthesis, write its report (also the failed one's, then re-raise) and ``-o`` model;
+    print the report when no ``--report`` file is given. Returns the report when it went to a file."""
+    import json
+
+    from ..errors import SynthesisError
+
+    try:
+        res = run()
+    except SynthesisError as exc:
+        if args.report and exc.report is not None:
+            _write(json.dumps(exc.report, indent=2) + "\n", args.report)
+        raise
+    text = json.dumps(res.report, indent=2) + "\n"
+    if args.report:
+        _write(text, args.report)
+    if args.output:
+        _write(res.to_toml(), args.output)
+    if not args.report:
+        sys.stdout.write(text)
+        return None
+    return res.report
+
+
+
+def _classic_synthesize(args, input_range) -> int:
+    """``synthesize --method freudenstein|burmester``: exit 3 (report still written) when not usable."""
+    from ..errors import ModelError
+    from ..design.synthrun import synthesize
+
+    for flag, given in (("--path", args.path), ("--vary", args.vary), ("--inputs", args.inputs),
+                        ("--crank", args.crank), ("--transmission", args.transmission),
+                        ("--workers", args.workers), ("--scheduler", args.scheduler)):
+        if given:
+            raise ModelError(f"{flag} is not used by --method {args.method} (it is for the general method)")
+    mech = _load(args.model)
+    rep = _synthesis_output(args, lambda: synthesize(mech, method=args.method, targets=args.targets,
+                                                     function=args.function, motion=args.motion, link=args.link,
+                                                     input_range=input_range), args.method)
+    if rep is not None:
+        print(f"{args.method}: objective {rep['objective']:.6g} (certified); wrote {args.report}"
+              + (f" and {args.output}" if args.output else ""), file=sys.stderr)
+    return EXIT_OK

@@ -1,0 +1,491 @@
+"""``synthesize``: runs of search + polish + certificate, the report, the result object.
+
+See :mod:`loopsolve.design.synthesis` for the design (problem, batched objective, search, polish) and
+:mod:`loopsolve.design.certify` for the certificate. One run is: a seeded differential-evolution search
+(:func:`loopsolve.design.synthesis.search`), a least-squares polish of the best distinct members of its
+final population, and the tracker's certificate of each polished candidate, best first; the
+run's result is its best certified design. ``runs`` runs use the seeds ``seed, seed + 1, ...``
+and run one after the other, or as Dask tasks (``workers``/``scheduler``/``client``, as studies do).
+"""
+
+from __future__ import annotations
+
+import copy
+import json
+import math
+import sys
+import time
+
+import numpy as np
+
+from ..errors import ModelError
+from ..errors import SynthesisError
+from .synthesis import define, evaluate, polish, search_many, _signature
+
+__all__ = ["synthesize", "SynthesisResult", "certify_design", "polish_design"]
+
+
+def _clean(v):
+    if isinstance(v, (float, np.floating)):
+        return float(v) if math.isfinite(v) else None
+    if isinstance(v, (np.integer,)):
+        return int(v)
+    if isinstance(v, dict):
+        return {k: _clean(x) for k, x in v.items()}
+    if isinstance(v, (list, tuple, np.ndarray)):
+        return [_clean(x) for x in v]
+    return v
+
+
+def design_model(problem, values, inputs, Z):
+    """The model with the found parameter values, its guesses the pose at the first target (so its mode)."""
+    from ..model.modelfile import loads, dumps
+    from ..model.units import Kind
+
+    mech = problem.mech
+    spec = copy.deepcopy(mech.spec)
+    params = spec.setdefault("parameters", {})
+    for n, v in zip(problem.names, values):
+        params[n] = float(v)
+    ck = problem.ck
+    deg = mech.units.angle == "deg"
+    variables = spec.get("variables", {})
+    if Z is not None:
+        for i, name in enumerate(ck.variables):
+            if name in variables:
+                val = float(Z[i, 0])
+                if ck.kinds[i] is Kind.ANGLE and deg:
+                    val = math.degrees(val)
+                entry = variables[name]
+                if isinstance(entry, dict):
+                    entry["guess"] = round(val, 12)
+                else:
+                    variables[name] = {"guess": round(val, 12)}
+    return loads(dumps(spec), source=mech.source or "<synthesized>")
+
+
+class SynthesisResult:
+    """The certified best design of a synthesis.
+
+    Attributes: ``mechanism`` (the model with the found values; its guesses are the pose at
+    the first target, so they name its mode), ``objective``, ``report`` (the contract's dict),
+    ``problem``, ``values`` (model units), ``inputs`` (internal), ``positions`` ``(nv, T)``.
+    """
+
+    def __init__(self, problem, mechanism, report, values, inputs, positions):
+        self.problem = problem
+        self.mechanism = mechanism
+        self.report = report
+        self.objective = report["objective"]
+        self.values = values
+        self.inputs = inputs
+        self.positions = positions
+
+    def __repr__(self) -> str:
+        return (f"SynthesisResult(task={self.report['task']!r}, objective={self.objective:.6g}, "
+                f"mode={self.report['mode']!r}, defects={self.report['certificate']['defects']})")
+
+    def to_toml(self) -> str:
+        """The design as a model file (TOML text)."""
+        from ..model.modelfile import dumps
+
+        return dumps(self.mechanism)
+
+    def to_json(self) -> str:
+        return json.dumps(self.report, indent=2)
+
+    def plot(self, *, ax=None, output=None, linkages: bool = True):
+        """Targets, the design's curve over the motion and (``linkages``) the linkage at each target."""
+        from ..output.plotting import draw
+        from ..kinematics.solve import display_value
+
+        import matplotlib.pyplot as plt
+
+        pr = self.problem
+        mech = self.mechanism
+        if ax is None:
+            fig, ax = plt.subplots(figsize=(7, 6))
+        else:
+            fig = ax.figure
+        ck = mech.compile()
+        x0 = float(self.inputs[0])
+        d = self.report["direction"]
+        a = display_value(ck, x0)
+        span = 2 * math.pi if (pr.crank or ck.kinds[ck.input_idx[0]].name == "ANGLE") else float(
+            abs(self.inputs[-1] - x0))
+        b = display_value(ck, x0 + d * span)
+        try:
+            sw = mech.sweep(a, b, abs(b - a) / 360, progress=False, derivatives=1)
+            if pr.task != "function":
+                ax.plot(sw.columns[f"{pr.point}_x"], sw.columns[f"{pr.point}_y"], "-", color="C0", lw=1.2,
+                        label=f"{pr.point} (design)")
+            else:
+                ax.plot(sw.columns[ck.inputs[0]], sw.columns[pr.output], "-", color="C0", label=f"{pr.output}(input)")
+        except Exception:  # noqa: BLE001 — the curve is a picture; the report already holds the figures
+            pass
+        if pr.task == "function":
+            ax.plot(pr.display_input(self.inputs), np.degrees(pr.targets[:, 0]) if mech.units.angle == "deg"
+                    else pr.targets[:, 0], "o", color="C3", label="targets")
+            ax.set_xlabel(ck.inputs[0])
+            ax.set_ylabel(pr.output)
+        else:
+            if linkages:
+                for t, x in enumerate(self.inputs):
+                    try:
+                        guess = {n: float(self.positions[i, t]) for i, n in enumerate(ck.variables)}
+                        draw(mech, display_value(ck, float(x)), ax=ax, guess=guess)
+                    except Exception:  # noqa: BLE001
+                        pass
+            ax.plot(pr.targets[:, 0], pr.targets[:, 1], "o", mfc="none", color="C3", ms=9, label="targets")
+            ax.set_aspect("equal", adjustable="datalim")
+        ax.legend(loc="best", fontsize=8)
+        ax.set_title(f"{mech.name}: {pr.task} synthesis, f = {self.objective:.4g}")
+        if output is not None:
+            fig.savefig(output, dpi=120, bbox_inches="tight")
+        return fig
+
+
+def certify_design(problem, values, inputs=None, signs=None, poses=None) -> dict:
+    """Certificate of one parameter set (model units) on a problem: see :func:`loopsolve.design.certify.certify`.
+
+    Without ``inputs`` (free timing) or ``poses``, the positions are traced by the batch engine in
+    the mode ``signs`` (default: the problem's best mode for the design).
+    """
+    from .certify import certify
+
+    values = np.asarray(values, dtype=float)
+    b = problem.batch
+    P = b.params(values[None])
+    if poses is None:
+        if inputs is None or signs is None:
+            f, mi, di, X = evaluate(problem, values[None])
+            signs = problem.modes(P)[mi[0]][:, 0] if signs is None else np.asarray(signs, dtype=float)
+            inputs = X[:, 0] if inputs is None else inputs
+        with np.errstate(all="ignore"):
+            Zt, reached = problem.trace(P, np.asarray(inputs, dtype=float)[:, None],
+                                        np.asarray(signs, dtype=float)[:, None], singular_stop=False)
+        poses = Zt[:, :, 0] if reached[0] >= problem.T else None
+    mech = problem.mech.with_parameters(**{n: float(v) for n, v in zip(problem.names, values)})
+    inputs = problem.inputs if inputs is None else np.asarray(inputs, dtype=float)
+    if inputs is None:
+        return {"assembles": False, "one_circuit": False, "order": False, "crank": None, "transmission": None,
+                "grashof_margin": None, "defects": ["assembly"], "notes": ["no motion through the targets found"]}
+    return certify(mech, inputs, poses=poses, crank=problem.crank, transmission=problem.transmission,
+                   point=problem.point, targets=problem.targets)
+
+
+def polish_design(problem, values, *, inputs=None, signs=None, hmax=None):
+    """Polish one start (model units) and certify it: ``(polished dict, certificate)``.
+
+    ``hmax``: the trace's largest input step (internal units; default the engine's 5°).
+    """
+    p = polish(problem, values, inputs=inputs, signs=signs, **({} if hmax is None else {"hmax": hmax}))
+    if not math.isfinite(p.get("objective", math.inf)):
+        return p, {"defects": ["assembly"], "notes": ["the start cannot be traced through the targets"]}
+    cert = certify_design(problem, p["values"], p["inputs"], p["signs"], p["Z"])
+    return p, cert
+
+
+def _distinct(V, f, k, lo, hi):
+    """Indices of up to ``k`` members, best first, at least 1 % of the box apart."""
+    out = []
+    span = hi - lo
+    for i in np.argsort(f, kind="stable"):
+        if not np.isfinite(f[i]):
+            continue
+        if all(np.max(np.abs(V[i] - V[j]) / span) > 0.01 for j in out):
+            out.append(i)
+        if len(out) >= k:
+            break
+    return out
+
+
+def one_run(problem, seed, opts):
+    """One run: ``(best candidate dict or None, rejected list, seconds, statistics)``."""
+    import dataclasses
+
+    t0 = time.perf_counter()
+    if problem.mode == "any":  # one search per mode: a basin of one mode cannot crowd out the other's
+        subs = [dataclasses.replace(problem, mode=_signature(sg)) for sg in problem.batch.all_signs()]
+    else:
+        subs = [problem]
+    cands, gens, nev, history = [], 0, 0, []
+    rng = np.random.default_rng(seed)
+    seeds = [[int(rng.integers(2**31)) for _ in range(opts["restarts"])] for _ in subs]
+    found = []  # the restarts of one mode run in lockstep: one batch per generation for all of them
+    for sub, ss in zip(subs, seeds):
+        found += [(sub, r) for r in search_many(sub, ss, popsize=opts["popsize"], maxiter=opts["maxiter"],
+                                                 tol=opts["tol"], strategy=opts["strategy"])]
+    for sub, (V, f, mi, di, X, g, n, hist) in found:
+        gens += g
+        nev += n
+        history.append({"mode": sub.mode, "best": hist})
+        P = sub.batch.params(V)
+        modes = sub.modes(P)
+        for i in _distinct(V, f, opts["polish"], sub.lo, sub.hi):
+            signs = modes[mi[i]][:, i]
+            p = polish(sub, V[i], signs=signs, inputs=X[:, i] if sub.free else None)
+            if math.isfinite(p.get("objective", math.inf)):
+                p["direction"] = int(di[i]) if sub.free else (1 if sub.inputs[-1] >= sub.inputs[0] else -1)
+                cands.append(p)
+    cands.sort(key=lambda c: c["objective"])
+    rejected, best = [], None
+    for c in cands:
+        cert = certify_design(problem, c["values"], c["inputs"], c["signs"], c["Z"])
+        c["certificate"] = cert
+        if not cert["defects"]:
+            best = c
+            break
+        rejected.append({"seed": seed, "objective": c["objective"],
+                         "parameters": dict(zip(problem.names, map(float, c["values"]))),
+                         "defects": cert["defects"], "notes": cert["notes"]})
+    return best, rejected, time.perf_counter() - t0, {"generations": gens, "evaluations": nev, "history": history}
+
+
+def _run_task(args):
+    """A Dask task: rebuild the problem on the worker, run once; plain data back."""
+    kwargs, seed, opts = args
+    from ..model.modelfile import loads
+
+    kwargs = dict(kwargs)
+    kwargs["mech"] = loads(kwargs.pop("model_text"), source=kwargs.pop("source"))
+    mech = kwargs.pop("mech")
+    problem = define(mech, **kwargs)
+    return one_run(problem, seed, opts)
+
+
+def synthesize(mech, *, path=None, function=None, motion=None, link=None, targets=None, inputs=None, vary=None,
+               crank: bool = False, transmission=None, runs: int = 1, seed: int = 0, mode: str | None = "any",
+               popsize: int = 15, maxiter: int = 150, tol: float = 1e-3, restarts: int = 4,
+               strategy: str = "best1bin", polish_candidates: int = 2,
+               workers: int | None = None, scheduler: str | None = None, client=None,
+               progress: bool | None = None, method: str = "general", input_range=None, desired=None):
+    """Find parameter values that make ``mech`` do a job; only certified designs are returned.
+
+    Parameters
+    ----------
+    mech : Mechanism
+    path : str
+        Path generation: the point that must pass through the targets (CSV ``x,y``).
+    function : str
+        Function generation: the unknown that must follow the targets (CSV ``input,output``).
+    motion, link : str
+        Motion generation: the point and the angle variable of the link (CSV ``x,y,angle``).
+    targets : path, CSV text, mapping of columns or array
+        With an ``input`` column the timing is prescribed.
+    inputs : sequence or "X1,X2,...", optional
+        Prescribed input values (model units), one per target; without them (and no ``input``
+        column) the timing is free: the targets are met in order as the input moves one way,
+        within one turn.
+    vary : mapping name → (low, high)
+        The design variables (model units).
+    crank : bool
+        The input must turn fully.
+    transmission : (lo, hi) or "LO:HI", optional
+        Bounds of the transmission angle over the motion (degrees).
+    runs, seed : int
+        Independent runs, seeded ``seed``, ``seed + 1``, ...
+    mode : "any", None or a signature
+        The assembly mode: ``"any"`` lets the search pick (the report says which), ``None``
+        keeps the mode the guesses name, a signature (``"-"``) that mode.
+    popsize, maxiter, tol, strategy : differential-evolution settings (scipy's meaning).
+    restarts : int
+        Short DE searches per mode in one run (seeded from the run's seed); each search's best
+        ``polish_candidates`` distinct designs are polished and certified.
+    workers, scheduler, client
+        Spread the runs over a Dask cluster (as :func:`loopsolve.study` does).
+    progress : bool, optional
+        Runs completed on stderr (tqdm); default: on a terminal.
+    method : {"general", "freudenstein", "burmester"}
+        ``general`` (this engine); the classical four-bar methods (``function=`` for
+        Freudenstein, ``motion=``/``link=`` with five poses for Burmester) go to
+        :func:`loopsolve.design.classicsynth.classic_synthesize` (``vary`` and the search options are
+        not used) and return its result; a design with defects raises :class:`SynthesisError`
+        whose ``report`` lists them.
+    input_range : (lo, hi), optional
+        Function generation: the intended input range (model units; default the targets'
+        span) over which the report's ``structural_error`` (largest |y(x) − y_wanted(x)|, the
+        wanted curve being the PCHIP through the targets) is measured by tracking the design.
+    desired : callable, optional
+        Function generation: the wanted output y(x) (model units, vectorized) as the reference
+        of ``structural_error`` instead of the PCHIP through the targets.
+
+    Returns
+    -------
+    SynthesisResult (ClassicSynthesis for the classical methods)
+
+    Raises
+    ------
+    ModelError
+        Bad targets, bounds, names (exit 2 on the command line).
+    SynthesisError
+        No run found a certified design (its ``report`` lists the rejected candidates).
+
+    Examples
+    --------
+    The coupler point of the model's own four-bar at three crank angles; find the crank length
+    and the coupler point again:
+
+    >>> mech = ls.load(ls.models_dir() / "fourbar_path_synthesis.toml")
+    >>> targets = {"x": [1.247635, 1.125070, 0.759129], "y": [2.261923, 2.556968, 2.635152]}
+    >>> res = ls.synthesize(mech, path="P", targets=targets, inputs=[30, 60, 90],
+    ...                     vary={"r2": (0.5, 2), "rcx": (0, 3)}, popsize=8, maxiter=30, restarts=1,
+    ...                     mode="guesses", progress=False)
+    >>> {k: round(v, 3) for k, v in res.report["parameters"].items()}, res.report["certificate"]["defects"]
+    ({'r2': 1.0, 'rcx': 1.5}, [])
+    """
+    if method != "general":
+        return _classic(mech, method, path=path, function=function, motion=motion, link=link, targets=targets,
+                        input_range=input_range, desired=desired, vary=vary, inputs=inputs, crank=crank,
+                        transmission=transmission)
+    if mode == "guesses":
+        mode = None
+    if runs < 1:
+        raise ModelError(f"--runs {runs}: must be at least 1")
+    problem = define(mech, path=path, function=function, motion=motion, link=link, targets=targets, inputs=inputs,
+                     vary=vary, crank=crank, transmission=transmission, mode=mode)
+    opts = {"popsize": popsize, "maxiter": maxiter, "tol": tol, "polish": polish_candidates, "restarts": restarts,
+            "strategy": strategy}
+    seeds = [seed + r for r in range(runs)]
+    if progress is None:
+        progress = sys.stderr.isatty()
+    bar = None
+    if progress:
+        try:
+            from tqdm import tqdm
+
+            bar = tqdm(total=runs, desc="synthesis runs", unit="run", file=sys.stderr)
+        except ImportError:  # pragma: no cover
+            bar = None
+    if workers or scheduler or client is not None:
+        outs = _dask_runs(problem, mech, dict(path=path, function=function, motion=motion, link=link,
+                                              targets=problem_targets(problem, targets), inputs=inputs, vary=vary,
+                                              crank=crank, transmission=transmission, mode=mode),
+                          seeds, opts, workers, scheduler, client, bar)
+    else:
+        outs = []
+        for s in seeds:
+            outs.append(one_run(problem, s, opts))
+            if bar is not None:
+                bar.update(1)
+    if bar is not None:
+        bar.close()
+    return _result(problem, outs, input_range, desired)
+
+
+def _classic(mech, method, *, path, function, motion, link, targets, input_range, desired, **general_only):
+    from .classicsynth import METHODS, classic_synthesize
+
+    if method not in METHODS:
+        raise ModelError(f"method={method!r}: expected 'general', {', '.join(repr(m) for m in METHODS)}")
+    if path is not None:
+        raise ModelError(f"method={method!r} is for {'function' if method == 'freudenstein' else 'motion'} "
+                         "generation; path generation uses the general method")
+    for k, v in general_only.items():
+        if v:
+            raise ModelError(f"{k}= is not used by method={method!r} (it is for the general method)")
+    from ..errors import SolveError
+
+    try:
+        res = classic_synthesize(mech, method=method, targets=targets, function=function, motion=motion, link=link,
+                                 input_range=input_range, desired=desired)
+    except SynthesisError:
+        raise
+    except SolveError as exc:  # no usable candidate: the same error as the general method's, with the report
+        raise SynthesisError(str(exc), report=getattr(exc, "report", None)) from None
+    defects = res.report["certificate"]["defects"]
+    if defects:
+        msgs = [d["message"] for d in res.report.get("design", {}).get("defects", [])[:2]]
+        raise SynthesisError(f"{method}: the design has defects ({', '.join(defects)})"
+                             + (": " + "; ".join(msgs) if msgs else "")
+                             + "; try more targets (least squares) or the general method", report=res.report)
+    return res
+
+
+def _function_structural_error(problem, mech, report, input_range, desired=None):
+    from .structerr import structural_error
+    from ..model.units import Kind
+
+    ck = problem.ck
+    y = problem.targets[:, 0]
+    if ck.kinds[ck.index(problem.output)] is Kind.ANGLE and problem.mech.units.angle == "deg":
+        y = np.degrees(y)
+    x = np.array([t["input"] for t in report["targets"]], dtype=float)
+    return structural_error(mech, problem.output, float(x[0]), targets=(x, y), input_range=input_range,
+                            desired=desired)
+
+
+def problem_targets(problem, targets):
+    """Targets as plain columns (what a Dask task can carry)."""
+    from .synthesis import read_targets
+
+    return {k: v.tolist() for k, v in read_targets(targets, problem.task).items()}
+
+
+def _dask_runs(problem, mech, kwargs, seeds, opts, workers, scheduler, client, bar):
+    from ..model.modelfile import dumps
+
+    from .studies import _make_client  # the studies' cluster rules (local processes or a scheduler)
+
+    own = None
+    if client is None:
+        client = own = _make_client(workers or 1, scheduler)
+    kwargs = dict(kwargs, model_text=dumps(mech), source=mech.source or mech.name)
+    try:
+        futs = [client.submit(_run_task, (kwargs, s, opts), pure=False) for s in seeds]
+        outs = []
+        for fut in futs:
+            outs.append(fut.result())
+            if bar is not None:
+                bar.update(1)
+    finally:
+        if own is not None:
+            cluster = getattr(own, "cluster", None)
+            own.close()
+            if cluster is not None and not scheduler:
+                cluster.close()
+    return outs
+
+
+def _result(problem, outs, input_range=None, desired=None) -> SynthesisResult:
+    from ..kinematics.solve import display_value
+
+    runs_f, secs, rejected, gens, nev, hist = [], [], [], [], 0, []
+    best = None
+    for cand, rej, sec, stats in outs:
+        runs_f.append(cand["objective"] if cand else None)
+        secs.append(sec)
+        rejected.extend(rej)
+        gens.append(stats["generations"])
+        hist.append(stats.get("history", []))
+        nev += stats["evaluations"]
+        if cand and (best is None or cand["objective"] < best["objective"]):
+            best = cand
+    stats = {"generations": gens, "evaluations": nev, "certified_runs": sum(f is not None for f in runs_f),
+             "rejected": rejected, "history": hist}
+    report = {"task": problem.task, "objective": None, "parameters": None, "runs": runs_f, "seconds": secs,
+              "mode": None, "direction": None, "targets": None, "certificate": None, "statistics": stats}
+    if best is None:
+        why = "; ".join(f"f={r['objective']:.3g}: {', '.join(r['defects'])}" for r in rejected[:4]) or \
+            "no candidate could be traced through the targets in one motion"
+        raise SynthesisError(f"{problem.mech.source or problem.mech.name}: no certified design in {len(outs)} run(s) "
+                             f"({why}); widen the bounds, add runs (--runs) or relax --transmission/--crank",
+                             report=_clean(report))
+    ck = problem.ck
+    cert = dict(best["certificate"])
+    report.update({
+        "objective": best["objective"],
+        "parameters": dict(zip(problem.names, map(float, best["values"]))),
+        "mode": _signature(best["signs"]),
+        "direction": best["direction"],
+        "targets": [{"input": (problem.shown_inputs[i] if problem.shown_inputs else display_value(ck, float(x))),
+                     "error": float(e)} for i, (x, e) in enumerate(zip(best["inputs"], best["errors"]))],
+        "certificate": cert,
+    })
+    report = _clean(report)
+    mech = design_model(problem, best["values"], best["inputs"], best["Z"])
+    if problem.task == "function":
+        report["structural_error"] = _clean(_function_structural_error(problem, mech, report, input_range,
+                                                                                 desired))
+    return SynthesisResult(problem, mech, report, np.asarray(best["values"]), np.asarray(best["inputs"]),
+                           best["Z"])

@@ -1,0 +1,309 @@
+"""Declarations: parameters, joint variables, vectors, loops, points and the Mechanism.
+
+A :class:`Mechanism` is a frozen, validated declaration. It is built in one place,
+:func:`loopsolve.model.spec.build_mechanism`, from a plain ``dict`` shaped like the TOML model file;
+both front doors (the model file, :mod:`loopsolve.model.modelfile`, and the Python
+:class:`loopsolve.model.builder.MechanismBuilder`) go through it, so they give identical declarations
+and identical derivations.
+
+Unit conventions
+----------------
+Inside the library angles are radians and lengths are in the model's length unit. Expressions
+in a model are read like a calculator set to the model's angle unit: angle symbols and the
+arguments of ``sin``/``cos``/``tan`` are in that unit, and an ``angle`` field is in that unit.
+In a degree model ``angle = "theta4 + 30"`` is θ4 + 30°. Because ``pi`` would silently mean
+π degrees there, ``pi`` is rejected in angle context of a degree model.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+from . import expr as _expr
+from .bodies import Dynamics
+from ..errors import ModelError
+from .units import Kind
+
+__all__ = ["Units", "Parameter", "Variable", "Vector", "Loop", "Point", "Mechanism"]
+
+
+@dataclass(frozen=True, slots=True)
+class Units:
+    """Display units of a model: ``length`` (e.g. ``"mm"``) and ``angle`` (``"deg"``/``"rad"``)."""
+
+    length: str = "mm"
+    angle: str = "deg"
+
+
+@dataclass(frozen=True, slots=True)
+class Parameter:
+    """A named constant. ``value`` is in internal units (radians for angles)."""
+
+    name: str
+    value: float
+    kind: Kind
+    text: str = ""
+
+
+@dataclass(frozen=True, slots=True)
+class Variable:
+    """A joint variable (an angle or a length).
+
+    ``guess``, ``speed``, ``accel`` and ``jerk`` are in internal units (radians, rad/s...)
+    or ``None`` when not given. ``input`` marks the declared input.
+    """
+
+    name: str
+    kind: Kind
+    guess: float | None = None
+    input: bool = False
+    speed: float | None = None
+    accel: float | None = None
+    jerk: float | None = None
+
+
+@dataclass(frozen=True, slots=True)
+class Vector:
+    """A vector of the loops: polar (``length``, ``angle`` [+ ``offset``]) or Cartesian (``x``, ``y``).
+
+    The fields are parsed expressions (:mod:`loopsolve.model.expr` trees) in model units.
+    """
+
+    name: str
+    length: _expr.Node | None = None
+    angle: _expr.Node | None = None
+    offset: _expr.Node | None = None
+    x: _expr.Node | None = None
+    y: _expr.Node | None = None
+
+    @property
+    def cartesian(self) -> bool:
+        return self.x is not None
+
+
+@dataclass(frozen=True, slots=True)
+class Loop:
+    """A vector loop ``Σ sign·vector = 0`` (left side minus right side of the equation)."""
+
+    name: str
+    terms: tuple[tuple[int, str], ...]
+    text: str
+    lhs: tuple[tuple[int, str], ...] = ()
+    rhs: tuple[tuple[int, str], ...] = ()
+
+
+@dataclass(frozen=True, slots=True)
+class Point:
+    """A point of interest: a sum of vectors with optional scalar factors, from the origin.
+
+    ``terms`` are the signed vector names; ``factors`` (same length, or empty when every factor
+    is 1) holds for each term its scalar factor as a parsed expression of numbers and parameters,
+    or ``None`` for a factor of 1 (``G3 = "r2 + 0.5*r3"`` has terms ``((1, 'r2'), (1, 'r3'))``
+    and factors ``(None, Num(0.5))``). ``"0"`` is the origin (no terms).
+    """
+
+    name: str
+    terms: tuple[tuple[int, str], ...]
+    text: str
+    factors: tuple = ()
+
+    def factor(self, i: int):
+        """The factor of term ``i`` (``None`` for 1)."""
+        return self.factors[i] if self.factors else None
+
+    @property
+    def plain(self) -> bool:
+        """True when every factor is 1 (the point is a walk along whole vectors)."""
+        return not any(f is not None for f in self.factors)
+
+
+@dataclass(frozen=True)
+class Mechanism:
+    """A validated, immutable mechanism declaration.
+
+    Build one with :func:`loopsolve.load` (model file), :class:`MechanismBuilder` (Python) or
+    the factories of :mod:`loopsolve.kinematics.classic`. The methods are thin doors to the pipeline
+    stages (derive, compile, solve, sweep, export); nothing is ever written back onto the
+    declaration.
+
+    Examples
+    --------
+    >>> mech = ls.fourbar(r1=60, r2=25, r3=70, r4=45, name="thesis")
+    >>> mech.inputs, mech.unknowns()
+    (('theta2',), ('theta3', 'theta4'))
+    """
+
+    name: str
+    units: Units
+    parameters: tuple[Parameter, ...]
+    variables: tuple[Variable, ...]
+    vectors: tuple[Vector, ...]
+    loops: tuple[Loop, ...]
+    points: tuple[Point, ...] = ()
+    source: str | None = None
+    spec: Mapping[str, Any] = field(default_factory=dict, compare=False, repr=False)
+    mode_aliases: Mapping[str, str] = field(default_factory=dict, compare=False)
+    dynamics: Dynamics | None = field(default=None, compare=False, repr=False)
+
+    # ----------------------------------------------------------------- lookups
+    @property
+    def inputs(self) -> tuple[str, ...]:
+        """Names of the declared input variables."""
+        return tuple(v.name for v in self.variables if v.input)
+
+    def variable(self, name: str) -> Variable:
+        for v in self.variables:
+            if v.name == name:
+                return v
+        raise ModelError(
+            f"unknown variable {name!r} in {self.name!r}; the variables are "
+            + ", ".join(v.name for v in self.variables)
+        )
+
+    def vector(self, name: str) -> Vector:
+        for v in self.vectors:
+            if v.name == name:
+                return v
+        raise ModelError(f"unknown vector {name!r} in {self.name!r}")
+
+    def resolve_inputs(self, input: str | Sequence[str] | None = None) -> tuple[str, ...]:
+        """The input variables for a solve: ``input`` when given, else the declared ones.
+
+        Raises :class:`ModelError` for an unknown name or a count that does not leave as many
+        unknowns as scalar loop equations.
+        """
+        if input is None:
+            names = self.inputs
+        elif isinstance(input, str):
+            names = (input,)
+            declared = self.inputs
+            if len(declared) > 1:  # keep the other declared inputs held
+                if input in declared:  # drive this one, hold the others
+                    names = (input,) + tuple(n for n in declared if n != input)
+                else:  # replaces the first declared input
+                    names = (input,) + tuple(declared[1:])
+        else:
+            names = tuple(input)
+        for n in names:
+            self.variable(n)
+        if len(set(names)) != len(names):
+            raise ModelError(f"input {names} names a variable twice")
+        n_eq = 2 * len(self.loops)
+        n_unknown = len(self.variables) - len(names)
+        if not names:
+            raise ModelError(
+                f"{self.name!r} declares no input: mark one variable with `input = true` "
+                "in [variables] or pass --input NAME"
+            )
+        if n_unknown != n_eq:
+            raise ModelError(
+                f"{self.name!r} with input(s) {', '.join(names)} has {n_unknown} unknowns but "
+                f"{n_eq} scalar loop equations ({len(self.loops)} loop(s)); a single-DOF "
+                f"mechanism needs exactly {len(self.variables) - n_eq} input(s)"
+            )
+        return names
+
+    def unknowns(self, input: str | Sequence[str] | None = None) -> tuple[str, ...]:
+        """Names of the unknown variables when ``input`` drives the mechanism."""
+        ins = self.resolve_inputs(input)
+        return tuple(v.name for v in self.variables if v.name not in ins)
+
+    # ----------------------------------------------------------- pipeline doors
+    def derive(self, input: str | Sequence[str] | None = None):
+        """Symbolic derivation (sympy): see :func:`loopsolve.symbolic.derivation.derive`."""
+        from ..symbolic.derivation import derive
+
+        return derive(self, input=input)
+
+    def derive_dynamics(self, input: str | None = None):
+        """The equation of motion in symbols (M, M′, Q and their values): see :func:`loopsolve.dynamics.eom.derive_dynamics`."""
+        from ..dynamics.eom import derive_dynamics
+
+        return derive_dynamics(self, input=input)
+
+    def compile(self, input: str | Sequence[str] | None = None, *, cache: bool = True):
+        """Compiled numeric kinematics: see :func:`loopsolve.symbolic.compiled.compile_mechanism`."""
+        from ..symbolic.compiled import compile_mechanism
+
+        ck = compile_mechanism(self, input=input, cache=cache)
+        if self.mode_aliases and tuple(ck.inputs) == self.inputs:  # also when the code came from the cache
+            bad = [f"modes.{a} = {sig!r}" for a, sig in self.mode_aliases.items() if len(sig) != len(ck.blocks)]
+            if bad:
+                raise ModelError(f"{self.source or self.name}: {'; '.join(bad)}: a mode signature of this model "
+                                 f"has {len(ck.blocks)} sign(s), one per diagonal block of the Jacobian")
+        return ck
+
+    def solve(self, at=None, **kwargs):
+        """Positions and rates at one input value: see :func:`loopsolve.solve.solve`."""
+        from ..kinematics.solve import solve
+
+        return solve(self, at, **kwargs)
+
+    def sweep(self, start, stop, step, **kwargs):
+        """Sweep the input: see :func:`loopsolve.sweep.sweep`."""
+        from ..kinematics.sweep import sweep
+
+        return sweep(self, start, stop, step, **kwargs)
+
+    def forces(self, at=None, stop=None, step=None, **kwargs):
+        """Driving torque, joint forces, shaking force, energies: see :func:`loopsolve.dynamics.kinetostatics.forces`."""
+        from ..dynamics.kinetostatics import forces
+
+        return forces(self, at, stop, step, **kwargs)
+
+    def simulate(self, duration, **kwargs):
+        """Integrate the equation of motion: see :func:`loopsolve.dynamics.simulation.simulate`."""
+        from ..dynamics.simulation import simulate
+
+        return simulate(self, duration, **kwargs)
+
+    def modes(self, at=None, **kwargs):
+        """Every real assembly mode at one input: see :func:`loopsolve.kinematics.modes.assembly_modes`."""
+        from ..kinematics.modes import assembly_modes
+
+        return assembly_modes(self, at, **kwargs)
+
+    def to_latex(self, **kwargs) -> str:
+        """The derivation as a LaTeX document: see :func:`loopsolve.output.latex.to_latex`."""
+        from ..output.latex import to_latex
+
+        return to_latex(self, **kwargs)
+
+    def info(self, **kwargs) -> dict:
+        """Structure summary (mobility, loops, blocks...): see :func:`loopsolve.kinematics.info.info`."""
+        from ..kinematics.info import info
+
+        return info(self, **kwargs)
+
+    def draw(self, at=None, **kwargs):
+        """The kinematic diagram at one input: see :func:`loopsolve.output.plotting.draw`."""
+        from ..output.plotting import draw
+
+        return draw(self, at, **kwargs)
+
+    def with_parameters(self, **values: float) -> "Mechanism":
+        """A copy with some parameter values replaced (numbers in the model's units)."""
+        spec = _deep_copy(self.spec)
+        params = spec.setdefault("parameters", {})
+        for k, v in values.items():
+            if k not in params:
+                raise ModelError(f"unknown parameter {k!r} in {self.name!r}")
+            params[k] = v
+        from .spec import build_mechanism
+
+        return build_mechanism(spec, source=self.source)
+
+    def _repr_latex_(self) -> str:
+        from ..output.latex import to_latex
+
+        return "$\\displaystyle " + to_latex(self, snippet=True, inline=True) + "$"
+
+
+def _deep_copy(obj):
+    if isinstance(obj, Mapping):
+        return {k: _deep_copy(v) for k, v in obj.items()}
+    if isinstance(obj, list):
+        return [_deep_copy(v) for v in obj]
+    return obj

@@ -1,0 +1,278 @@
+"""Model files: TOML in, :class:`~loopsolve.model.mechanism.Mechanism` out (and back).
+
+Two layouts load (see the design notes): the vector-loop layout (``[vectors]`` and
+``[[loops]]``) and the kinematic-diagram layout (``[joints]`` and ``[links]``), which
+:mod:`loopsolve.model.diagram` turns into vectors and loops. A model file is data: its expressions
+go through the safe parser of :mod:`loopsolve.model.expr`, never ``eval``.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import tomllib
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+from ..errors import ModelError, ModelFileError
+from .mechanism import Mechanism
+from .diagram import diagram_to_spec
+from .spec import build_mechanism
+
+__all__ = ["load", "loads", "dumps", "models_dir"]
+
+MAX_FILE_SIZE = 1 << 20  # a model file is small; refuse megabytes of hostile input
+MAX_DEPTH = 32  # nesting of arrays and inline tables
+MAX_KEY_PARTS = 32  # parts of one dotted key (the TOML reader is quadratic in them)
+_FLOAT_MAX_INT = 2 ** 1024  # an integer at least this large is not a float
+
+
+def _check_shape(text: str, source: str) -> None:
+    """Refuse nesting and dotted keys beyond the bounds before the TOML reader sees them.
+
+    A light scan: strings and comments are skipped, brackets and braces counted; dots are
+    counted in runs between separators (a float has one or two, a dotted key one per part).
+    """
+    depth, dots, line, i, n = 0, 0, 1, 0, len(text)
+    while i < n:
+        c = text[i]
+        if c in "\"'":
+            q3 = text.startswith(c * 3, i)
+            end_tok = c * 3 if q3 else c
+            j = i + len(end_tok)
+            while j < n:
+                if c == '"' and text[j] == "\\":
+                    j += 2
+                    continue
+                if text.startswith(end_tok, j):
+                    break
+                if text[j] == "\n":
+                    if not q3:
+                        break
+                    line += 1
+                j += 1
+            i = j + len(end_tok)
+            continue
+        if c == "#":
+            j = text.find("\n", i)
+            i = n if j < 0 else j
+            continue
+        if c in "[{":
+            depth += 1
+            if depth > MAX_DEPTH:
+                raise ModelFileError(f"{source}: line {line}: arrays or tables nested more than {MAX_DEPTH} "
+                                     "deep", path=source)
+        elif c in "]}":
+            depth = max(0, depth - 1)
+        if c == ".":
+            dots += 1
+            if dots > MAX_KEY_PARTS:
+                raise ModelFileError(f"{source}: line {line}: a key of more than {MAX_KEY_PARTS} dotted "
+                                     "parts", path=source)
+        elif c in "=,[]{}\n":
+            dots = 0
+        if c == "\n":
+            line += 1
+        i += 1
+
+
+def _check_numbers(value: Any, source: str, where: tuple) -> None:
+    """Integers must fit a float (``r1 = 1`` followed by 400 zeros is refused, naming the key)."""
+    if isinstance(value, bool):
+        return
+    if isinstance(value, int):
+        if abs(value) >= _FLOAT_MAX_INT:
+            key = ".".join(str(w) for w in where) or "(top level)"
+            raise ModelFileError(f"{source}: {key}: the integer is too large (more than about 1.8e308)",
+                                 path=source, key=key)
+    elif isinstance(value, Mapping):
+        for k, v in value.items():
+            _check_numbers(v, source, where + (k,))
+    elif isinstance(value, list):
+        for k, v in enumerate(value):
+            _check_numbers(v, source, where + (k,))
+
+
+def models_dir() -> Path:
+    """The directory of the shipped reference models (``models/`` of the source tree).
+
+    Examples
+    --------
+    >>> "thesis_crank_rocker.toml" in {p.name for p in ls.models_dir().glob("*.toml")}
+    True
+    """
+    import sys
+
+    here = Path(__file__).resolve().parents[1]  # the package (this module is in model/)
+    for cand in (here.parent / "models", Path(sys.prefix) / "share" / "loopsolve" / "models"):
+        if cand.is_dir():
+            return cand
+    return here.parent / "models"
+
+
+def load(path: str | os.PathLike) -> Mechanism:
+    """Read a model file.
+
+    Raises
+    ------
+    ModelFileError
+        Naming the file, the key and the offending text; every problem of the file at once.
+    """
+    from .files import read_regular
+
+    name = os.fspath(path)
+    try:
+        data = read_regular(name, MAX_FILE_SIZE, what="model file")
+    except FileNotFoundError:
+        raise ModelFileError(f"{name}: no such model file", path=name) from None
+    except IsADirectoryError:
+        raise ModelFileError(f"{name}: is a directory, not a model file", path=name) from None
+    except ValueError as exc:  # not a regular file, or too large
+        raise ModelFileError(str(exc), path=name) from None
+    except OSError as exc:
+        raise ModelFileError(f"{name}: cannot read the model file ({exc.strerror or exc})", path=name) from None
+    try:
+        text = data.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        raise ModelFileError(f"{name}: not UTF-8 text ({exc.reason} at byte {exc.start})", path=name) from None
+    return loads(text, source=name)
+
+
+def loads(text: str, *, source: str = "<string>") -> Mechanism:
+    """Parse model-file text (``source`` names it in error messages).
+
+    A leading UTF-8 byte-order mark is ignored. Text the TOML reader would choke on (nesting
+    deeper than :data:`MAX_DEPTH`, keys of more than :data:`MAX_KEY_PARTS` dotted parts, integers
+    of more digits than a float can hold) is refused with a :class:`ModelFileError` at once.
+    """
+    if not isinstance(text, str):
+        raise ModelFileError(f"{source}: model text must be a string, not {type(text).__name__}", path=source)
+    if text.startswith("\ufeff"):
+        text = text[1:]
+    if len(text) > MAX_FILE_SIZE:
+        raise ModelFileError(f"{source}: {len(text)} characters is too large for a model file "
+                             f"(limit {MAX_FILE_SIZE})", path=source)
+    _check_shape(text, source)
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        hint = " (a key or table is declared twice)" if "overwrite" in str(exc).lower() else ""
+        raise ModelFileError(f"{source}: malformed TOML: {exc}{hint}", path=source) from None
+    except (ValueError, RecursionError, MemoryError, OverflowError) as exc:
+        what = "too deeply nested" if isinstance(exc, RecursionError) else str(exc).split("; ")[0]
+        raise ModelFileError(f"{source}: malformed TOML: {what}", path=source) from None
+    _check_numbers(data, source, ())
+    _check_text(data, source, ())
+    if "joints" in data or "links" in data:
+        if "vectors" in data or "loops" in data:
+            raise ModelFileError(
+                f"{source}: a model has either [joints]/[links] (a kinematic diagram) or "
+                "[vectors]/[[loops]], not both", path=source)
+        data = diagram_to_spec(data, source=source)
+    return build_mechanism(data, source=source)
+
+
+# ----------------------------------------------------------------------------- writing
+
+_ESCAPES = {"\\": "\\\\", '"': '\\"', "\b": "\\b", "\t": "\\t", "\n": "\\n", "\f": "\\f", "\r": "\\r"}
+
+
+def _toml_string(s: str) -> str:
+    """A TOML basic string: quotes, backslashes and every control character escaped."""
+    out = []
+    for ch in s:
+        if ch in _ESCAPES:
+            out.append(_ESCAPES[ch])
+        elif ord(ch) < 0x20 or 0x7F <= ord(ch) < 0xA0:
+            out.append(f"\\u{ord(ch):04X}")
+        else:
+            out.append(ch)
+    return '"' + "".join(out) + '"'
+
+
+def _fmt_key(k: Any) -> str:
+    k = str(k)
+    if k and all(c.isascii() and (c.isalnum() or c in "_-") for c in k):
+        return k
+    return _toml_string(k)
+
+
+def _check_text(value: Any, source: str, where: tuple) -> None:
+    """Refuse control characters in the file's keys and strings (they would reach terminals raw).
+
+    A tab is allowed anywhere, a line break only in ``description``.
+    """
+    if isinstance(value, str):
+        allowed = "\t\n" if where == ("description",) else "\t"
+        bad = [c for c in value if (ord(c) < 0x20 or 0x7F <= ord(c) < 0xA0) and c not in allowed]
+        if bad:
+            key = ".".join(str(w) for w in where) or "(top level)"
+            raise ModelFileError(f"{source}: {key}: control character {bad[0]!r} in {value!r}; names and "
+                                 "expressions are printable text", path=source, key=key)
+    elif isinstance(value, Mapping):
+        for k, v in value.items():
+            if any(ord(c) < 0x20 or 0x7F <= ord(c) < 0xA0 for c in k):
+                raise ModelFileError(f"{source}: control character in the key {k!r}", path=source, key=k)
+            _check_text(v, source, where + (k,))
+    elif isinstance(value, list):
+        for k, v in enumerate(value):
+            _check_text(v, source, where + (k,))
+
+
+def _fmt_value(v: Any) -> str:
+    if isinstance(v, bool):
+        return "true" if v else "false"
+    if isinstance(v, int):
+        return str(v)
+    if isinstance(v, float):
+        if not math.isfinite(v):
+            raise ModelError(f"cannot write the non-finite number {v!r} to a model file")
+        return repr(v)
+    if isinstance(v, str):
+        return _toml_string(v)
+    if isinstance(v, (list, tuple)):
+        return "[" + ", ".join(_fmt_value(x) for x in v) + "]"
+    if isinstance(v, Mapping):
+        return "{ " + ", ".join(f"{_fmt_key(k)} = {_fmt_value(x)}" for k, x in v.items()) + " }"
+    raise ModelError(f"cannot write {v!r} to a model file")
+
+
+def dumps(mech_or_spec: Mechanism | Mapping[str, Any]) -> str:
+    """The vector-loop model file (TOML text) of a mechanism or a model ``dict``.
+
+    ``loads(dumps(m))`` gives a mechanism with the same derivation as ``m``, and the same
+    ``gravity``, ``[bodies]`` and ``[[loads]]`` (so the same force analysis).
+    """
+    spec = mech_or_spec.spec if isinstance(mech_or_spec, Mechanism) else mech_or_spec
+    out = []
+    for key in ("name", "description"):
+        if key in spec:
+            out.append(f"{key} = {_fmt_value(spec[key])}")
+    if "units" in spec:
+        out.append(f"units = {_fmt_value(spec['units'])}")
+    if "gravity" in spec:
+        out.append(f"gravity = {_fmt_value(spec['gravity'])}")
+    for section in ("parameters", "variables", "vectors"):
+        if spec.get(section):
+            out.append("")
+            out.append(f"[{section}]")
+            for k, v in spec[section].items():
+                out.append(f"{_fmt_key(k)} = {_fmt_value(v)}")
+    for loop in spec.get("loops", []):
+        out.append("")
+        out.append("[[loops]]")
+        for k, v in (loop.items() if isinstance(loop, Mapping) else {"equation": loop}.items()):
+            out.append(f"{_fmt_key(k)} = {_fmt_value(v)}")
+    for section in ("points", "modes", "bodies"):
+        if spec.get(section):
+            out.append("")
+            out.append(f"[{section}]")
+            for k, v in spec[section].items():
+                out.append(f"{_fmt_key(k)} = {_fmt_value(v)}")
+    for load in spec.get("loads", []) or []:
+        out.append("")
+        out.append("[[loads]]")
+        for k, v in load.items():
+            out.append(f"{_fmt_key(k)} = {_fmt_value(v)}")
+    return "\n".join(out) + "\n"

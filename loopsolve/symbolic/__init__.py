@@ -1,0 +1,18 @@
+"""Symbolic derivation (sympy), the generated numeric code and its cache, the TeX printer.
+
+See ARCHITECTURE.md for the layers and what lives where."""
+
+
+
+def __getattr__(name):
+    """``loopsolve.symbolic`` was the module now at ``loopsolve.symbolic.derivation``: its names answer here too."""
+    import importlib
+    import os
+    from types import ModuleType
+
+    if name.startswith("__") or os.path.exists(os.path.join(os.path.dirname(__file__), name + ".py")):
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")  # a submodule not imported yet
+    value = getattr(importlib.import_module(f"{__name__}.derivation"), name, None)
+    if value is None or isinstance(value, ModuleType):
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    return value

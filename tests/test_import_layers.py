@@ -1,0 +1,142 @@
+"""One-way imports between loopsolve's subpackages (issue 24; ARCHITECTURE.md).
+
+The layers, lowest first: ``errors`` (every layer raises its errors), ``model``, ``symbolic``,
+``kinematics``, ``dynamics``, ``design``, ``output``, and at the top ``cli`` together with the
+package's ``__init__`` (the public API, which the command line may use). Every import in ``loopsolve/`` is read with ``ast`` — at module level and
+inside functions (lazy imports) alike — and an import of a higher layer fails here, unless it is
+one of the convenience methods listed in :data:`loopsolve._facade.FACADE` (``mech.sweep``,
+``sweep.plot``, ...): the single documented way up.
+"""
+
+from __future__ import annotations
+
+import ast
+from pathlib import Path
+
+import loopsolve
+from loopsolve._facade import FACADE, LAYERS, WITHIN_LAYER
+
+PACKAGE = Path(loopsolve.__file__).parent
+
+
+def _module_name(path: Path) -> str:
+    parts = list(path.relative_to(PACKAGE.parent).with_suffix("").parts)
+    return ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
+
+
+def _layer(module: str) -> int:
+    """Rank of a dotted module name (``loopsolve.kinematics.sweep`` -> rank of ``kinematics``)."""
+    parts = module.split(".")
+    if len(parts) == 1:
+        return LAYERS.index("cli")  # loopsolve/__init__.py: the public API, the top layer with the CLI
+    name = parts[1]
+    if name == "_facade":
+        return 0
+    if name not in LAYERS:  # loopsolve.__main__, or a name of the public API (`from .. import guessed_mode`)
+        return LAYERS.index("cli")
+    return LAYERS.index(name)
+
+
+def _imports(path: Path):
+    """(importing function's qualified name or "", imported module) for every import in a file."""
+    module = _module_name(path)
+    package = module if path.name == "__init__.py" else module.rsplit(".", 1)[0]
+    tree = ast.parse(path.read_text(encoding="utf-8"))
+    out = []
+
+    def visit(node, scope):
+        for child in ast.iter_child_nodes(node):
+            inner = scope
+            if isinstance(child, (ast.FunctionDef, ast.AsyncFunctionDef, ast.ClassDef)):
+                inner = f"{scope}.{child.name}" if scope else child.name
+            if isinstance(child, ast.ImportFrom):
+                if child.level:
+                    base = package.split(".")[: len(package.split(".")) - child.level + 1]
+                    target = ".".join(base + ([child.module] if child.module else []))
+                else:
+                    target = child.module or ""
+                if target.startswith("loopsolve"):
+                    if child.module is None or target.count(".") == 1 and target.split(".")[1] in LAYERS:
+                        # `from . import x` / `from ..model import spec`: the names are modules
+                        out.extend((scope, f"{target}.{a.name}") for a in child.names)
+                    else:
+                        out.append((scope, target))
+            elif isinstance(child, ast.Import):
+                out.extend((scope, a.name) for a in child.names if a.name.startswith("loopsolve"))
+            visit(child, inner)
+
+    visit(tree, "")
+    return module, out
+
+
+def _upward_imports():
+    found = []
+    for path in sorted(PACKAGE.rglob("*.py")):
+        if "__pycache__" in path.parts:
+            continue
+        module, imports = _imports(path)
+        for scope, target in imports:
+            if target.split(".")[:2] == ["loopsolve", "__version__"] or target == "loopsolve":
+                continue
+            if _layer(target) > _layer(module):
+                found.append((module.removeprefix("loopsolve."), scope, target.removeprefix("loopsolve.")))
+    return found
+
+
+def test_every_module_belongs_to_a_layer():
+    stray = []
+    for path in PACKAGE.rglob("*.py"):
+        module = _module_name(path)
+        parts = module.split(".")
+        if len(parts) > 1 and parts[1] not in LAYERS and parts[1] not in ("__main__", "_facade"):
+            stray.append(module)
+    assert stray == [], f"modules outside the layers (put them in a subpackage): {stray}"
+
+
+def test_no_layer_imports_a_higher_one_except_the_facade():
+    allowed = {(m, f) for m, f, _ in FACADE}
+    wrong = [f"{m} ({f or 'module level'}) imports {t}" for m, f, t in _upward_imports() if (m, f) not in allowed]
+    assert wrong == []
+
+
+def test_the_facade_list_names_only_real_upward_imports():
+    """A stale entry (the method moved or no longer reaches up) is removed from the list."""
+    used = {(m, f) for m, f, _ in _upward_imports()}
+    stale = [(m, f) for m, f, _ in FACADE if (m, f) not in used]
+    assert stale == []
+
+
+def test_the_facade_targets_are_what_the_list_says():
+    listed = {(m, f, t) for m, f, t in FACADE}
+    reached = {(m, f, t.split(".")[0] + "." + t.split(".")[1]) for m, f, t in _upward_imports()
+               if any((m, f) == (lm, lf) for lm, lf, _ in FACADE)}
+    assert reached <= listed
+
+
+def _back_references():
+    """Lazy imports inside one layer that point back at a module importing the importer at module level."""
+    eager, lazy = {}, {}
+    for path in sorted(PACKAGE.rglob("*.py")):
+        if "__pycache__" in path.parts:
+            continue
+        module, imports = _imports(path)
+        for scope, target in imports:
+            if target.count(".") >= 2 and module.count(".") >= 1 and target.split(".")[1] == module.split(".")[1]:
+                (lazy if scope else eager).setdefault(module, set()).add(target)
+
+    def imported_by(start):  # every module that `start` imports at module level, transitively
+        seen, todo = set(), [start]
+        while todo:
+            for nxt in eager.get(todo.pop(), ()):
+                if nxt not in seen:
+                    seen.add(nxt)
+                    todo.append(nxt)
+        return seen
+
+    return {(m.removeprefix("loopsolve."), t.removeprefix("loopsolve."))
+            for m, targets in lazy.items() for t in targets if m in imported_by(t)}
+
+
+def test_back_references_inside_a_layer_are_the_listed_ones():
+    """No hidden import cycle inside a layer: each lazy import back is listed, with its reason."""
+    assert _back_references() == {(m, t) for m, t, _ in WITHIN_LAYER}
