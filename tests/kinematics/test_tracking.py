@@ -8,7 +8,7 @@ import warnings
 
 import numpy as np
 import pytest
-from hypothesis import assume, given, settings
+from hypothesis import assume, example, given, settings
 from hypothesis import strategies as st
 
 import loopsolve as ls
@@ -76,9 +76,13 @@ def fd_check(mech, x0, mode, *, h=1e-3):
     z = np.unwrap(sw.z[:, iu], axis=0)
     d1 = (z[0] - 8 * z[1] + 8 * z[3] - z[4]) / (12 * hr)
     d2 = (-z[0] + 16 * z[1] - 30 * z[2] + 16 * z[3] - z[4]) / (12 * hr * hr)
+    # the differences also carry the positions' round-off, eps·cond(Φ_q)·|q| each, which near a
+    # change point (cond ~ 300 at 1e-5 from one) is what bounds them, not the truncation:
+    # 18/12 and 64/12 of it over h and h² (the sums of the stencils' weights)
+    noise = np.finfo(float).eps * float(np.max(sw.cond)) * (1 + np.max(np.abs(sw.z[:, iu])))
     scale = 1 + np.max(np.abs(sw.z1[2, iu]))
-    assert np.max(np.abs(d1 - sw.z1[2, iu])) < 1e-7 * scale
-    assert np.max(np.abs(d2 - sw.z2[2, iu])) < 1e-4 * (1 + np.max(np.abs(sw.z2[2, iu])))
+    assert np.max(np.abs(d1 - sw.z1[2, iu])) < 1e-7 * scale + 4 * 18 * noise / (12 * hr)
+    assert np.max(np.abs(d2 - sw.z2[2, iu])) < 1e-4 * (1 + np.max(np.abs(sw.z2[2, iu]))) + 4 * 64 * noise / (12 * hr * hr)
 
 
 # ----------------------------------------------------------------------------- Grashof linkages
@@ -87,6 +91,9 @@ def fd_check(mech, x0, mode, *, h=1e-3):
 class TestGrashofFullCycles:
     @settings(max_examples=25, deadline=None)
     @given(r=crank_rockers(), mode=st.sampled_from(["open", "crossed"]), t0=st.floats(0, 360))
+    # 1e-5 from the change point: the finite differences' round-off exceeded a fixed tolerance
+    # (the solver's accelerations equal the closed form's there to 1e-12)
+    @example(r=(1.0, 0.5, 4.0, 3.50001), mode="open", t0=258.0)
     def test_crank_rocker_cycle_keeps_its_mode(self, r, mode, t0):
         mech = ls.fourbar(*r, theta2=t0, mode=mode)
         sig = "-" if mode == "open" else "+"
