@@ -630,9 +630,17 @@ def search(problem: Problem, *, seed: int = 0, popsize: int = 15, maxiter: int =
     logs = (problem.lo > 0) & (problem.hi >= 10 * problem.lo)
     lo_u = np.where(logs, np.log(np.where(logs, problem.lo, 1.0)), problem.lo)
     hi_u = np.where(logs, np.log(np.where(logs, problem.hi, 1.0)), problem.hi)
+    # a periodic angle (bounds spanning a whole turn) is searched on a circle: its search range is
+    # widened by half a turn each side and wrapped back into its bounds, so a basin at 0°/360° is
+    # one basin (seen twice), not two halves cut by the box (DE resamples a mutant outside the box)
+    per, period = periodic(problem)
+    lo_u = np.where(per, problem.lo - period / 2, lo_u)
+    hi_u = np.where(per, problem.hi + period / 2, hi_u)
 
     def to_values(U):  # (k, S) search coordinates -> (S, k) model values
-        return np.where(logs[:, None], np.exp(U), U).T
+        V = np.where(logs[:, None], np.exp(U), U)
+        V = np.where(per[:, None], (problem.lo + np.mod(U.T - problem.lo, period)).T, V)
+        return V.T
 
     bounds = list(zip(lo_u, hi_u))
     state = {"n": 0, "gen": 0, "history": []}

@@ -216,17 +216,40 @@ def one_run(problem, seed, opts):
     for sub, ss in zip(subs, seeds):
         found += [(sub, r) for r in search_many(sub, ss, popsize=opts["popsize"], maxiter=opts["maxiter"],
                                                  tol=opts["tol"], strategy=opts["strategy"])]
+    starts = []  # (V (D, k), signs (nb, D), X (T, D), direction (D,)) from every source
     for sub, (V, f, mi, di, X, g, n, hist) in found:
         gens += g
         nev += n
         history.append({"mode": sub.mode, "best": hist})
-        P = sub.batch.params(V)
-        modes = sub.modes(P)
-        for i in _distinct(V, f, opts["polish"], sub.lo, sub.hi):
-            signs = modes[mi[i]][:, i]
-            p = polish(sub, V[i], signs=signs, inputs=X[:, i] if sub.free else None)
+        modes = sub.modes(sub.batch.params(V))
+        ix = _distinct(V, f, opts["de_starts"], sub.lo, sub.hi)
+        if ix:
+            starts.append((V[ix], np.stack([modes[mi[i]][:, i] for i in ix], axis=1), X[:, ix], di[ix]))
+    if opts["starts"]:
+        from .synthlm import multistart
+
+        Vm, Sm, Xm, fm = multistart(problem, opts["starts"] * 10, opts["starts"], int(rng.integers(2**31)))
+        nev += opts["starts"] * 10
+        if len(fm):
+            dm = (np.sign(Xm[-1] - Xm[0]) if problem.free else np.ones(len(fm))).astype(int)
+            starts.append((Vm, Sm, Xm, np.where(dm == 0, 1, dm)))
+    if starts:
+        from .synthlm import batch_lm, distinct
+        from .synthesis import periodic
+
+        V = np.vstack([s[0] for s in starts])
+        S = np.hstack([s[1] for s in starts])
+        X = np.hstack([s[2] for s in starts])
+        di = np.concatenate([s[3] for s in starts])
+        # every start polished at once (one batch per iteration); only distinct basins go on
+        V, X, f = batch_lm(problem, V, S, X, iters=opts["lm_iters"])
+        per, period = periodic(problem)
+        for i in distinct(V, f, problem.lo, problem.hi, k=opts["polish"], rtol_f=1e-3, dist=0.02,
+                          periodic_mask=per, period=period):
+            p = polish(problem, V[i], signs=S[:, i], inputs=X[:, i] if problem.free else None)
             if math.isfinite(p.get("objective", math.inf)):
-                p["direction"] = int(di[i]) if sub.free else (1 if sub.inputs[-1] >= sub.inputs[0] else -1)
+                p["direction"] = int(di[i]) if problem.free else (1 if problem.inputs[-1] >= problem.inputs[0]
+                                                                 else -1)
                 cands.append(p)
     cands.sort(key=lambda c: c["objective"])
     rejected, best = [], None
@@ -257,7 +280,8 @@ def _run_task(args):
 def synthesize(mech, *, path=None, function=None, motion=None, link=None, targets=None, inputs=None, vary=None,
                crank: bool = False, transmission=None, runs: int = 1, seed: int = 0, mode: str | None = "any",
                popsize: int = 15, maxiter: int = 150, tol: float = 1e-3, restarts: int = 4,
-               strategy: str = "best1bin", polish_candidates: int = 2,
+               strategy: str = "best1bin", polish_candidates: int = 6, starts: int | None = None,
+               de_starts: int = 10, lm_iters: int = 25,
                workers: int | None = None, scheduler: str | None = None, client=None,
                progress: bool | None = None, method: str = "general", input_range=None, desired=None):
     """Find parameter values that make ``mech`` do a job; only certified designs are returned.
@@ -345,7 +369,8 @@ def synthesize(mech, *, path=None, function=None, motion=None, link=None, target
     problem = define(mech, path=path, function=function, motion=motion, link=link, targets=targets, inputs=inputs,
                      vary=vary, crank=crank, transmission=transmission, mode=mode)
     opts = {"popsize": popsize, "maxiter": maxiter, "tol": tol, "polish": polish_candidates, "restarts": restarts,
-            "strategy": strategy}
+            "strategy": strategy, "starts": 40 * len(problem.names) if starts is None else starts,
+            "de_starts": de_starts, "lm_iters": lm_iters}
     seeds = [seed + r for r in range(runs)]
     if progress is None:
         progress = sys.stderr.isatty()
