@@ -2,9 +2,12 @@
 
 See :mod:`loopsolve.synthesis` for the design (problem, batched objective, search, polish) and
 :mod:`loopsolve.certify` for the certificate. One run is: a seeded differential-evolution search
-(:func:`loopsolve.synthesis.search`), a least-squares polish of the best distinct members of its
-final population, and the tracker's certificate of each polished candidate, best first; the
-run's result is its best certified design. ``runs`` runs use the seeds ``seed, seed + 1, ...``
+per mode (:func:`loopsolve.synthesis.search`) and a Latin-hypercube multistart
+(:func:`loopsolve.synthlm.multistart`); the distinct best members of the DE populations and the
+best sampled designs are polished together by the lockstep Levenberg–Marquardt
+(:func:`loopsolve.synthlm.batch_lm`, one batch per iteration); the distinct basins they end in
+(duplicates dropped, :func:`loopsolve.synthlm.distinct`) get the exact least-squares polish and
+the tracker's certificate, best first; the run's result is its best certified design. ``runs`` runs use the seeds ``seed, seed + 1, ...``
 and run one after the other, or as Dask tasks (``workers``/``scheduler``/``client``, as studies do).
 """
 
@@ -279,7 +282,7 @@ def _run_task(args):
 
 def synthesize(mech, *, path=None, function=None, motion=None, link=None, targets=None, inputs=None, vary=None,
                crank: bool = False, transmission=None, runs: int = 1, seed: int = 0, mode: str | None = "any",
-               popsize: int = 15, maxiter: int = 150, tol: float = 1e-3, restarts: int = 4,
+               popsize: int = 15, maxiter: int = 60, tol: float = 1e-3, restarts: int = 1,
                strategy: str = "best1bin", polish_candidates: int = 6, starts: int | None = None,
                de_starts: int = 10, lm_iters: int = 25,
                workers: int | None = None, scheduler: str | None = None, client=None,
@@ -315,7 +318,16 @@ def synthesize(mech, *, path=None, function=None, motion=None, link=None, target
     popsize, maxiter, tol, strategy : differential-evolution settings (scipy's meaning).
     restarts : int
         Short DE searches per mode in one run (seeded from the run's seed); each search's best
-        ``polish_candidates`` distinct designs are polished and certified.
+        ``de_starts`` distinct designs are starts of the lockstep Levenberg–Marquardt.
+    starts : int, optional
+        Latin-hypercube multistart: ``10 * starts`` designs are sampled and evaluated in one
+        batch, the ``starts`` best are further starts of the lockstep Levenberg–Marquardt
+        (default ``40 *`` the number of varied parameters; 0: none).
+    de_starts, lm_iters : int
+        Starts taken from each DE search; iterations of the lockstep Levenberg–Marquardt.
+    polish_candidates : int
+        Distinct basins (after the lockstep Levenberg–Marquardt) given the exact polish and the
+        certificate, best first.
     workers, scheduler, client
         Spread the runs over a Dask cluster (as :func:`loopsolve.study` does).
     progress : bool, optional
