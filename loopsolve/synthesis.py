@@ -396,12 +396,13 @@ def _big(problem) -> float:
     return 1e3 * problem.T * s * s
 
 
-def evaluate(problem: Problem, V) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+def evaluate(problem: Problem, V, signs=None) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Search objective of the designs ``V`` ``(D, k)``: ``(f, mode index, direction, inputs (T, D))``.
 
     Penalized: every target a design cannot reach in one continuous motion in one mode adds
     :func:`_big`; with ``crank`` a design whose input cannot turn fully back to the first
-    target's pose adds one more.
+    target's pose adds one more. ``signs`` ``(nb, D)``: each design's own mode instead of the
+    problem's modes (the mode index is then 0).
     """
     b = problem.batch
     P = b.params(V)
@@ -412,7 +413,7 @@ def evaluate(problem: Problem, V) -> tuple[np.ndarray, np.ndarray, np.ndarray, n
     direc = np.ones(D, dtype=int)
     X_best = np.full((problem.T, D), np.nan)
     with np.errstate(all="ignore"):
-        for m, signs in enumerate(problem.modes(P)):
+        for m, signs in enumerate(problem.modes(P) if signs is None else [np.asarray(signs, dtype=float)]):
             if problem.free:
                 f, d, X = _free_objective(problem, P, signs, big)
             else:
@@ -537,10 +538,11 @@ class _Lockstep:
     columns of the batch, so each search follows the same course as when run alone.
     """
 
-    def __init__(self, problem, n):
+    def __init__(self, problem, n, parts=None):
         import threading
 
         self.problem = problem
+        self.parts = parts  # ident -> the one-mode problem of that search (searches of several modes)
         self.active = n
         self.pending = {}
         self.results = {}
@@ -568,7 +570,11 @@ class _Lockstep:
         items = list(self.pending.items())
         self.pending.clear()
         try:
-            f, mi, di, X = evaluate(self.problem, np.vstack([v for _, v in items]))
+            V = np.vstack([v for _, v in items])
+            signs = None
+            if self.parts is not None:  # each search's own mode, all modes in one batch
+                signs = np.hstack([self.parts[i].modes(self.problem.batch.params(v))[0] for i, v in items])
+            f, mi, di, X = evaluate(self.problem, V, signs)
             a = 0
             for ident, v in items:
                 n = v.shape[0]
@@ -580,24 +586,27 @@ class _Lockstep:
         self.cv.notify_all()
 
 
-def search_many(problem: Problem, seeds, **kwargs) -> list:
+def search_many(problem: Problem, seeds, *, problems=None, **kwargs) -> list:
     """Several seeded :func:`search` runs on one problem whose generations are evaluated together.
 
     Returns the list of :func:`search` results, in the order of ``seeds``; each is the one
     ``search(problem, seed=s, **kwargs)`` returns (the searches run in lockstep threads that
     only wait on each other, so one batch of all their populations is evaluated per generation).
+    ``problems``: one one-mode problem per seed (the searches of several assembly modes of
+    ``problem`` in one batch per generation); search i then runs on ``problems[i]``.
     """
     import threading
 
     seeds = list(seeds)
+    subs = list(problems) if problems is not None else [problem] * len(seeds)
     if len(seeds) <= 1:
-        return [search(problem, seed=s, **kwargs) for s in seeds]
-    step = _Lockstep(problem, len(seeds))
+        return [search(sub, seed=s, **kwargs) for sub, s in zip(subs, seeds)]
+    step = _Lockstep(problem, len(seeds), dict(enumerate(subs)) if problems is not None else None)
     out = [None] * len(seeds)
 
     def work(i, s):
         try:
-            out[i] = search(problem, seed=s, _evaluate=lambda V: step(i, V), **kwargs)
+            out[i] = search(subs[i], seed=s, _evaluate=lambda V: step(i, V), **kwargs)
         except BaseException as exc:
             out[i] = exc
         finally:

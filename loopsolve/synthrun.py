@@ -203,6 +203,10 @@ def _distinct(V, f, k, lo, hi):
     return out
 
 
+#: a basin whose lockstep-LM objective exceeds this factor times the best certified design's is not polished
+_POLISH_MARGIN = 1.5
+
+
 def one_run(problem, seed, opts):
     """One run: ``(best candidate dict or None, rejected list, seconds, statistics)``."""
     import dataclasses
@@ -212,13 +216,14 @@ def one_run(problem, seed, opts):
         subs = [dataclasses.replace(problem, mode=_signature(sg)) for sg in problem.batch.all_signs()]
     else:
         subs = [problem]
-    cands, gens, nev, history = [], 0, 0, []
+    gens, nev, history = 0, 0, []
     rng = np.random.default_rng(seed)
     seeds = [[int(rng.integers(2**31)) for _ in range(opts["restarts"])] for _ in subs]
-    found = []  # the restarts of one mode run in lockstep: one batch per generation for all of them
-    for sub, ss in zip(subs, seeds):
-        found += [(sub, r) for r in search_many(sub, ss, popsize=opts["popsize"], maxiter=opts["maxiter"],
-                                                 tol=opts["tol"], strategy=opts["strategy"])]
+    # the searches of every mode run in lockstep: one batch per generation for all of them
+    flat = [(sub, s) for sub, ss in zip(subs, seeds) for s in ss]
+    res = search_many(problem, [s for _, s in flat], problems=[sub for sub, _ in flat], popsize=opts["popsize"],
+                      maxiter=opts["maxiter"], tol=opts["tol"], strategy=opts["strategy"]) if flat else []
+    found = [(sub, r) for (sub, _), r in zip(flat, res)]
     starts = []  # (V (D, k), signs (nb, D), X (T, D), direction (D,)) from every source
     for sub, (V, f, mi, di, X, g, n, hist) in found:
         gens += g
@@ -247,23 +252,30 @@ def one_run(problem, seed, opts):
         # every start polished at once (one batch per iteration); only distinct basins go on
         V, X, f = batch_lm(problem, V, S, X, iters=opts["lm_iters"])
         per, period = periodic(problem)
-        for i in distinct(V, f, problem.lo, problem.hi, k=opts["polish"], rtol_f=1e-3, dist=0.02,
-                          periodic_mask=per, period=period):
-            p = polish(problem, V[i], signs=S[:, i], inputs=X[:, i] if problem.free else None)
-            if math.isfinite(p.get("objective", math.inf)):
-                p["direction"] = int(di[i]) if problem.free else (1 if problem.inputs[-1] >= problem.inputs[0]
-                                                                 else -1)
-                cands.append(p)
-    cands.sort(key=lambda c: c["objective"])
+        order = distinct(V, f, problem.lo, problem.hi, k=opts["polish"], rtol_f=1e-3, dist=0.02,
+                         periodic_mask=per, period=period)
+    else:
+        order = []
+    # exact polish and certificate, best basin first; a basin whose lockstep value is well above
+    # the best certified design's (LM has all but converged: the polish lowers it by a few per
+    # cent at most) is not polished at all
     rejected, best = [], None
-    for c in cands:
-        cert = certify_design(problem, c["values"], c["inputs"], c["signs"], c["Z"])
-        c["certificate"] = cert
-        if not cert["defects"]:
-            best = c
+    for i in order:
+        if best is not None and f[i] > _POLISH_MARGIN * best["objective"]:
             break
-        rejected.append({"seed": seed, "objective": c["objective"],
-                         "parameters": dict(zip(problem.names, map(float, c["values"]))),
+        p = polish(problem, V[i], signs=S[:, i], inputs=X[:, i] if problem.free else None)
+        if not math.isfinite(p.get("objective", math.inf)):
+            continue
+        if best is not None and p["objective"] >= best["objective"]:
+            continue
+        p["direction"] = int(di[i]) if problem.free else (1 if problem.inputs[-1] >= problem.inputs[0] else -1)
+        cert = certify_design(problem, p["values"], p["inputs"], p["signs"], p["Z"])
+        p["certificate"] = cert
+        if not cert["defects"]:
+            best = p
+            continue
+        rejected.append({"seed": seed, "objective": p["objective"],
+                         "parameters": dict(zip(problem.names, map(float, p["values"]))),
                          "defects": cert["defects"], "notes": cert["notes"]})
     return best, rejected, time.perf_counter() - t0, {"generations": gens, "evaluations": nev, "history": history}
 
