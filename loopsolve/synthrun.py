@@ -203,8 +203,14 @@ def _distinct(V, f, k, lo, hi):
     return out
 
 
-#: a basin whose lockstep-LM objective exceeds this factor times the best certified design's is not polished
-_POLISH_MARGIN = 1.5
+#: a basin whose lockstep-LM objective exceeds this factor times the best polished design's (or
+#: :func:`_polish_floor`, if larger) is not polished
+_POLISH_MARGIN = 10.0
+
+
+def _polish_floor(problem) -> float:
+    """A millionth of the targets' spread squared per target: below it every basin counts as exact."""
+    return 1e-6 * problem.T * float(np.sum(np.var(problem.targets, axis=0)))
 
 
 def one_run(problem, seed, opts):
@@ -256,26 +262,29 @@ def one_run(problem, seed, opts):
                          periodic_mask=per, period=period)
     else:
         order = []
-    # exact polish and certificate, best basin first; a basin whose lockstep value is well above
-    # the best certified design's (LM has all but converged: the polish lowers it by a few per
-    # cent at most) is not polished at all
-    rejected, best = [], None
+    # exact polish of the distinct basins, best first, skipping those whose lockstep value is far
+    # above the best polished one (the polish lowers a value by a few per cent once LM has all but
+    # converged); then the certificate, best polished first, until one holds
+    floor = _polish_floor(problem)
+    cands = []
     for i in order:
-        if best is not None and f[i] > _POLISH_MARGIN * best["objective"]:
+        if cands and f[i] > _POLISH_MARGIN * max(min(c["objective"] for c in cands), floor):
             break
         p = polish(problem, V[i], signs=S[:, i], inputs=X[:, i] if problem.free else None)
-        if not math.isfinite(p.get("objective", math.inf)):
-            continue
-        if best is not None and p["objective"] >= best["objective"]:
-            continue
-        p["direction"] = int(di[i]) if problem.free else (1 if problem.inputs[-1] >= problem.inputs[0] else -1)
-        cert = certify_design(problem, p["values"], p["inputs"], p["signs"], p["Z"])
-        p["certificate"] = cert
+        if math.isfinite(p.get("objective", math.inf)):
+            p["direction"] = int(di[i]) if problem.free else (1 if problem.inputs[-1] >= problem.inputs[0]
+                                                             else -1)
+            cands.append(p)
+    cands.sort(key=lambda c: c["objective"])
+    rejected, best = [], None
+    for c in cands:
+        cert = certify_design(problem, c["values"], c["inputs"], c["signs"], c["Z"])
+        c["certificate"] = cert
         if not cert["defects"]:
-            best = p
-            continue
-        rejected.append({"seed": seed, "objective": p["objective"],
-                         "parameters": dict(zip(problem.names, map(float, p["values"]))),
+            best = c
+            break
+        rejected.append({"seed": seed, "objective": c["objective"],
+                         "parameters": dict(zip(problem.names, map(float, c["values"]))),
                          "defects": cert["defects"], "notes": cert["notes"]})
     return best, rejected, time.perf_counter() - t0, {"generations": gens, "evaluations": nev, "history": history}
 
@@ -296,7 +305,7 @@ def synthesize(mech, *, path=None, function=None, motion=None, link=None, target
                crank: bool = False, transmission=None, runs: int = 1, seed: int = 0, mode: str | None = "any",
                popsize: int = 15, maxiter: int = 60, tol: float = 1e-3, restarts: int = 1,
                strategy: str = "best1bin", polish_candidates: int = 6, starts: int | None = None,
-               de_starts: int = 10, lm_iters: int = 25,
+               de_starts: int = 10, lm_iters: int = 60,
                workers: int | None = None, scheduler: str | None = None, client=None,
                progress: bool | None = None, method: str = "general", input_range=None, desired=None):
     """Find parameter values that make ``mech`` do a job; only certified designs are returned.
