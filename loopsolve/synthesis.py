@@ -48,9 +48,9 @@ wrapped back, so a basin at 0°/360° is one basin, not two halves cut at the bo
 
 **Local polish**: ``scipy.optimize.least_squares`` (trust-region reflective within the bounds)
 on the residual vector with the analytic Jacobian (implicit function theorem: ∂q/∂p = −Φ_q⁻¹ Φ_p,
-∂q/∂x = Φ_q⁻¹ b₁ for free input values, explicit ∂P/∂p from a generated kernel). The best few
-distinct designs of each search (its final population and the best designs of every
-generation) are polished. An angle parameter whose bounds span a whole turn (θ0, φ ∈ [0°, 360°])
+∂q/∂x = Φ_q⁻¹ b₁ for free input values, explicit ∂P/∂p from a generated kernel), from the distinct basins the lockstep
+Levenberg–Marquardt ended in (:func:`loopsolve.synthlm.distinct`: the same objective at the
+same place is one basin; a basin far above the best polished one is skipped). An angle parameter whose bounds span a whole turn (θ0, φ ∈ [0°, 360°])
 is periodic: it is unbounded in the polish and wrapped into its bounds afterwards, so a design
 whose optimum lies across 0°/360° is not stopped at the bound.
 
