@@ -48,11 +48,12 @@ wrapped back, so a basin at 0°/360° is one basin, not two halves cut at the bo
 
 **Local polish**: ``scipy.optimize.least_squares`` (trust-region reflective within the bounds)
 on the residual vector with the analytic Jacobian (implicit function theorem: ∂q/∂p = −Φ_q⁻¹ Φ_p,
-∂q/∂x = Φ_q⁻¹ b₁ for free input values, explicit ∂P/∂p from a generated kernel), from the distinct basins the lockstep
-Levenberg–Marquardt ended in (:func:`loopsolve.synthlm.distinct`: the same objective at the
-same place is one basin; a basin far above the best polished one is skipped). An angle parameter whose bounds span a whole turn (θ0, φ ∈ [0°, 360°])
-is periodic: it is unbounded in the polish and wrapped into its bounds afterwards, so a design
-whose optimum lies across 0°/360° is not stopped at the bound.
+∂q/∂x = Φ_q⁻¹ b₁ for free input values, explicit ∂P/∂p from a generated kernel), from the
+distinct basins the lockstep Levenberg–Marquardt ended in (:func:`loopsolve.synthlm.distinct`:
+the same objective at the same place is one basin; a basin far above the best polished one is
+skipped). An angle parameter whose bounds span a whole turn (θ0, φ ∈ [0°, 360°]) is periodic:
+it is unbounded in the polish and wrapped into its bounds afterwards, so a design whose optimum
+lies across 0°/360° is not stopped at the bound.
 
 **Certificate** (:mod:`loopsolve.certify`): from the tracker (the public sweep), never from
 the optimizer. A design is reported only when it is certified; rejected candidates are listed

@@ -7,8 +7,8 @@ per mode (:func:`loopsolve.synthesis.search`) and a Latin-hypercube multistart
 best sampled designs are polished together by the lockstep Levenberg–Marquardt
 (:func:`loopsolve.synthlm.batch_lm`, one batch per iteration); the distinct basins they end in
 (duplicates dropped, :func:`loopsolve.synthlm.distinct`) get the exact least-squares polish and
-the tracker's certificate, best first; the run's result is its best certified design. ``runs`` runs use the seeds ``seed, seed + 1, ...``
-and run one after the other, or as Dask tasks (``workers``/``scheduler``/``client``, as studies do).
+the tracker's certificate, best first; the run's result is its best certified design. ``runs``
+runs use the seeds ``seed, seed + 1, ...`` and run one after the other, or as Dask tasks (``workers``/``scheduler``/``client``, as studies do).
 """
 
 from __future__ import annotations
