@@ -337,7 +337,7 @@ def _synthesis_parser(sub) -> None:
     p.add_argument("--popsize", type=int, default=15, help="differential evolution: population per variable")
     p.add_argument("--maxiter", type=int, default=60, help="differential evolution: generations at most per search")
     p.add_argument("--restarts", type=int, default=1, help="DE searches per assembly mode in a run (default 1)")
-    p.add_argument("--starts", type=int, metavar="N", help="multistart: the N best of 10·N sampled designs are "
+    p.add_argument("--starts", type=int, metavar="N", help="multistart: the N best of 30·N sampled designs are "
                    "polished in lockstep with the DE's (default 40 per varied parameter; 0: none)")
     p.add_argument("--workers", type=int, metavar="N", help="run the runs on a local Dask cluster of N processes")
     p.add_argument("--scheduler", metavar="ADDRESS", help="run the runs on the Dask cluster at ADDRESS")
