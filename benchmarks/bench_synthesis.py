@@ -96,12 +96,12 @@ def run_baseline(prob, seed):
     return float(res.fun), time.perf_counter() - t
 
 
-def run_loopsolve(mech, prob, seed, maxiter, popsize):
+def run_loopsolve(mech, prob, seed, **opts):
     t = time.perf_counter()
     try:
         res = ls.synthesize(mech, path="P", targets={"x": prob["targets"][:, 0], "y": prob["targets"][:, 1]},
                             inputs=np.degrees(prob["inputs"]).tolist(), vary=prob["vary"], crank=prob["crank"],
-                            seed=seed, maxiter=maxiter, popsize=popsize, progress=False)
+                            seed=seed, progress=False, **opts)
         f, cert = res.objective, res.report["certificate"]
     except ls.SynthesisError:
         f, cert = math.inf, None
@@ -112,8 +112,10 @@ def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--runs", type=int, default=30)
     ap.add_argument("--only", choices=list(PROBLEMS))
-    ap.add_argument("--maxiter", type=int, default=150)
-    ap.add_argument("--popsize", type=int, default=15)
+    ap.add_argument("--maxiter", type=int, help="DE generations (default: synthesize's)")
+    ap.add_argument("--popsize", type=int, help="DE population factor (default: synthesize's)")
+    ap.add_argument("--restarts", type=int, help="DE searches per mode (default: synthesize's)")
+    ap.add_argument("--starts", type=int, help="multistart designs polished in lockstep (default: synthesize's)")
     ap.add_argument("--no-baseline", action="store_true")
     ap.add_argument("--json", help="write the figures here")
     args = ap.parse_args(argv)
@@ -124,7 +126,9 @@ def main(argv=None):
             continue
         ours, base = [], []
         for r in range(args.runs):
-            f, sec, cert = run_loopsolve(mech, prob, r, args.maxiter, args.popsize)
+            opts = {k: v for k, v in (("restarts", args.restarts), ("starts", args.starts), ("maxiter", args.maxiter),
+                                      ("popsize", args.popsize)) if v is not None}
+            f, sec, cert = run_loopsolve(mech, prob, r, **opts)
             ours.append((f, sec, bool(cert) and not cert["defects"]))
             line = f"{name} run {r}: loopsolve f={f:.6g} ({sec:.1f} s, certified={ours[-1][2]})"
             if not args.no_baseline:

@@ -39,8 +39,10 @@ def _synthesis_parser(sub) -> None:
     p.add_argument("--runs", type=int, default=1, metavar="N", help="independent seeded runs (default 1)")
     p.add_argument("--seed", type=int, default=0, help="seed of the first run (default 0)")
     p.add_argument("--popsize", type=int, default=15, help="differential evolution: population per variable")
-    p.add_argument("--maxiter", type=int, default=150, help="differential evolution: generations at most per search")
-    p.add_argument("--restarts", type=int, default=4, help="DE searches per assembly mode in a run (default 4)")
+    p.add_argument("--maxiter", type=int, default=60, help="differential evolution: generations at most per search")
+    p.add_argument("--restarts", type=int, default=1, help="DE searches per assembly mode in a run (default 1)")
+    p.add_argument("--starts", type=int, metavar="N", help="multistart: the N best of 30·N sampled designs are "
+                   "polished in lockstep with the DE's (default 40 per varied parameter; 0: none)")
     p.add_argument("--workers", type=int, metavar="N", help="run the runs on a local Dask cluster of N processes")
     p.add_argument("--scheduler", metavar="ADDRESS", help="run the runs on the Dask cluster at ADDRESS")
     p.add_argument("-o", "--output", metavar="design.toml", help="write the best design as a model file")
@@ -83,7 +85,7 @@ def cmd_synthesize(args) -> int:
         mech, path=args.path, function=args.function, motion=args.motion, link=args.link,
         targets=args.targets, inputs=args.inputs, vary=vary, crank=args.crank,
         transmission=args.transmission, runs=args.runs, seed=args.seed, mode=args.mode,
-        popsize=args.popsize, maxiter=args.maxiter, restarts=args.restarts, workers=args.workers,
+        popsize=args.popsize, maxiter=args.maxiter, restarts=args.restarts, starts=args.starts, workers=args.workers,
         scheduler=args.scheduler, progress=None if not args.quiet else False,
         input_range=input_range), "")
     if rep is not None:

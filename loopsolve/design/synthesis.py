@@ -27,27 +27,33 @@ a whole generation is one batch, so the cost per generation is a few kernel call
 the population's size instead of hundreds of Python-level solves. Chosen over a Latin-hypercube
 multistart because the objective is multimodal with narrow basins (the published four-bar
 problems), and DE's recombination of good designs finds those basins with far fewer evaluations
-than independent starts; the seeded initial population is itself a Latin hypercube. One run
-is several short DE searches per assembly mode (``restarts``), each polished: on the five-point
-benchmark a 150-generation DE/best/1/bin search ends in the basin of the optimum in about two of
-three seeds and its polish reaches the optimum in about half of those, so four restarts per
-mode make a run's best reach it with high probability, while one long search that stalls in
-the wide 0.13 basin stays there (and one search over both modes at once lets a basin of one
-mode crowd out the other's). The restarts of one mode run in lockstep (:func:`search_many`: one thread per search, each
+than independent starts; the seeded initial population is itself a Latin hypercube. The search
+is not trusted to end in the right basin, though: on the eighteen-point benchmark 150 DE
+generations end at f ≈ 4–15 and the basin a *polish* falls into decides the result (0.0090,
+0.0098, 0.014, ...). So a run polishes many starts — the distinct best members of the DE
+populations and the best of a Latin-hypercube multistart — together by a lockstep
+Levenberg–Marquardt (:mod:`loopsolve.design.synthlm`: one batch per iteration, hundreds of starts for
+the price of a few scalar polishes), and only the distinct basins they end in go on to the exact
+polish below (polishing near-identical candidates was 35–50 % of a run before). With the
+multistart, one short DE search per mode (``restarts=1``, 60 generations) is enough; the
+searches of a mode run in lockstep (:func:`search_many`: one thread per search, each
 waiting for the others; every generation of all of them is one batch), which pays the kernels'
-per-call overhead once per generation instead of once per search (a run 1.3–1.5× faster, the
+per-call overhead once per generation instead of once per search (1.3–1.5× faster, the
 same designs). The search strategy is a setting (``strategy``). A positive
 range spanning more than a decade (link lengths in [0.2, 50]) is searched on a log scale: on the
 eighteen-point benchmark this took the runs from 0.0098–0.0306 to 0.0099 every time, and the
-five-point runs to the optimum faster.
+five-point runs to the optimum faster. A periodic angle (bounds spanning a whole turn, θ0, φ ∈
+[0°, 360°]) is searched on a circle: its DE range is widened by half a turn each side and
+wrapped back, so a basin at 0°/360° is one basin, not two halves cut at the box's edge.
 
 **Local polish**: ``scipy.optimize.least_squares`` (trust-region reflective within the bounds)
 on the residual vector with the analytic Jacobian (implicit function theorem: ∂q/∂p = −Φ_q⁻¹ Φ_p,
-∂q/∂x = Φ_q⁻¹ b₁ for free input values, explicit ∂P/∂p from a generated kernel). The best few
-distinct designs of each search (its final population and the best designs of every
-generation) are polished. An angle parameter whose bounds span a whole turn (θ0, φ ∈ [0°, 360°])
-is periodic: it is unbounded in the polish and wrapped into its bounds afterwards, so a design
-whose optimum lies across 0°/360° is not stopped at the bound.
+∂q/∂x = Φ_q⁻¹ b₁ for free input values, explicit ∂P/∂p from a generated kernel), from the
+distinct basins the lockstep Levenberg–Marquardt ended in (:func:`loopsolve.design.synthlm.distinct`:
+the same objective at the same place is one basin; a basin far above the best polished one is
+skipped). An angle parameter whose bounds span a whole turn (θ0, φ ∈ [0°, 360°]) is periodic:
+it is unbounded in the polish and wrapped into its bounds afterwards, so a design whose optimum
+lies across 0°/360° is not stopped at the bound.
 
 **Certificate** (:mod:`loopsolve.design.certify`): from the tracker (the public sweep), never from
 the optimizer. A design is reported only when it is certified; rejected candidates are listed
@@ -391,12 +397,13 @@ def _big(problem) -> float:
     return 1e3 * problem.T * s * s
 
 
-def evaluate(problem: Problem, V) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+def evaluate(problem: Problem, V, signs=None) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Search objective of the designs ``V`` ``(D, k)``: ``(f, mode index, direction, inputs (T, D))``.
 
     Penalized: every target a design cannot reach in one continuous motion in one mode adds
     :func:`_big`; with ``crank`` a design whose input cannot turn fully back to the first
-    target's pose adds one more.
+    target's pose adds one more. ``signs`` ``(nb, D)``: each design's own mode instead of the
+    problem's modes (the mode index is then 0).
     """
     b = problem.batch
     P = b.params(V)
@@ -407,7 +414,7 @@ def evaluate(problem: Problem, V) -> tuple[np.ndarray, np.ndarray, np.ndarray, n
     direc = np.ones(D, dtype=int)
     X_best = np.full((problem.T, D), np.nan)
     with np.errstate(all="ignore"):
-        for m, signs in enumerate(problem.modes(P)):
+        for m, signs in enumerate(problem.modes(P) if signs is None else [np.asarray(signs, dtype=float)]):
             if problem.free:
                 f, d, X = _free_objective(problem, P, signs, big)
             else:
@@ -532,10 +539,11 @@ class _Lockstep:
     columns of the batch, so each search follows the same course as when run alone.
     """
 
-    def __init__(self, problem, n):
+    def __init__(self, problem, n, parts=None):
         import threading
 
         self.problem = problem
+        self.parts = parts  # ident -> the one-mode problem of that search (searches of several modes)
         self.active = n
         self.pending = {}
         self.results = {}
@@ -563,7 +571,11 @@ class _Lockstep:
         items = list(self.pending.items())
         self.pending.clear()
         try:
-            f, mi, di, X = evaluate(self.problem, np.vstack([v for _, v in items]))
+            V = np.vstack([v for _, v in items])
+            signs = None
+            if self.parts is not None:  # each search's own mode, all modes in one batch
+                signs = np.hstack([self.parts[i].modes(self.problem.batch.params(v))[0] for i, v in items])
+            f, mi, di, X = evaluate(self.problem, V, signs)
             a = 0
             for ident, v in items:
                 n = v.shape[0]
@@ -575,24 +587,27 @@ class _Lockstep:
         self.cv.notify_all()
 
 
-def search_many(problem: Problem, seeds, **kwargs) -> list:
+def search_many(problem: Problem, seeds, *, problems=None, **kwargs) -> list:
     """Several seeded :func:`search` runs on one problem whose generations are evaluated together.
 
     Returns the list of :func:`search` results, in the order of ``seeds``; each is the one
     ``search(problem, seed=s, **kwargs)`` returns (the searches run in lockstep threads that
     only wait on each other, so one batch of all their populations is evaluated per generation).
+    ``problems``: one one-mode problem per seed (the searches of several assembly modes of
+    ``problem`` in one batch per generation); search i then runs on ``problems[i]``.
     """
     import threading
 
     seeds = list(seeds)
+    subs = list(problems) if problems is not None else [problem] * len(seeds)
     if len(seeds) <= 1:
-        return [search(problem, seed=s, **kwargs) for s in seeds]
-    step = _Lockstep(problem, len(seeds))
+        return [search(sub, seed=s, **kwargs) for sub, s in zip(subs, seeds)]
+    step = _Lockstep(problem, len(seeds), dict(enumerate(subs)) if problems is not None else None)
     out = [None] * len(seeds)
 
     def work(i, s):
         try:
-            out[i] = search(problem, seed=s, _evaluate=lambda V: step(i, V), **kwargs)
+            out[i] = search(subs[i], seed=s, _evaluate=lambda V: step(i, V), **kwargs)
         except BaseException as exc:
             out[i] = exc
         finally:
@@ -630,9 +645,17 @@ def search(problem: Problem, *, seed: int = 0, popsize: int = 15, maxiter: int =
     logs = (problem.lo > 0) & (problem.hi >= 10 * problem.lo)
     lo_u = np.where(logs, np.log(np.where(logs, problem.lo, 1.0)), problem.lo)
     hi_u = np.where(logs, np.log(np.where(logs, problem.hi, 1.0)), problem.hi)
+    # a periodic angle (bounds spanning a whole turn) is searched on a circle: its search range is
+    # widened by half a turn each side and wrapped back into its bounds, so a basin at 0°/360° is
+    # one basin (seen twice), not two halves cut by the box (DE resamples a mutant outside the box)
+    per, period = periodic(problem)
+    lo_u = np.where(per, problem.lo - period / 2, lo_u)
+    hi_u = np.where(per, problem.hi + period / 2, hi_u)
 
     def to_values(U):  # (k, S) search coordinates -> (S, k) model values
-        return np.where(logs[:, None], np.exp(U), U).T
+        V = np.where(logs[:, None], np.exp(U), U)
+        V = np.where(per[:, None], (problem.lo + np.mod(U.T - problem.lo, period)).T, V)
+        return V.T
 
     bounds = list(zip(lo_u, hi_u))
     state = {"n": 0, "gen": 0, "history": []}

@@ -2,10 +2,13 @@
 
 See :mod:`loopsolve.design.synthesis` for the design (problem, batched objective, search, polish) and
 :mod:`loopsolve.design.certify` for the certificate. One run is: a seeded differential-evolution search
-(:func:`loopsolve.design.synthesis.search`), a least-squares polish of the best distinct members of its
-final population, and the tracker's certificate of each polished candidate, best first; the
-run's result is its best certified design. ``runs`` runs use the seeds ``seed, seed + 1, ...``
-and run one after the other, or as Dask tasks (``workers``/``scheduler``/``client``, as studies do).
+per mode (:func:`loopsolve.design.synthesis.search`) and a Latin-hypercube multistart
+(:func:`loopsolve.design.synthlm.multistart`); the distinct best members of the DE populations and the
+best sampled designs are polished together by the lockstep Levenberg–Marquardt
+(:func:`loopsolve.design.synthlm.batch_lm`, one batch per iteration); the distinct basins they end in
+(duplicates dropped, :func:`loopsolve.design.synthlm.distinct`) get the exact least-squares polish and
+the tracker's certificate, best first; the run's result is its best certified design. ``runs``
+runs use the seeds ``seed, seed + 1, ...`` and run one after the other, or as Dask tasks (``workers``/``scheduler``/``client``, as studies do).
 """
 
 from __future__ import annotations
@@ -200,6 +203,21 @@ def _distinct(V, f, k, lo, hi):
     return out
 
 
+#: the multistart samples this many designs per start kept (sampling is one cheap batch; on the
+#: eighteen-point benchmark 10 per start gave the 9.03e-3 basin in 18 of 30 runs, 30 in the six
+#: missed seeds tried)
+_SAMPLE_RATIO = 30
+
+#: a basin whose lockstep-LM objective exceeds this factor times the best polished design's (or
+#: :func:`_polish_floor`, if larger) is not polished
+_POLISH_MARGIN = 10.0
+
+
+def _polish_floor(problem) -> float:
+    """A millionth of the targets' spread squared per target: below it every basin counts as exact."""
+    return 1e-6 * problem.T * float(np.sum(np.var(problem.targets, axis=0)))
+
+
 def one_run(problem, seed, opts):
     """One run: ``(best candidate dict or None, rejected list, seconds, statistics)``."""
     import dataclasses
@@ -209,25 +227,60 @@ def one_run(problem, seed, opts):
         subs = [dataclasses.replace(problem, mode=_signature(sg)) for sg in problem.batch.all_signs()]
     else:
         subs = [problem]
-    cands, gens, nev, history = [], 0, 0, []
+    gens, nev, history = 0, 0, []
     rng = np.random.default_rng(seed)
     seeds = [[int(rng.integers(2**31)) for _ in range(opts["restarts"])] for _ in subs]
-    found = []  # the restarts of one mode run in lockstep: one batch per generation for all of them
-    for sub, ss in zip(subs, seeds):
-        found += [(sub, r) for r in search_many(sub, ss, popsize=opts["popsize"], maxiter=opts["maxiter"],
-                                                 tol=opts["tol"], strategy=opts["strategy"])]
+    # the searches of every mode run in lockstep: one batch per generation for all of them
+    flat = [(sub, s) for sub, ss in zip(subs, seeds) for s in ss]
+    res = search_many(problem, [s for _, s in flat], problems=[sub for sub, _ in flat], popsize=opts["popsize"],
+                      maxiter=opts["maxiter"], tol=opts["tol"], strategy=opts["strategy"]) if flat else []
+    found = [(sub, r) for (sub, _), r in zip(flat, res)]
+    starts = []  # (V (D, k), signs (nb, D), X (T, D), direction (D,)) from every source
     for sub, (V, f, mi, di, X, g, n, hist) in found:
         gens += g
         nev += n
         history.append({"mode": sub.mode, "best": hist})
-        P = sub.batch.params(V)
-        modes = sub.modes(P)
-        for i in _distinct(V, f, opts["polish"], sub.lo, sub.hi):
-            signs = modes[mi[i]][:, i]
-            p = polish(sub, V[i], signs=signs, inputs=X[:, i] if sub.free else None)
-            if math.isfinite(p.get("objective", math.inf)):
-                p["direction"] = int(di[i]) if sub.free else (1 if sub.inputs[-1] >= sub.inputs[0] else -1)
-                cands.append(p)
+        modes = sub.modes(sub.batch.params(V))
+        ix = _distinct(V, f, opts["de_starts"], sub.lo, sub.hi)
+        if ix:
+            starts.append((V[ix], np.stack([modes[mi[i]][:, i] for i in ix], axis=1), X[:, ix], di[ix]))
+    if opts["starts"]:
+        from .synthlm import multistart
+
+        n = opts["starts"] * _SAMPLE_RATIO
+        Vm, Sm, Xm, fm = multistart(problem, n, opts["starts"], int(rng.integers(2**31)))
+        nev += n
+        if len(fm):
+            dm = (np.sign(Xm[-1] - Xm[0]) if problem.free else np.ones(len(fm))).astype(int)
+            starts.append((Vm, Sm, Xm, np.where(dm == 0, 1, dm)))
+    if starts:
+        from .synthlm import batch_lm, distinct
+        from .synthesis import periodic
+
+        V = np.vstack([s[0] for s in starts])
+        S = np.hstack([s[1] for s in starts])
+        X = np.hstack([s[2] for s in starts])
+        di = np.concatenate([s[3] for s in starts])
+        # every start polished at once (one batch per iteration); only distinct basins go on
+        V, X, f = batch_lm(problem, V, S, X, iters=opts["lm_iters"])
+        per, period = periodic(problem)
+        order = distinct(V, f, problem.lo, problem.hi, k=opts["polish"], rtol_f=1e-3, dist=0.02,
+                         periodic_mask=per, period=period)
+    else:
+        order = []
+    # exact polish of the distinct basins, best first, skipping those whose lockstep value is far
+    # above the best polished one (the polish lowers a value by a few per cent once LM has all but
+    # converged); then the certificate, best polished first, until one holds
+    floor = _polish_floor(problem)
+    cands = []
+    for i in order:
+        if cands and f[i] > _POLISH_MARGIN * max(min(c["objective"] for c in cands), floor):
+            break
+        p = polish(problem, V[i], signs=S[:, i], inputs=X[:, i] if problem.free else None)
+        if math.isfinite(p.get("objective", math.inf)):
+            p["direction"] = int(di[i]) if problem.free else (1 if problem.inputs[-1] >= problem.inputs[0]
+                                                             else -1)
+            cands.append(p)
     cands.sort(key=lambda c: c["objective"])
     rejected, best = [], None
     for c in cands:
@@ -256,8 +309,9 @@ def _run_task(args):
 
 def synthesize(mech, *, path=None, function=None, motion=None, link=None, targets=None, inputs=None, vary=None,
                crank: bool = False, transmission=None, runs: int = 1, seed: int = 0, mode: str | None = "any",
-               popsize: int = 15, maxiter: int = 150, tol: float = 1e-3, restarts: int = 4,
-               strategy: str = "best1bin", polish_candidates: int = 2,
+               popsize: int = 15, maxiter: int = 60, tol: float = 1e-3, restarts: int = 1,
+               strategy: str = "best1bin", polish_candidates: int = 6, starts: int | None = None,
+               de_starts: int = 10, lm_iters: int = 60,
                workers: int | None = None, scheduler: str | None = None, client=None,
                progress: bool | None = None, method: str = "general", input_range=None, desired=None):
     """Find parameter values that make ``mech`` do a job; only certified designs are returned.
@@ -291,7 +345,16 @@ def synthesize(mech, *, path=None, function=None, motion=None, link=None, target
     popsize, maxiter, tol, strategy : differential-evolution settings (scipy's meaning).
     restarts : int
         Short DE searches per mode in one run (seeded from the run's seed); each search's best
-        ``polish_candidates`` distinct designs are polished and certified.
+        ``de_starts`` distinct designs are starts of the lockstep Levenberg–Marquardt.
+    starts : int, optional
+        Latin-hypercube multistart: ``30 * starts`` designs are sampled and evaluated in one
+        batch, the ``starts`` best are further starts of the lockstep Levenberg–Marquardt
+        (default ``40 *`` the number of varied parameters; 0: none).
+    de_starts, lm_iters : int
+        Starts taken from each DE search; iterations of the lockstep Levenberg–Marquardt.
+    polish_candidates : int
+        Distinct basins (after the lockstep Levenberg–Marquardt) given the exact polish and the
+        certificate, best first.
     workers, scheduler, client
         Spread the runs over a Dask cluster (as :func:`loopsolve.study` does).
     progress : bool, optional
@@ -345,7 +408,8 @@ def synthesize(mech, *, path=None, function=None, motion=None, link=None, target
     problem = define(mech, path=path, function=function, motion=motion, link=link, targets=targets, inputs=inputs,
                      vary=vary, crank=crank, transmission=transmission, mode=mode)
     opts = {"popsize": popsize, "maxiter": maxiter, "tol": tol, "polish": polish_candidates, "restarts": restarts,
-            "strategy": strategy}
+            "strategy": strategy, "starts": 40 * len(problem.names) if starts is None else starts,
+            "de_starts": de_starts, "lm_iters": lm_iters}
     seeds = [seed + r for r in range(runs)]
     if progress is None:
         progress = sys.stderr.isatty()

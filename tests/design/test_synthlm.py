@@ -1,0 +1,146 @@
+"""Lockstep Levenberg–Marquardt, periodic angles and the de-duplication of basins (issue 19).
+
+References are written here: the four-bar coupler point by circle intersection (``fourbar_point``
+of test_synthesis), planted designs, hand-built duplicate sets.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+import loopsolve as ls
+from loopsolve.design.synthesis import define, periodic
+from loopsolve.design.synthlm import batch_lm, distinct, sample
+
+from test_synthesis import FOURBAR, PLANT_INPUTS, PLANTED, VARY6, fourbar_point  # tests/ is on sys.path
+
+VARY_TURN = dict(VARY6, theta0=(0, 360), phi=(0, 360))
+
+
+@pytest.fixture(scope="module")
+def fourbar():
+    return ls.load(FOURBAR)
+
+
+def closed_form_objective(p, targets, sign):
+    return sum(float(np.sum((fourbar_point(p, x, sign) - t) ** 2)) for x, t in zip(PLANT_INPUTS, targets))
+
+
+def planted_problem(fourbar, p, sign=-1):
+    t = np.array([fourbar_point(p, x, sign) for x in PLANT_INPUTS])
+    return define(fourbar, path="P", targets={"x": t[:, 0], "y": t[:, 1]}, inputs=PLANT_INPUTS, vary=VARY_TURN), t
+
+
+def test_batch_lm_crosses_the_periodic_bound_and_recovers_the_planted_design(fourbar):
+    """θ0 = 358.5°, φ = 1.5° planted; starts on the other side of 0°/360° reach it, wrapped into [0°, 360°)."""
+    p = dict(PLANTED, theta0=358.5, phi=1.5)
+    pr, t = planted_problem(fourbar, p)
+    exact = np.array([p[n] for n in pr.names])
+    starts = np.repeat(exact[None] * 1.004, 3, axis=0)
+    i0, i1 = pr.names.index("theta0"), pr.names.index("phi")
+    starts[0, i0], starts[0, i1] = 1.0, 358.0  # both angles across the bound
+    starts[1, i0], starts[1, i1] = 357.0, 3.0
+    starts[2, i0], starts[2, i1] = 2.0, 2.0
+    V, X, f = batch_lm(pr, starts, -np.ones((1, 3)), iters=60)
+    for v, fv in zip(V, f):
+        q = dict(zip(pr.names, v))
+        assert fv <= 1e-20
+        assert q["theta0"] == pytest.approx(358.5, abs=1e-7) and q["phi"] == pytest.approx(1.5, abs=1e-7)
+        assert np.allclose(v, exact, rtol=1e-8, atol=1e-8)
+        assert closed_form_objective(q, t, -1) <= 1e-20
+
+
+def test_batch_lm_polishes_both_modes_in_one_batch(fourbar):
+    """One batch holds a design of each assembly mode; each column keeps its mode and reaches its planted optimum."""
+    p = dict(PLANTED, theta0=10.0, phi=20.0)
+    objs = []
+    for sign in (-1, 1):
+        pr, t = planted_problem(fourbar, p, sign)
+        exact = np.array([p[n] for n in pr.names])
+        starts = np.vstack([exact * 1.003, exact * 0.997])
+        # column 0 in the planted mode, column 1 in the other: that one cannot reach f = 0
+        signs = np.array([[float(sign), float(-sign)]])
+        V, X, f = batch_lm(pr, starts, signs, iters=60)
+        assert f[0] <= 1e-20 and np.allclose(V[0], exact, rtol=1e-8, atol=1e-8)
+        q1 = dict(zip(pr.names, V[1]))
+        if np.isfinite(f[1]):  # the other mode's column: its objective is the closed form in that mode
+            assert f[1] == pytest.approx(closed_form_objective(q1, t, -sign), rel=1e-9)
+            assert f[1] > 1e-12
+        objs.append(f[0])
+    assert max(objs) <= 1e-20
+
+
+def test_distinct_drops_duplicates_but_keeps_every_other_basin():
+    """Hand-built: a near copy and a copy across 0°/360° are duplicates; the same f elsewhere is another basin."""
+    lo, hi = np.array([0.0, 0.0]), np.array([10.0, 360.0])
+    V = np.array([[1.0, 0.2],       # 0: best
+                  [1.0 + 1e-6, 0.2],  # 1: same basin bottom (duplicate of 0)
+                  [1.0, 359.9],     # 2: across the periodic bound: 0.3° from 0 -> duplicate of 0
+                  [6.0, 180.0],     # 3: same objective, another place: another basin
+                  [1.0, 0.2],       # 4: same place, another objective (a saddle/other level): kept
+                  [3.0, 90.0]])     # 5: infinite objective: never
+    f = np.array([1.0, 1.0 + 1e-9, 1.0 + 2e-9, 1.0 + 3e-9, 2.0, np.inf])
+    per, period = np.array([False, True]), np.array([np.inf, 360.0])
+    assert distinct(V, f, lo, hi, k=10, periodic_mask=per, period=period) == [0, 3, 4]
+    # without the periodic mask 359.9° is far from 0.2°: kept as its own basin
+    assert distinct(V, f, lo, hi, k=10) == [0, 2, 3, 4]
+    assert distinct(V, f, lo, hi, k=2, periodic_mask=per, period=period) == [0, 3]
+
+
+def test_sample_is_inside_the_bounds_log_scaled_and_seeded(fourbar):
+    pr, _ = planted_problem(fourbar, dict(PLANTED, theta0=0.0, phi=0.0))
+    pr = define(fourbar, path="P", targets={"x": [0, 1, 2], "y": [0, 1, 0]}, inputs=[0, 30, 60],
+                vary={"r2": (0.2, 50), "rcx": (-3, 3), "theta0": (0, 360)})
+    V = sample(pr, 2000, 7)
+    assert np.all(V >= pr.lo) and np.all(V <= pr.hi)
+    assert np.array_equal(V, sample(pr, 2000, 7))
+    r2 = V[:, pr.names.index("r2")]
+    # log scale: half the designs below the geometric mean sqrt(0.2 * 50) = 3.16, not below 25
+    assert np.mean(r2 < math.sqrt(0.2 * 50)) == pytest.approx(0.5, abs=0.02)
+    per, period = periodic(pr)
+    assert list(per) == [False, False, True] and period[2] == pytest.approx(360.0)
+
+
+def test_synthesize_recovers_a_planted_design_at_the_periodic_bound(fourbar):
+    """End to end: θ0 = 359.2°, φ = 0.6° planted (both at the 0°/360° bound) recovered to round-off, certified."""
+    p = dict(PLANTED, theta0=359.2, phi=0.6)
+    pr, t = planted_problem(fourbar, p)
+    res = ls.synthesize(fourbar, path="P", targets={"x": t[:, 0], "y": t[:, 1]}, inputs=PLANT_INPUTS,
+                        vary=VARY_TURN, seed=1, popsize=8, maxiter=20, progress=False)
+    q = res.report["parameters"]
+    assert res.objective <= 1e-20 and res.report["certificate"]["defects"] == []
+    assert q["theta0"] == pytest.approx(359.2, abs=1e-6) and q["phi"] == pytest.approx(0.6, abs=1e-6)
+    assert closed_form_objective(q, t, -1 if res.report["mode"] == "-" else 1) == pytest.approx(
+        res.objective, abs=1e-20)
+
+
+def test_searches_of_both_modes_in_one_lockstep_batch_equal_the_searches_alone(fourbar):
+    """search_many(problems=...) evaluates the generations of a '+' and a '-' search as one batch: same courses."""
+    import dataclasses
+
+    from loopsolve.design.synthesis import search, search_many
+
+    t = planted_targets_default()
+    pr = define(fourbar, path="P", targets=t, inputs=PLANT_INPUTS, vary=VARY6, mode="any")
+    subs = [dataclasses.replace(pr, mode=m) for m in ("+", "-")]
+    kw = {"popsize": 6, "maxiter": 10}
+    together = search_many(pr, [3, 4], problems=subs, **kw)
+    for sub, s, got in zip(subs, [3, 4], together):
+        alone = search(sub, seed=s, **kw)
+        assert np.allclose(got[0], alone[0], rtol=1e-12, atol=0) and np.allclose(got[1], alone[1], rtol=1e-9)
+        assert got[5:7] == alone[5:7]
+        # each search's best objective against the circle intersection in its own mode
+        q = dict(zip(pr.names, got[0][0]))
+        sign = 1 if sub.mode == "+" else -1
+        pts = [fourbar_point(q, x, sign) for x in PLANT_INPUTS]
+        if all(p is not None for p in pts) and got[1][0] < 1e3:
+            ref = sum(float(np.sum((p - np.array([tx, ty])) ** 2)) for p, tx, ty in zip(pts, t["x"], t["y"]))
+            assert got[1][0] == pytest.approx(ref, rel=1e-9)
+
+
+def planted_targets_default():
+    pts = np.array([fourbar_point(PLANTED, x, -1) for x in PLANT_INPUTS])
+    return {"x": pts[:, 0], "y": pts[:, 1]}
