@@ -10,12 +10,13 @@ tolerances mean the same thing for every model.
 from __future__ import annotations
 
 import math
+import weakref
 
 import numpy as np
 
 from ..model.units import Kind
 
-__all__ = ["Kernel", "ROUNDOFF"]
+__all__ = ["Kernel", "ROUNDOFF", "kernel_of"]
 
 #: Newton stops when its correction is at round-off level: this times (1 + |scaled unknowns|)
 ROUNDOFF = 8 * 2.220446049250313e-16
@@ -43,6 +44,24 @@ def rho_2x3(a0, a1, a2, b0, b1, b2) -> float:
     if not lmax > 0:
         return 0.0
     return math.sqrt(max(det / lmax, 0.0) / lmax)
+
+
+_KERNELS: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()
+
+
+def kernel_of(ck) -> "Kernel":
+    """The :class:`Kernel` of ``ck``, built once per compiled model and reused (a sweep's front end
+    calls this every time). A kernel holds a copy of the parameter values: it is rebuilt when
+    ``ck.p`` no longer equals them (a :class:`CompiledKinematics` is immutable, but its array is not
+    write-protected); a model with other parameters (``with_parameters``) is another ``ck``."""
+    kern = _KERNELS.get(ck)
+    if kern is None or kern.p != ck.p.tolist():
+        kern = Kernel(ck)
+        try:
+            _KERNELS[ck] = kern
+        except TypeError:  # not weak-referenceable: no reuse
+            pass
+    return kern
 
 
 class Kernel:

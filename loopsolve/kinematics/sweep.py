@@ -22,10 +22,11 @@ from . import batch, numbakin
 from .continuation import (Kernel, Path, RowSolution, StepControl, Tracer, fill_node_rows, first_node,
                            solve_rows_scalar)
 from ..errors import AssemblyError, ConvergenceError, ModelError, SingularPositionError, SolveError, warn
+from .kernel import kernel_of
 from .newton import Newton
 from .results import Event, EventKind, Sweep
 from .solve import _input_unit, display_value, initial_z, input_rates, input_value, start_position
-from ..model.units import Kind
+from ..model.units import MAX_MAGNITUDE, Kind
 
 __all__ = ["StepControl", "sweep", "grid", "reachable_ranges", "default_range", "nearest_assemblable",
            "assembly_failure", "AUTO_BATCH"]
@@ -121,13 +122,13 @@ def _enumerate_rows(kern: Kernel, path: Path, g: Grid) -> Rows:
 
 def _whole_rows(fast, first, g: Grid, nv: int):
     """Rows and positions of a path the compiled fast lane traced whole (:meth:`FastLane.whole_rows`)."""
-    ks, node, Z, res, its = fast.whole_rows(first)
+    ks, node, Z, res, its, R = fast.whole_rows(first)
     # every row is a node that landed exactly on its grid value (Grid.value, compiled)
     rows = Rows(ks, np.full(len(ks), -1, dtype=np.int64), node, Z[fast.k.ix].copy())
     sol = RowSolution(len(ks), nv)
     sol.Z, sol.res, sol.its = Z, res, its
     sol.code[:] = sol.code_of(first.sig)
-    return rows, sol
+    return rows, sol, R
 
 
 def solve_rows_tracked(tracer: Tracer, path: Path, rows: Rows, g: Grid) -> RowSolution:
@@ -157,12 +158,42 @@ def _progress(total: int, enabled: bool | None):
 # ============================================================================= public API
 
 
+def _plain_value(ck, kind, v):
+    """``input_value(ck, v, reduce=False)`` of a plain finite ``int``/``float``, without the unit
+    parser (the sweep's front end runs per call); None for anything else (the parser decides)."""
+    tv = type(v)
+    if tv is not float and tv is not int:
+        return None
+    try:
+        x = float(v)
+    except OverflowError:
+        return None
+    if kind is Kind.ANGLE:
+        x = x * _angle_factor(ck.mechanism.units.angle)
+    elif kind is not Kind.LENGTH or not abs(x) <= MAX_MAGNITUDE:
+        return None
+    return x if math.isfinite(x) else None
+
+
+def _angle_factor(unit: str) -> float:
+    f = _ANGLE_FACTORS.get(unit)
+    if f is None:
+        from ..model.units import angle_factor
+
+        f = _ANGLE_FACTORS[unit] = angle_factor(unit)
+    return f
+
+
+_ANGLE_FACTORS: dict = {}
+
+
 def _parse_range(ck, start, stop, step):
 
     name = ck.inputs[0]
     kind = ck.kinds[ck.index(name)]
     # sweep bounds and steps are never reduced modulo a turn (that would silently move the range)
-    x0, x1 = (input_value(ck, v, name, reduce=False) for v in (start, stop))
+    x0, x1 = (x if (x := _plain_value(ck, kind, v)) is not None else input_value(ck, v, name, reduce=False)
+              for v in (start, stop))
     if isinstance(step, str):
         h = input_value(ck, step, name, reduce=False)
     elif kind is Kind.ANGLE:
@@ -321,7 +352,7 @@ def sweep(mech, start, stop, step, *, speed=None, accel=None, jerk=None, input: 
     g = _make_grid(x0, x1, h, kind, through_limits, deg, max_rows=max_rows)
     x0 = g.value(0)  # start exactly on the first grid value (the two may differ by an ulp)
     rates = input_rates(ck, speed, accel, jerk)
-    kern = Kernel(ck)
+    kern = kernel_of(ck)
     lane = numbakin.fast_lane(kern, lazy=method != "batched") if fast else None
     started = lane.start(x0, mode=mode, guess=guess, settings=settings) if lane is not None else None
     z0, _, _ = started or start_position(ck, x0, mode=mode, guess=guess, settings=settings)
@@ -341,12 +372,14 @@ def sweep(mech, start, stop, step, *, speed=None, accel=None, jerk=None, input: 
     try:
         tracer = Tracer(kern, g, control, land=not use_batch, through_limits=through_limits, x_start=x0,
                          bar=None if use_batch else bar)
+        fused = None  # the rows' rates, computed in the fast lane's step loop
         if lane is not None:
             lane.lazy = not use_batch
+            lane.want_rates(rates, derivatives)
             tracer.fast = lane
         path = tracer.trace(first)
         if tracer.fast is not None and tracer.fast.whole is not None:  # traced whole by the fast lane
-            rows, sol = _whole_rows(tracer.fast, first, g, kern.nv)
+            rows, sol, fused = _whole_rows(tracer.fast, first, g, kern.nv)
         elif use_batch:
             rows = _enumerate_rows(kern, path, g)
             sol = batch.solve_rows(tracer, path, rows, g)
@@ -374,7 +407,9 @@ def sweep(mech, start, stop, step, *, speed=None, accel=None, jerk=None, input: 
         missing = ~(sol.J_ok if every else sol.J_ok[ok])
         if missing.any():
             J[:, missing] = ck.module.jac_v(Z[:, missing], ck.p).reshape(J.shape[0], -1)
-    if lane is not None and J is None:  # the same rates, compiled
+    if fused is not None and every and J is None:  # computed at each node in the step loop
+        Z1, Z2, Z3, cond = lane.whole_rates(fused, rates)
+    elif lane is not None and J is None:  # the same rates, compiled
         Z1, Z2, Z3, cond = lane.rates(Z, rates, derivatives)
     else:
         Z1, Z2, Z3, cond = batch.rates_v(ck, Z, rates, J=J, derivatives=derivatives)
