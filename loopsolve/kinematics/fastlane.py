@@ -35,6 +35,7 @@ from __future__ import annotations
 
 import inspect
 import math
+import weakref
 
 import numpy as np
 
@@ -156,26 +157,30 @@ def step2(az, at, has_prev, pt, xp, h, near, land, p, ex, f, iv, bz, out, rr):
     bz[i1] = p1
     tiny = f[18] * (1.0 + abs(p0) * w0 + abs(p1) * w1)
     prev = 0.0
-    f0, f1 = phi(bz, p)  # noqa: F821 - the model's, in the generated module
-    A = B = C = D = det = 0.0
+    # the unknowns in registers, the node as a tuple (zset): bz is not written in the corrector,
+    # so the input's sines are computed once, and Φ and Φ_q at one point share theirs
+    u0, u1 = p0, p1
+    zt = zset(bz, u0, u1)  # noqa: F821 - the model's helpers and functions, in the generated module
+    f0, f1 = phi(zt, p)  # noqa: F821
+    A, B, C, D = jac(zt, p)  # noqa: F821 - the first iteration's
+    det = 0.0
+    b0 = b1 = 0.0
     it = 0
     converged = False
     for it in range(1, iv[3] + 1):
-        A, B, C, D = jac(bz, p)  # noqa: F821
         det = A * D - B * C
         if det == 0:
             return False, at_bound, gidx, it
         s0 = (B * f1 - D * f0) / det
         s1 = (C * f0 - A * f1) / det
-        bz[i0] += s0
-        bz[i1] += s1
+        u0 += s0
+        u1 += s1
         st = max(abs(s0) * w0, abs(s1) * w1)
-        # the node's values as a tuple (no memory between Φ here and the rates below: LLVM
-        # computes the sines and cosines of the node's angles once for both)
-        zt = ztuple(bz)  # noqa: F821
+        zt = zset(bz, u0, u1)  # noqa: F821
         f0, f1 = phi(zt, p)  # noqa: F821
         if st <= tiny or (prev != 0.0 and st * (st / prev) ** 2 <= tiny):
             converged = True
+            b0, b1 = rhs1(zt, ex, p)  # noqa: F821 - the tangent's right-hand side at the node
             if rr[3] > 0:  # the rows' rates at the node, fused (node_rates, as rates2 does)
                 out[10], out[11], out[12], out[13], out[14], out[15], out[16] = node_rates(
                     zt, p, i0, i1, ix, rr[0], rr[1], rr[2], rr[3], rr[4])
@@ -183,6 +188,9 @@ def step2(az, at, has_prev, pt, xp, h, near, land, p, ex, f, iv, bz, out, rr):
         if not st < math.inf:
             return False, at_bound, gidx, it
         prev = st
+        A, B, C, D = jac(zt, p)  # noqa: F821 - the next iteration's, at the point of this Φ
+    bz[i0] = u0
+    bz[i1] = u1
     if not converged:
         return False, at_bound, gidx, it
     res = max(abs(f0), abs(f1))
@@ -192,7 +200,6 @@ def step2(az, at, has_prev, pt, xp, h, near, land, p, ex, f, iv, bz, out, rr):
     nr = 0.5 * ((A * A + C * C) * cs0 * cs0 + (B * B + D * D) * cs1 * cs1)
     if not abs(det) * cs0 * cs1 >= near * nr:
         return False, at_bound, gidx, it
-    b0, b1 = rhs1(bz, ex, p)  # noqa: F821
     n0 = (D * b0 - B * b1) / det * w0 * d
     n1 = (A * b1 - C * b0) / det * w1 * d
     nx = wx * d
@@ -354,17 +361,16 @@ def node_rates(zt, p, i0, i1, ix, r1, r2, r3, derivatives, singular_cond):
     s2 = adet / s1
     cond = s1 / s2 if s2 > 0 else math.inf
     det = A * D - B * C
-    b0, b1 = rhs1(zt, rvec(ix, r1, i0, 0.0, i1, 0.0), p)  # noqa: F821
+    b0, b1 = rhs1(zt, rvec(r1, 0.0, 0.0), p)  # noqa: F821
     v0 = (D * b0 - B * b1) / det
     v1 = (A * b1 - C * b0) / det
     a0 = a1 = j0 = j1 = math.nan
     if derivatives >= 2:
-        b0, b1 = rhs2(zt, rvec(ix, r1, i0, v0, i1, v1), rvec(ix, r2, i0, 0.0, i1, 0.0), p)  # noqa: F821
+        b0, b1 = rhs2(zt, rvec(r1, v0, v1), rvec(r2, 0.0, 0.0), p)  # noqa: F821
         a0 = (D * b0 - B * b1) / det
         a1 = (A * b1 - C * b0) / det
         if derivatives >= 3:
-            b0, b1 = rhs3(zt, rvec(ix, r1, i0, v0, i1, v1), rvec(ix, r2, i0, a0, i1, a1),  # noqa: F821
-                          rvec(ix, r3, i0, 0.0, i1, 0.0), p)  # noqa: F821
+            b0, b1 = rhs3(zt, rvec(r1, v0, v1), rvec(r2, a0, a1), rvec(r3, 0.0, 0.0), p)  # noqa: F821
             j0 = (D * b0 - B * b1) / det
             j1 = (A * b1 - C * b0) / det
     if not cond <= singular_cond:
@@ -436,6 +442,8 @@ def _compiled(fn, lane, *args):
         return None
 
 
+#: the start's guess pose at input 0, whether the pose follows the input, and the initial z, per kernel
+_GUESSES: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()
 #: ``rr`` of run2 when no rates are wanted
 _NO_RATES = np.zeros(5)  # (writable: numba compiles read-only arrays separately)
 
@@ -516,10 +524,24 @@ class FastLane:
             return None
         ck, k = self.k.ck, self.k
         settings = settings if settings is not None else Newton()
-        zg = guess_pose(ck, x, guess=guess)
+        if guess is None:  # the model's own guesses: the same for every call (per kernel)
+            base = _GUESSES.get(k)
+            if base is None:
+                g0 = guess_pose(ck, 0.0)
+                follows = g0 is not None and not np.array_equal(g0, guess_pose(ck, 1.0))
+                base = _GUESSES[k] = (g0, follows, initial_z(ck, warn=False))
+            g0, follows, z0 = base
+            if g0 is None:
+                return None
+            zg = g0.copy()
+            if follows:  # the input has no guess of its own: the pose is at x
+                zg[k.ix] = x
+            z = z0.copy()
+        else:
+            zg = guess_pose(ck, x, guess=guess)
+            z = initial_z(ck, guess=guess, warn=False)
         if zg is None or not np.all(np.isfinite(zg)):
             return None
-        z = initial_z(ck, guess=guess, warn=False)
         z[k.ix] = x
         out = _compiled(self.start_run, self, zg, z, self.p, k.iu[0], k.iu[1], settings.atol * ck.scale,
                         settings.rtol, settings.max_iter)
@@ -632,10 +654,11 @@ class FastLane:
             ks, Z, r, its, node = oi[on, 0], oz[on].T, res[on], oi[on, 1], on + 1
             if orr is not None:
                 R = orr[np.concatenate(([0], on + 1))] if first.grid is not None else orr[on + 1]
-        if first.grid is not None:
-            ks = np.concatenate(([first.grid], ks))
-            Z = np.concatenate((np.asarray(first.z, dtype=float)[:, None], Z), axis=1)
-            r = np.concatenate(([first.residual], r))
-            its = np.concatenate(([first.n_iter], its))
-            node = np.concatenate(([0], node))
-        return ks, node, np.ascontiguousarray(Z), r, its, R
+        if first.grid is None:
+            return ks, node, np.ascontiguousarray(Z), r, its, R
+        n = len(ks) + 1
+        ks1, node1, Z1, r1, its1 = (np.empty(n, dtype=np.int64), np.empty(n, dtype=np.int64), np.empty((Z.shape[0], n)),
+                                    np.empty(n), np.empty(n, dtype=np.int64))
+        ks1[0], node1[0], Z1[:, 0], r1[0], its1[0] = first.grid, 0, first.z, first.residual, first.n_iter
+        ks1[1:], node1[1:], Z1[:, 1:], r1[1:], its1[1:] = ks, node, Z, r, its
+        return ks1, node1, Z1, r1, its1, R

@@ -25,8 +25,8 @@ from ..errors import AssemblyError, ConvergenceError, ModelError, SingularPositi
 from .kernel import kernel_of
 from .newton import Newton
 from .results import Event, EventKind, Sweep
-from .solve import _input_unit, display_value, initial_z, input_rates, input_value, start_position
-from ..model.units import MAX_MAGNITUDE, Kind
+from .solve import _input_unit, display_value, initial_z, input_rates, input_value, plain_value, start_position
+from ..model.units import Kind
 
 __all__ = ["StepControl", "sweep", "grid", "reachable_ranges", "default_range", "nearest_assemblable",
            "assembly_failure", "AUTO_BATCH"]
@@ -158,41 +158,12 @@ def _progress(total: int, enabled: bool | None):
 # ============================================================================= public API
 
 
-def _plain_value(ck, kind, v):
-    """``input_value(ck, v, reduce=False)`` of a plain finite ``int``/``float``, without the unit
-    parser (the sweep's front end runs per call); None for anything else (the parser decides)."""
-    tv = type(v)
-    if tv is not float and tv is not int:
-        return None
-    try:
-        x = float(v)
-    except OverflowError:
-        return None
-    if kind is Kind.ANGLE:
-        x = x * _angle_factor(ck.mechanism.units.angle)
-    elif kind is not Kind.LENGTH or not abs(x) <= MAX_MAGNITUDE:
-        return None
-    return x if math.isfinite(x) else None
-
-
-def _angle_factor(unit: str) -> float:
-    f = _ANGLE_FACTORS.get(unit)
-    if f is None:
-        from ..model.units import angle_factor
-
-        f = _ANGLE_FACTORS[unit] = angle_factor(unit)
-    return f
-
-
-_ANGLE_FACTORS: dict = {}
-
-
 def _parse_range(ck, start, stop, step):
 
     name = ck.inputs[0]
     kind = ck.kinds[ck.index(name)]
     # sweep bounds and steps are never reduced modulo a turn (that would silently move the range)
-    x0, x1 = (x if (x := _plain_value(ck, kind, v)) is not None else input_value(ck, v, name, reduce=False)
+    x0, x1 = (x if (x := plain_value(ck, v, kind)) is not None else input_value(ck, v, name, reduce=False)
               for v in (start, stop))
     if isinstance(step, str):
         h = input_value(ck, step, name, reduce=False)
