@@ -39,7 +39,13 @@ import weakref
 
 import numpy as np
 
+from ..errors import warn
+from ..model.units import Kind
+from .batch import SINGULAR_COND, rates_v
+from .continuation import _NEAR_SINGULAR, _RHO_TOUCH, _TRUST, Node
 from .kernel import ROUNDOFF
+from .newton import Newton
+from .solve import guess_pose, initial_z
 
 __all__ = ["FastLane", "TEMPLATE_FUNCTIONS", "IRREGULAR", "END", "ARC", "FULL", "NOGRID"]
 
@@ -433,8 +439,6 @@ def _compiled(fn, lane, *args):
     except Exception as exc:
         if not type(exc).__module__.startswith("numba"):
             raise
-        from ..errors import warn
-
         lane.failed = True
         warn(f"{lane.k.ck.mechanism.source or lane.k.ck.mechanism.name}: numba could not compile this model's "
              f"fast lane ({type(exc).__name__}: {str(exc).splitlines()[0] if str(exc) else ''}); the Python "
@@ -475,8 +479,6 @@ class FastLane:
 
     def want_rates(self, rates, derivatives: int) -> None:
         """Ask for the rows' rates of a path traced whole (input speed, acceleration, jerk)."""
-        from .batch import SINGULAR_COND
-
         self.rr = np.array([float(rates[0]), float(rates[1]), float(rates[2]), float(int(derivatives)),
                             SINGULAR_COND])
 
@@ -493,8 +495,6 @@ class FastLane:
 
     def rates(self, Z, rates, derivatives: int = 3):
         """:func:`loopsolve.kinematics.batch.rates_v` (without known Jacobians), compiled: ``Z1, Z2, Z3, cond``."""
-        from .batch import SINGULAR_COND
-
         k = self.k
         nv, n = Z.shape
         Z1, Z2, Z3 = np.empty((nv, n)), np.empty((nv, n)), np.empty((nv, n))
@@ -502,8 +502,6 @@ class FastLane:
         if _compiled(self.rates_run, self, np.ascontiguousarray(Z, dtype=float), float(rates[0]), float(rates[1]),
                      float(rates[2]), self.p, k.iu[0], k.iu[1], k.ix, int(derivatives), SINGULAR_COND, Z1, Z2, Z3,
                      cond) is None and self.failed:
-            from .batch import rates_v
-
             return rates_v(k.ck, Z, rates, derivatives=derivatives)
         return Z1, Z2, Z3, cond
 
@@ -516,10 +514,6 @@ class FastLane:
         (:mod:`loopsolve.kinematics.newton`), compiled. None for everything else: the caller then runs
         ``start_position``, which decides (other modes, warnings, errors) as always.
         """
-        from .newton import Newton
-        from .solve import guess_pose, initial_z
-        from ..model.units import Kind
-
         if mode is not None:
             return None
         ck, k = self.k.ck, self.k
@@ -555,8 +549,6 @@ class FastLane:
         return z, float(res), int(it)
 
     def _config(self, tracer, closing: bool, start_sig: str):
-        from .continuation import _NEAR_SINGULAR, _RHO_TOUCH, _TRUST
-
         k, c, g = self.k, tracer.c, tracer.g
         f = np.empty(F_SIZE)
         f[F_TOL], f[F_W0], f[F_W1], f[F_WX] = k.tol, k.wu[0], k.wu[1], k.wx
@@ -578,8 +570,6 @@ class FastLane:
         node and whether the next step is natural, as the Python loop would have them after the
         same steps, and ``stop`` when the range end was reached.
         """
-        from .continuation import Node
-
         k = self.k
         nodes, seg_sig = path.nodes, path.seg_sig
         f, iv = self._config(tracer, tracer.through and folds > 0, start_sig)

@@ -368,8 +368,10 @@ def sweep(mech, start, stop, step, *, speed=None, accel=None, jerk=None, input: 
     ok = sol.ok
     every = bool(ok.all())
     ix = ck.input_idx[0]
-    key = np.where(rows.node >= 0, rows.node, rows.seg + 0.5)  # position of each row along the path
-    key = key if every else key[ok]
+    key = None  # position of each row along the path (for the limit rows)
+    if limit_rows:
+        key = np.where(rows.node >= 0, rows.node, rows.seg + 0.5)
+        key = key if every else key[ok]
     Z = sol.Z if every else sol.Z[:, ok]
     Z[ix] = rows.x if every else rows.x[ok]
     J = None
@@ -393,7 +395,8 @@ def sweep(mech, start, stop, step, *, speed=None, accel=None, jerk=None, input: 
                                 "row left out"))
         keep = ~bad
         Z, Z1, Z2, Z3, cond = Z[:, keep], Z1[:, keep], Z2[:, keep], Z3[:, keep], cond[keep]
-        code, res, its, key = code[keep], res[keep], its[keep], key[keep]
+        code, res, its = code[keep], res[keep], its[keep]
+        key = key[keep] if key is not None else None
     if limit_rows:
         Z, Z1, Z2, Z3, cond, code, res, its = _insert_limit_rows(ck, path, sol, key, rates, Z, Z1, Z2, Z3, cond,
                                                                 code, res, its)

@@ -205,3 +205,52 @@ def test_engines_agree_when_the_input_is_not_the_first_variable():
     assert len(nb) == len(py) == 61
     for q in ("z", "z1", "z2", "z3"):
         _same(getattr(nb, q), getattr(py, q), 1e-12)
+
+
+def test_the_structure_key_is_kept_per_live_mechanism_and_per_inputs():
+    """compile() hashes the declaration once per mechanism and choice of inputs (every mech.sweep calls it)."""
+    import gc
+    import pickle
+
+    from loopsolve.symbolic import compiled
+
+    mech = ls.fourbar(60, 25, 70, 45)
+    k2 = compiled.structure_key(mech, ("theta2",))
+    assert k2 == compiled._structure_key(mech, ("theta2",))
+    assert compiled.structure_key(mech, ("theta2",)) == k2
+    k4 = compiled.structure_key(mech, ("theta4",))
+    assert k4 != k2 and k4 == compiled._structure_key(mech, ("theta4",))
+    other = mech.with_parameters(r2=20)  # the same structure: the same generated code
+    assert compiled.structure_key(other, ("theta2",)) == k2
+    assert mech.compile().module is other.compile().module and other.compile().p[1] == 20.0
+    slider = ls.load(ls.models_dir() / "prob2_offset_slider_crank.toml")
+    assert compiled.structure_key(slider, slider.inputs) != k2
+    copy = pickle.loads(pickle.dumps(mech))  # the memo is not part of the object
+    assert "_structure_keys" not in vars(copy) and compiled.structure_key(copy, ("theta2",)) == k2
+    n = len(compiled._KEYS)
+    del other, copy
+    gc.collect()
+    assert len(compiled._KEYS) <= n - 2  # dead mechanisms leave the memo
+
+
+def test_kernels_are_reused_per_mechanism_and_do_not_keep_a_study_alive():
+    import gc
+    import weakref
+
+    from loopsolve.kinematics import kernel
+
+    mech = ls.fourbar(60, 25, 70, 45)
+    a, b = mech.compile(), mech.compile()  # equal compiled models of one mechanism
+    assert a is not b and kernel_of(a) is kernel_of(b)
+    assert kernel_of(mech.with_parameters(r2=20).compile()) is not kernel_of(a)
+    refs = []
+    for r2 in np.linspace(20, 26, kernel._KERNELS_MAX + 4):
+        m = mech.with_parameters(r2=float(r2))
+        refs.append(weakref.ref(m))
+        sw = m.sweep(0, 40, 10, engine="numba", progress=False)
+        t3, t4 = C.fourbar_position(60, float(r2), 70, 45, np.radians(sw["theta2"]), 1)
+        assert np.max(np.abs(_wrap(sw.z[:, sw.compiled.index("theta4")] - t4))) < 1e-10
+    del m, sw
+    gc.collect()
+    assert len(kernel._KERNELS) <= kernel._KERNELS_MAX
+    assert sum(r() is not None for r in refs) <= kernel._KERNELS_MAX  # the others were freed
