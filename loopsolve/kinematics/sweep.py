@@ -400,10 +400,14 @@ def sweep(mech, start, stop, step, *, speed=None, accel=None, jerk=None, input: 
     if limit_rows:
         Z, Z1, Z2, Z3, cond, code, res, its = _insert_limit_rows(ck, path, sol, key, rates, Z, Z1, Z2, Z3, cond,
                                                                 code, res, its)
-    names = np.empty(len(sol.sigs), dtype=object)
-    names[:] = sol.sigs
+    if len(sol.sigs) == 1:  # one mode on every row (codes are 0): no object array
+        modes = (sol.sigs[0],) * len(code)
+    else:
+        names = np.empty(len(sol.sigs), dtype=object)
+        names[:] = sol.sigs
+        modes = tuple(names[code])
     _announce_stop(ck, path.events, through_limits)
-    return Sweep.from_arrays(ck, Z.T, Z1.T, Z2.T, Z3.T, modes=tuple(names[code]), residual=res, n_iter=its,
+    return Sweep.from_arrays(ck, Z.T, Z1.T, Z2.T, Z3.T, modes=modes, residual=res, n_iter=its,
                              cond=cond, events=tuple(events), mode=first.sig,
                              method="batched" if use_batch else "tracked", copy=False)
 
