@@ -12,6 +12,7 @@
 
 from __future__ import annotations
 
+import importlib.util
 import math
 
 import numpy as np
@@ -24,7 +25,8 @@ from loopsolve.kinematics.kernel import kernel_of
 from loopsolve.kinematics.solve import plain_value
 from loopsolve.model.units import Kind, parse_quantity
 
-numba = pytest.importorskip("numba")
+#: the tests that sweep with the compiled engine (the others hold without numba)
+needs_numba = pytest.mark.skipif(importlib.util.find_spec("numba") is None, reason="numba is not installed")
 
 MODEL = ls.models_dir() / "thesis_crank_rocker.toml"
 
@@ -84,6 +86,7 @@ def _check_closed_form(sw, r, mode_sign, om, al, tol=1e-12):
         assert np.max(np.abs(got - ref)) <= tol * (1 + np.max(np.abs(ref)))
 
 
+@needs_numba
 @pytest.mark.parametrize("mode,derivatives", [("open", 2), ("crossed", 3), ("open", 1)])
 def test_rates_from_the_step_loop_equal_rates_v_and_the_closed_form(mode, derivatives, fused):
     om, al, jk = 3.0, -2.0, 0.7
@@ -110,6 +113,7 @@ def test_rates_from_the_step_loop_equal_rates_v_and_the_closed_form(mode, deriva
         _same(getattr(sw, q), getattr(py, q), 1e-12)
 
 
+@needs_numba
 def test_a_path_with_a_limit_takes_the_rates_pass_and_agrees_with_python(fused):
     mech = ls.fourbar(4, 3, 3.5, 5)  # a limit at 341.43 deg
     nb = mech.sweep(300, 360, 1, engine="numba", progress=False, derivatives=3, speed=2.0, accel=1.0,
@@ -122,6 +126,7 @@ def test_a_path_with_a_limit_takes_the_rates_pass_and_agrees_with_python(fused):
         _same(getattr(nb, q), getattr(py, q), 1e-12)
 
 
+@needs_numba
 def test_with_parameters_and_a_changed_p_never_reuse_a_stale_front_end():
     mech = ls.load(MODEL)
     om = math.radians(60.0)  # 10 rpm in rad/s, the model's speed
@@ -146,6 +151,7 @@ def test_with_parameters_and_a_changed_p_never_reuse_a_stale_front_end():
     _check_closed_form(sw, (60, 20, 70, 45), 1, om, 0.0)
 
 
+@needs_numba
 @pytest.mark.parametrize("start", [0.0, 90, 200.5])
 def test_the_start_follows_the_start_value(start):
     """The start's guess pose is kept per model; the start itself is solved at each call's value."""
@@ -177,6 +183,7 @@ def test_plain_numbers_skip_the_parser_with_its_values(kind, units):
         assert plain_value(ck, 1e101, kind) is None  # beyond MAX_MAGNITUDE: the parser's error
 
 
+@needs_numba
 def test_plain_and_unit_bounds_give_the_same_sweep():
     mech = ls.load(MODEL)
     a = mech.sweep(10, 100, 2, engine="numba", progress=False, speed=2.0, accel=0.5)
@@ -194,6 +201,7 @@ def test_the_tuple_helpers_put_each_value_where_the_model_has_it():
     assert ns["rvec"](7.0, -1.0, -2.0) == (0.0, -2.0, 0.0, -1.0, 7.0)
 
 
+@needs_numba
 def test_engines_agree_when_the_input_is_not_the_first_variable():
     """Driving the rocker (input theta4, unknowns theta2 and theta3): other compile-time indices."""
     mech = ls.fourbar(60, 25, 70, 45)
@@ -233,6 +241,7 @@ def test_the_structure_key_is_kept_per_live_mechanism_and_per_inputs():
     assert len(compiled._KEYS) <= n - 2  # dead mechanisms leave the memo
 
 
+@needs_numba
 def test_kernels_are_reused_per_mechanism_and_do_not_keep_a_study_alive():
     import gc
     import weakref
