@@ -263,3 +263,21 @@ def test_kernels_are_reused_per_mechanism_and_do_not_keep_a_study_alive():
     gc.collect()
     assert len(kernel._KERNELS) <= kernel._KERNELS_MAX
     assert sum(r() is not None for r in refs) <= kernel._KERNELS_MAX  # the others were freed
+
+
+@needs_numba
+@pytest.mark.parametrize("step", [30, 7.5])
+def test_rates_of_rows_between_nodes_without_a_grid_value(step, fused):
+    """A coarse output grid: the step loop takes nodes between rows; the rows' rates are those of
+    their own nodes (not of the nodes in between), as rates_v and the closed form have them."""
+    om, al = 2.0, 0.3
+    mech = ls.fourbar(60, 25, 70, 45)
+    sw = mech.sweep(0, 360, step, method="tracked", engine="numba", progress=False, speed=om, accel=al,
+                    derivatives=3, jerk=0.1)
+    assert fused == {"fused": 1, "pass": 0} and len(sw) == round(360 / step) + 1
+    np.testing.assert_allclose(sw["theta2"], np.arange(len(sw)) * step, rtol=0, atol=1e-12)
+    z1, z2, z3, _ = batch.rates_v(sw.compiled, np.ascontiguousarray(sw.z.T), (om, al, 0.1), derivatives=3)
+    _same(sw.z1, z1.T, 1e-12)
+    _same(sw.z2, z2.T, 1e-12)
+    _same(sw.z3, z3.T, 1e-12)
+    _check_closed_form(sw, (60, 25, 70, 45), 1, om, al)
