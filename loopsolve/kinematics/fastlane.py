@@ -35,10 +35,17 @@ from __future__ import annotations
 
 import inspect
 import math
+import weakref
 
 import numpy as np
 
+from ..errors import warn
+from ..model.units import Kind
+from .batch import SINGULAR_COND, rates_v
+from .continuation import _NEAR_SINGULAR, _RHO_TOUCH, _TRUST, Node
 from .kernel import ROUNDOFF
+from .newton import Newton
+from .solve import guess_pose, initial_z
 
 __all__ = ["FastLane", "TEMPLATE_FUNCTIONS", "IRREGULAR", "END", "ARC", "FULL", "NOGRID"]
 
@@ -125,9 +132,10 @@ def rho_2x3(a0, a1, a2, b0, b1, b2):
     return math.sqrt(max(det / lmax, 0.0) / lmax)
 
 
-def step2(az, at, has_prev, pt, xp, h, near, land, p, ex, f, iv, bz, out):
+def step2(az, at, has_prev, pt, xp, h, near, land, p, ex, f, iv, bz, out, rr):
     """One natural step from node (az, at); the node in bz and out = (t0, t1, tx, res, rho,
-    A, B, C, D, det). Returns (ok, at_bound, gidx, n_iter)."""
+    A, B, C, D, det, and with rr[3] > 0 the node's rates: u0', u1', u0'', u1'', u0''', u1''', cond).
+    Returns (ok, at_bound, gidx, n_iter)."""
     i0, i1, ix = iv[0], iv[1], iv[2]
     w0, w1, wx = f[1], f[2], f[3]
     t0, t1, tx = at[0], at[1], at[2]
@@ -155,27 +163,40 @@ def step2(az, at, has_prev, pt, xp, h, near, land, p, ex, f, iv, bz, out):
     bz[i1] = p1
     tiny = f[18] * (1.0 + abs(p0) * w0 + abs(p1) * w1)
     prev = 0.0
-    f0, f1 = phi(bz, p)  # noqa: F821 - the model's, in the generated module
-    A = B = C = D = det = 0.0
+    # the unknowns in registers, the node as a tuple (zset): bz is not written in the corrector,
+    # so the input's sines are computed once, and Φ and Φ_q at one point share theirs
+    u0, u1 = p0, p1
+    zt = zset(bz, u0, u1)  # noqa: F821 - the model's helpers and functions, in the generated module
+    f0, f1 = phi(zt, p)  # noqa: F821
+    A, B, C, D = jac(zt, p)  # noqa: F821 - the first iteration's
+    det = 0.0
+    b0 = b1 = 0.0
     it = 0
     converged = False
     for it in range(1, iv[3] + 1):
-        A, B, C, D = jac(bz, p)  # noqa: F821
         det = A * D - B * C
         if det == 0:
             return False, at_bound, gidx, it
         s0 = (B * f1 - D * f0) / det
         s1 = (C * f0 - A * f1) / det
-        bz[i0] += s0
-        bz[i1] += s1
+        u0 += s0
+        u1 += s1
         st = max(abs(s0) * w0, abs(s1) * w1)
-        f0, f1 = phi(bz, p)  # noqa: F821
+        zt = zset(bz, u0, u1)  # noqa: F821
+        f0, f1 = phi(zt, p)  # noqa: F821
         if st <= tiny or (prev != 0.0 and st * (st / prev) ** 2 <= tiny):
             converged = True
+            b0, b1 = rhs1(zt, ex, p)  # noqa: F821 - the tangent's right-hand side at the node
+            if rr[3] > 0:  # the rows' rates at the node, fused (node_rates, as rates2 does)
+                out[10], out[11], out[12], out[13], out[14], out[15], out[16] = node_rates(
+                    zt, p, i0, i1, ix, rr[0], rr[1], rr[2], rr[3], rr[4])
             break
         if not st < math.inf:
             return False, at_bound, gidx, it
         prev = st
+        A, B, C, D = jac(zt, p)  # noqa: F821 - the next iteration's, at the point of this Φ
+    bz[i0] = u0
+    bz[i1] = u1
     if not converged:
         return False, at_bound, gidx, it
     res = max(abs(f0), abs(f1))
@@ -185,7 +206,6 @@ def step2(az, at, has_prev, pt, xp, h, near, land, p, ex, f, iv, bz, out):
     nr = 0.5 * ((A * A + C * C) * cs0 * cs0 + (B * B + D * D) * cs1 * cs1)
     if not abs(det) * cs0 * cs1 >= near * nr:
         return False, at_bound, gidx, it
-    b0, b1 = rhs1(bz, ex, p)  # noqa: F821
     n0 = (D * b0 - B * b1) / det * w0 * d
     n1 = (A * b1 - C * b0) / det * w1 * d
     nx = wx * d
@@ -204,16 +224,22 @@ def step2(az, at, has_prev, pt, xp, h, near, land, p, ex, f, iv, bz, out):
     return True, at_bound, gidx, it
 
 
-def run2(z, t, sig, rho, has_prev, pt, xp, h, p, ex, f, iv, oz, ot, oj, of, oi):
+def run2(z, t, sig, rho, has_prev, pt, xp, h, p, ex, f, iv, oz, ot, oj, of, oi, rr, orr):
     """Regular natural steps from the node (z, t, sig, rho) until one is not regular or the
-    output (oz, ot, oj, of, oi) is full. Returns (count, status, h)."""
+    output (oz, ot, oj, of, oi) is full. Returns (count, status, h).
+
+    With ``rr[3] > 0`` (rr = input speed, acceleration, jerk, derivatives, singular_cond) also
+    the rates of each node (``orr[1 + k]``) and of the start node (``orr[0]``), as rates2."""
     nv = z.shape[0]
     az = z.copy()
     at = t.copy()
     pt = pt.copy()
     bz = np.empty(nv)
-    out = np.empty(10)
+    out = np.empty(17)
     ix = iv[2]
+    if rr[3] > 0:
+        orr[0, 0], orr[0, 1], orr[0, 2], orr[0, 3], orr[0, 4], orr[0, 5], orr[0, 6] = node_rates(
+            ztuple(z), p, iv[0], iv[1], ix, rr[0], rr[1], rr[2], rr[3], rr[4])
     closing = iv[8] != 0
     start_sig = iv[9]
     cap = oz.shape[0]
@@ -223,7 +249,7 @@ def run2(z, t, sig, rho, has_prev, pt, xp, h, p, ex, f, iv, oz, ot, oj, of, oi):
             return count, 0, h
         h = min(h, max(f[9] * rho, f[7] * 1e3))  # F_TRUST, F_MIN_STEP
         near = min(f[11], 0.01 * rho * h)  # F_NEAR
-        ok, at_bound, gidx, it = step2(az, at, has_prev, pt, xp, h, near, iv[4] != 0, p, ex, f, iv, bz, out)
+        ok, at_bound, gidx, it = step2(az, at, has_prev, pt, xp, h, near, iv[4] != 0, p, ex, f, iv, bz, out, rr)
         if not ok:
             return count, 0, h
         t0, t1, tx = out[0], out[1], out[2]
@@ -241,6 +267,9 @@ def run2(z, t, sig, rho, has_prev, pt, xp, h, p, ex, f, iv, oz, ot, oj, of, oi):
         oj[count, 0], oj[count, 1], oj[count, 2], oj[count, 3] = out[5], out[6], out[7], out[8]
         of[count, 0], of[count, 1] = out[3], out[4]
         oi[count, 0], oi[count, 1] = gidx, it
+        if rr[3] > 0:
+            for i in range(7):
+                orr[count + 1, i] = out[10 + i]
         count += 1
         if at_bound:
             return count, 1, h
@@ -326,49 +355,70 @@ def start2(zg, z, p, i0, i1, tol, rtol, max_iter):
     return 0, fn, max_iter
 
 
-def rates2(Z, r1, r2, r3, p, i0, i1, ix, derivatives, singular_cond, Z1, Z2, Z3, cond):
-    """loopsolve.kinematics.batch.rates_v for one 2×2 block, row by row: velocities, accelerations, jerks
-    (NaN beyond ``derivatives``) and the condition numbers; NaN rates where cond > singular_cond."""
-    nv, n = Z.shape
-    z = np.empty(nv)
+def node_rates(zt, p, i0, i1, ix, r1, r2, r3, derivatives, singular_cond):
+    """Rates of the unknowns at the node ``zt`` (a tuple): velocities, accelerations, jerks (NaN
+    beyond ``derivatives``, all NaN where cond > singular_cond) and the condition number of Φ_q.
+    Inlined (in step2 after the corrector's last Φ: the sines and cosines are shared)."""
+    A, B, C, D = jac(zt, p)  # noqa: F821
+    fro = A * A + B * B + C * C + D * D
+    adet = abs(A * D - B * C)
+    disc = math.sqrt(max(fro * fro - 4 * adet * adet, 0.0))
+    s1 = math.sqrt((fro + disc) / 2)
+    s2 = adet / s1
+    cond = s1 / s2 if s2 > 0 else math.inf
+    det = A * D - B * C
+    b0, b1 = rhs1(zt, rvec(r1, 0.0, 0.0), p)  # noqa: F821
+    v0 = (D * b0 - B * b1) / det
+    v1 = (A * b1 - C * b0) / det
+    a0 = a1 = j0 = j1 = math.nan
+    if derivatives >= 2:
+        b0, b1 = rhs2(zt, rvec(r1, v0, v1), rvec(r2, 0.0, 0.0), p)  # noqa: F821
+        a0 = (D * b0 - B * b1) / det
+        a1 = (A * b1 - C * b0) / det
+        if derivatives >= 3:
+            b0, b1 = rhs3(zt, rvec(r1, v0, v1), rvec(r2, a0, a1), rvec(r3, 0.0, 0.0), p)  # noqa: F821
+            j0 = (D * b0 - B * b1) / det
+            j1 = (A * b1 - C * b0) / det
+    if not cond <= singular_cond:
+        v0 = v1 = a0 = a1 = j0 = j1 = math.nan
+    return v0, v1, a0, a1, j0, j1, cond
+
+
+def fill_rates(R, r1, r2, r3, i0, i1, ix, singular_cond, Z1, Z2, Z3, cond):
+    """Rows of rates (``Z1, Z2, Z3`` (nv, n), ``cond``) from node_rates' tuples ``R`` (n, 7), as rates2 has them."""
+    nv, n = Z1.shape
     for j in range(n):
         for i in range(nv):
-            z[i] = Z[i, j]
             Z1[i, j] = 0.0
             Z2[i, j] = 0.0
             Z3[i, j] = 0.0
         Z1[ix, j], Z2[ix, j], Z3[ix, j] = r1, r2, r3
-        A, B, C, D = jac(z, p)  # noqa: F821
-        fro = A * A + B * B + C * C + D * D
-        adet = abs(A * D - B * C)
-        disc = math.sqrt(max(fro * fro - 4 * adet * adet, 0.0))
-        s1 = math.sqrt((fro + disc) / 2)
-        s2 = adet / s1
-        cond[j] = s1 / s2 if s2 > 0 else math.inf
-        det = A * D - B * C
-        b0, b1 = rhs1(z, Z1[:, j], p)  # noqa: F821
-        Z1[i0, j] = (D * b0 - B * b1) / det
-        Z1[i1, j] = (A * b1 - C * b0) / det
-        if derivatives >= 2:
-            b0, b1 = rhs2(z, Z1[:, j], Z2[:, j], p)  # noqa: F821
-            Z2[i0, j] = (D * b0 - B * b1) / det
-            Z2[i1, j] = (A * b1 - C * b0) / det
-        else:
-            Z2[i0, j] = Z2[i1, j] = math.nan
-        if derivatives >= 3:
-            b0, b1 = rhs3(z, Z1[:, j], Z2[:, j], Z3[:, j], p)  # noqa: F821
-            Z3[i0, j] = (D * b0 - B * b1) / det
-            Z3[i1, j] = (A * b1 - C * b0) / det
-        else:
-            Z3[i0, j] = Z3[i1, j] = math.nan
-        if not cond[j] <= singular_cond:
+        Z1[i0, j], Z1[i1, j] = R[j, 0], R[j, 1]
+        Z2[i0, j], Z2[i1, j] = R[j, 2], R[j, 3]
+        Z3[i0, j], Z3[i1, j] = R[j, 4], R[j, 5]
+        cond[j] = R[j, 6]
+        if not R[j, 6] <= singular_cond:
             for i in range(nv):
                 Z1[i, j] = Z2[i, j] = Z3[i, j] = math.nan
             Z1[ix, j], Z2[ix, j], Z3[ix, j] = r1, r2, r3
 
 
+def rates2(Z, r1, r2, r3, p, i0, i1, ix, derivatives, singular_cond, Z1, Z2, Z3, cond):
+    """loopsolve.kinematics.batch.rates_v for one 2×2 block, row by row: velocities, accelerations, jerks
+    (NaN beyond ``derivatives``) and the condition numbers; NaN rates where cond > singular_cond."""
+    nv, n = Z.shape
+    R = np.empty((n, 7))
+    for j in range(n):
+        R[j, 0], R[j, 1], R[j, 2], R[j, 3], R[j, 4], R[j, 5], R[j, 6] = node_rates(
+            ztuple(Z[:, j]), p, i0, i1, ix, r1, r2, r3, derivatives, singular_cond)  # noqa: F821
+    fill_rates(R, r1, r2, r3, i0, i1, ix, singular_cond, Z1, Z2, Z3, cond)
+
+
 #: the template functions, in the order they are written into the generated module
-TEMPLATE_FUNCTIONS = (grid_value, grid_next_after, natural_target, rho_2x3, step2, run2, norm2, start2, rates2)
+TEMPLATE_FUNCTIONS = (grid_value, grid_next_after, natural_target, rho_2x3, node_rates, step2, run2, norm2, start2,
+                      fill_rates, rates2)
+#: the template functions inlined where they are called (so that LLVM shares their sines and cosines)
+TEMPLATE_INLINE = (node_rates,)
 
 
 def template_source() -> str:
@@ -389,13 +439,17 @@ def _compiled(fn, lane, *args):
     except Exception as exc:
         if not type(exc).__module__.startswith("numba"):
             raise
-        from ..errors import warn
-
         lane.failed = True
         warn(f"{lane.k.ck.mechanism.source or lane.k.ck.mechanism.name}: numba could not compile this model's "
              f"fast lane ({type(exc).__name__}: {str(exc).splitlines()[0] if str(exc) else ''}); the Python "
              "tracer is used")
         return None
+
+
+#: the start's guess pose at input 0, whether the pose follows the input, and the initial z, per kernel
+_GUESSES: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()
+#: ``rr`` of run2 when no rates are wanted
+_NO_RATES = np.zeros(5)  # (writable: numba compiles read-only arrays separately)
 
 
 class FastLane:
@@ -405,11 +459,15 @@ class FastLane:
     :meth:`Tracer.trace <loopsolve.kinematics.continuation.Tracer.trace>` calls on natural steps.
     """
 
-    def __init__(self, kern, run, *, lazy: bool = False, start=None, rates=None):
+    def __init__(self, kern, run, *, lazy: bool = False, start=None, rates=None, fill=None):
         self.k = kern
         self.run = run
         self.start_run = start
         self.rates_run = rates
+        self.fill_run = fill
+        #: the rows' input rates and derivatives (:meth:`want_rates`): a path traced whole then has its
+        #: rates computed at each node inside the step loop (``whole[3]``), as :meth:`rates` would
+        self.rr = _NO_RATES
         self.failed = False  # numba could not compile this model's lane: the Python path does the work
         self.p = np.asarray(kern.p, dtype=float)
         self.ex = np.asarray(kern.ex, dtype=float)
@@ -419,10 +477,24 @@ class FastLane:
         self.lazy = lazy
         self.whole = None
 
+    def want_rates(self, rates, derivatives: int) -> None:
+        """Ask for the rows' rates of a path traced whole (input speed, acceleration, jerk)."""
+        self.rr = np.array([float(rates[0]), float(rates[1]), float(rates[2]), float(int(derivatives)),
+                            SINGULAR_COND])
+
+    def whole_rates(self, R, rates):
+        """``Z1, Z2, Z3, cond`` of the rows of a path traced whole from their fused rates ``R`` (n, 7)
+        (:meth:`whole_rows`): the same arrays as :meth:`rates` of their positions."""
+        k = self.k
+        n = R.shape[0]
+        Z1, Z2, Z3 = np.empty((k.nv, n)), np.empty((k.nv, n)), np.empty((k.nv, n))
+        cond = np.empty(n)
+        self.fill_run(R, float(rates[0]), float(rates[1]), float(rates[2]), k.iu[0], k.iu[1], k.ix, self.rr[4],
+                      Z1, Z2, Z3, cond)
+        return Z1, Z2, Z3, cond
+
     def rates(self, Z, rates, derivatives: int = 3):
         """:func:`loopsolve.kinematics.batch.rates_v` (without known Jacobians), compiled: ``Z1, Z2, Z3, cond``."""
-        from .batch import SINGULAR_COND
-
         k = self.k
         nv, n = Z.shape
         Z1, Z2, Z3 = np.empty((nv, n)), np.empty((nv, n)), np.empty((nv, n))
@@ -430,8 +502,6 @@ class FastLane:
         if _compiled(self.rates_run, self, np.ascontiguousarray(Z, dtype=float), float(rates[0]), float(rates[1]),
                      float(rates[2]), self.p, k.iu[0], k.iu[1], k.ix, int(derivatives), SINGULAR_COND, Z1, Z2, Z3,
                      cond) is None and self.failed:
-            from .batch import rates_v
-
             return rates_v(k.ck, Z, rates, derivatives=derivatives)
         return Z1, Z2, Z3, cond
 
@@ -444,18 +514,28 @@ class FastLane:
         (:mod:`loopsolve.kinematics.newton`), compiled. None for everything else: the caller then runs
         ``start_position``, which decides (other modes, warnings, errors) as always.
         """
-        from .newton import Newton
-        from .solve import guess_pose, initial_z
-        from ..model.units import Kind
-
         if mode is not None:
             return None
         ck, k = self.k.ck, self.k
         settings = settings if settings is not None else Newton()
-        zg = guess_pose(ck, x, guess=guess)
+        if guess is None:  # the model's own guesses: the same for every call (per kernel)
+            base = _GUESSES.get(k)
+            if base is None:
+                g0 = guess_pose(ck, 0.0)
+                follows = g0 is not None and not np.array_equal(g0, guess_pose(ck, 1.0))
+                base = _GUESSES[k] = (g0, follows, initial_z(ck, warn=False))
+            g0, follows, z0 = base
+            if g0 is None:
+                return None
+            zg = g0.copy()
+            if follows:  # the input has no guess of its own: the pose is at x
+                zg[k.ix] = x
+            z = z0.copy()
+        else:
+            zg = guess_pose(ck, x, guess=guess)
+            z = initial_z(ck, guess=guess, warn=False)
         if zg is None or not np.all(np.isfinite(zg)):
             return None
-        z = initial_z(ck, guess=guess, warn=False)
         z[k.ix] = x
         out = _compiled(self.start_run, self, zg, z, self.p, k.iu[0], k.iu[1], settings.atol * ck.scale,
                         settings.rtol, settings.max_iter)
@@ -469,8 +549,6 @@ class FastLane:
         return z, float(res), int(it)
 
     def _config(self, tracer, closing: bool, start_sig: str):
-        from .continuation import _NEAR_SINGULAR, _RHO_TOUCH, _TRUST
-
         k, c, g = self.k, tracer.c, tracer.g
         f = np.empty(F_SIZE)
         f[F_TOL], f[F_W0], f[F_W1], f[F_WX] = k.tol, k.wu[0], k.wu[1], k.wx
@@ -492,8 +570,6 @@ class FastLane:
         node and whether the next step is natural, as the Python loop would have them after the
         same steps, and ``stop`` when the range end was reached.
         """
-        from .continuation import Node
-
         k = self.k
         nodes, seg_sig = path.nodes, path.seg_sig
         f, iv = self._config(tracer, tracer.through and folds > 0, start_sig)
@@ -517,14 +593,16 @@ class FastLane:
             oj = np.empty((cap, 4))
             of = np.empty((cap, 2))
             oi = np.empty((cap, 2), dtype=np.int64)
+            rr = self.rr if whole else _NO_RATES
+            orr = np.empty((cap + 1 if rr[3] > 0 else 1, 7))
             out = _compiled(self.run, self, np.asarray(a.z, dtype=float), np.asarray(a.t, dtype=float),
                             1 if a.sig == "+" else -1, float(a.rho), has_prev, pt, float(xp), float(h),
-                            self.p, self.ex, f, iv, oz, ot, oj, of, oi)
+                            self.p, self.ex, f, iv, oz, ot, oj, of, oi, rr, orr)
             if out is None:
                 return h, prev_natural, natural, False  # the Python tracer goes on from here
             count, status, h = out
             if whole and status == END:
-                self.whole = (oz[:count], of[:count, 0], oi[:count])
+                self.whole = (oz[:count], of[:count, 0], oi[:count], orr[:count + 1] if rr[3] > 0 else None)
                 if tracer.bar is not None:
                     tracer.bar.update(len(g.crossed(first_x, oz[count - 1, k.ix])))
                 return h, prev_natural, natural, True
@@ -548,22 +626,29 @@ class FastLane:
         return h, prev_natural, natural, status == END
 
     def whole_rows(self, first):
-        """Rows of a path traced whole (:attr:`whole`): ``(ks, node, Z, res, its)`` in path order, the
-        grid indices, node numbers along the path, positions ``(nvar, N)``, residuals and iterations.
+        """Rows of a path traced whole (:attr:`whole`): ``(ks, node, Z, res, its, R)`` in path order, the
+        grid indices, node numbers along the path, positions ``(nvar, N)``, residuals, iterations
+        and the rows' fused rates ``(N, 7)`` (None unless :meth:`want_rates` asked for them).
 
         Every natural step lands on the next grid value within its reach, so the grid values the
         path crosses are exactly its nodes with a grid index (and the first node when it has one).
         """
-        oz, res, oi = self.whole
+        oz, res, oi, orr = self.whole
+        R = None
         if oi[:, 0].min(initial=0) != NOGRID:  # the usual case: every node is a row
             ks, Z, r, its, node = oi[:, 0], oz.T, res, oi[:, 1], np.arange(1, len(oz) + 1)
+            if orr is not None:
+                R = orr if first.grid is not None else orr[1:]
         else:
             on = np.flatnonzero(oi[:, 0] != NOGRID)
             ks, Z, r, its, node = oi[on, 0], oz[on].T, res[on], oi[on, 1], on + 1
-        if first.grid is not None:
-            ks = np.concatenate(([first.grid], ks))
-            Z = np.concatenate((np.asarray(first.z, dtype=float)[:, None], Z), axis=1)
-            r = np.concatenate(([first.residual], r))
-            its = np.concatenate(([first.n_iter], its))
-            node = np.concatenate(([0], node))
-        return ks, node, np.ascontiguousarray(Z), r, its
+            if orr is not None:
+                R = orr[np.concatenate(([0], on + 1))] if first.grid is not None else orr[on + 1]
+        if first.grid is None:
+            return ks, node, np.ascontiguousarray(Z), r, its, R
+        n = len(ks) + 1
+        ks1, node1, Z1, r1, its1 = (np.empty(n, dtype=np.int64), np.empty(n, dtype=np.int64), np.empty((Z.shape[0], n)),
+                                    np.empty(n), np.empty(n, dtype=np.int64))
+        ks1[0], node1[0], Z1[:, 0], r1[0], its1[0] = first.grid, 0, first.z, first.residual, first.n_iter
+        ks1[1:], node1[1:], Z1[:, 1:], r1[1:], its1[1:] = ks, node, Z, r, its
+        return ks1, node1, Z1, r1, its1, R

@@ -10,12 +10,14 @@ tolerances mean the same thing for every model.
 from __future__ import annotations
 
 import math
+import threading
+from collections import OrderedDict
 
 import numpy as np
 
 from ..model.units import Kind
 
-__all__ = ["Kernel", "ROUNDOFF"]
+__all__ = ["Kernel", "ROUNDOFF", "kernel_of"]
 
 #: Newton stops when its correction is at round-off level: this times (1 + |scaled unknowns|)
 ROUNDOFF = 8 * 2.220446049250313e-16
@@ -43,6 +45,36 @@ def rho_2x3(a0, a1, a2, b0, b1, b2) -> float:
     if not lmax > 0:
         return 0.0
     return math.sqrt(max(det / lmax, 0.0) / lmax)
+
+
+#: the kernels of the last few compiled models: (id(mechanism), inputs, id(module)) -> Kernel. A kernel
+#: holds its mechanism, so the key's ids stay valid while it is here; bounded, so that a study's many
+#: mechanisms are not kept alive
+_KERNELS: "OrderedDict" = OrderedDict()
+_KERNELS_MAX = 16
+_KERNELS_LOCK = threading.Lock()
+
+
+def kernel_of(ck) -> "Kernel":
+    """The :class:`Kernel` of ``ck``, reused (a sweep's front end calls this every time, and
+    ``mech.compile()`` returns an equal new ``ck`` each call: the kernel of an earlier one, of the same
+    mechanism object, inputs and generated module, is the same). A kernel holds a copy of the
+    parameter values: it is rebuilt when ``ck.p`` no longer equals them; a model with other
+    parameters (``with_parameters``) is another mechanism, hence another kernel."""
+    key = (id(ck.mechanism), tuple(ck.inputs), id(ck.module))
+    with _KERNELS_LOCK:
+        kern = _KERNELS.get(key)
+        if kern is not None and kern.ck.mechanism is ck.mechanism and kern.ck.module is ck.module \
+                and kern.p == ck.p.tolist():
+            _KERNELS.move_to_end(key)
+            return kern
+    kern = Kernel(ck)
+    with _KERNELS_LOCK:
+        _KERNELS[key] = kern
+        _KERNELS.move_to_end(key)
+        while len(_KERNELS) > _KERNELS_MAX:
+            _KERNELS.popitem(last=False)
+    return kern
 
 
 class Kernel:

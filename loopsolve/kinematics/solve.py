@@ -19,7 +19,7 @@ from ..errors import (AssemblyError, ConvergenceError, LoopsolveWarning, ModeErr
 from ..model.mechanism import Mechanism
 from .newton import Newton, NewtonStatus, newton
 from .results import State
-from ..model.units import Kind, parse_quantity, to_display
+from ..model.units import MAX_MAGNITUDE, Kind, angle_factor, parse_quantity, to_display
 
 __all__ = ["solve", "start_position", "solve_position", "solve_rates", "initial_z", "input_value", "input_rates",
            "guessed_mode", "block_signs", "signature_matches", "SINGULAR_COND", "GUESS_SINGULAR"]
@@ -47,6 +47,34 @@ def input_value(ck: CompiledKinematics, value, name: str | None = None, *, reduc
     u = ck.mechanism.units
     return parse_quantity(value, kind, angle_unit=u.angle, length_unit=u.length, where=f"input {name}",
                           reduce=reduce)
+
+
+#: kinds whose plain number is already in internal units (parse_quantity returns it as it is)
+_PLAIN_AS_IS = frozenset({Kind.LENGTH, Kind.LENGTH_RATE, Kind.LENGTH_ACCEL, Kind.LENGTH_JERK, Kind.ANGULAR_RATE,
+                          Kind.ANGULAR_ACCEL, Kind.ANGULAR_JERK})
+_ANGLE_FACTORS: dict = {}
+
+
+def plain_value(ck: CompiledKinematics, value, kind: Kind) -> float | None:
+    """``parse_quantity(value, kind, reduce=False)`` in ``ck``'s units for a plain finite ``int`` or
+    ``float``, without the unit parser (a sweep's front end runs per call); None for anything else
+    (strings, other types, values the parser refuses): the parser then decides, with its errors."""
+    tv = type(value)
+    if tv is not float and tv is not int:
+        return None
+    try:
+        x = float(value)
+    except OverflowError:
+        return None
+    if kind is Kind.ANGLE:
+        unit = ck.mechanism.units.angle
+        f = _ANGLE_FACTORS.get(unit)
+        if f is None:
+            f = _ANGLE_FACTORS[unit] = angle_factor(unit)
+        x = x * f
+    elif kind not in _PLAIN_AS_IS or not abs(x) <= MAX_MAGNITUDE:
+        return None
+    return x if math.isfinite(x) else None
 
 
 def display_value(ck: CompiledKinematics, internal: float, name: str | None = None) -> float:
@@ -96,7 +124,9 @@ def input_rates(ck: CompiledKinematics, speed=None, accel=None, jerk=None) -> tu
                                                   (accel, var.accel, kinds[1], 0.0, "accel"),
                                                   (jerk, var.jerk, kinds[2], 0.0, "jerk")):
         if given is not None:
-            out.append(parse_quantity(given, kind, angle_unit=u.angle, length_unit=u.length, where=f"--{label}"))
+            x = plain_value(ck, given, kind)
+            out.append(x if x is not None else parse_quantity(given, kind, angle_unit=u.angle, length_unit=u.length,
+                                                              where=f"--{label}"))
         elif declared is not None:
             out.append(declared)
         else:

@@ -22,9 +22,10 @@ from . import batch, numbakin
 from .continuation import (Kernel, Path, RowSolution, StepControl, Tracer, fill_node_rows, first_node,
                            solve_rows_scalar)
 from ..errors import AssemblyError, ConvergenceError, ModelError, SingularPositionError, SolveError, warn
+from .kernel import kernel_of
 from .newton import Newton
 from .results import Event, EventKind, Sweep
-from .solve import _input_unit, display_value, initial_z, input_rates, input_value, start_position
+from .solve import _input_unit, display_value, initial_z, input_rates, input_value, plain_value, start_position
 from ..model.units import Kind
 
 __all__ = ["StepControl", "sweep", "grid", "reachable_ranges", "default_range", "nearest_assemblable",
@@ -121,13 +122,13 @@ def _enumerate_rows(kern: Kernel, path: Path, g: Grid) -> Rows:
 
 def _whole_rows(fast, first, g: Grid, nv: int):
     """Rows and positions of a path the compiled fast lane traced whole (:meth:`FastLane.whole_rows`)."""
-    ks, node, Z, res, its = fast.whole_rows(first)
+    ks, node, Z, res, its, R = fast.whole_rows(first)
     # every row is a node that landed exactly on its grid value (Grid.value, compiled)
     rows = Rows(ks, np.full(len(ks), -1, dtype=np.int64), node, Z[fast.k.ix].copy())
     sol = RowSolution(len(ks), nv)
     sol.Z, sol.res, sol.its = Z, res, its
     sol.code[:] = sol.code_of(first.sig)
-    return rows, sol
+    return rows, sol, R
 
 
 def solve_rows_tracked(tracer: Tracer, path: Path, rows: Rows, g: Grid) -> RowSolution:
@@ -162,7 +163,8 @@ def _parse_range(ck, start, stop, step):
     name = ck.inputs[0]
     kind = ck.kinds[ck.index(name)]
     # sweep bounds and steps are never reduced modulo a turn (that would silently move the range)
-    x0, x1 = (input_value(ck, v, name, reduce=False) for v in (start, stop))
+    x0, x1 = (x if (x := plain_value(ck, v, kind)) is not None else input_value(ck, v, name, reduce=False)
+              for v in (start, stop))
     if isinstance(step, str):
         h = input_value(ck, step, name, reduce=False)
     elif kind is Kind.ANGLE:
@@ -321,7 +323,7 @@ def sweep(mech, start, stop, step, *, speed=None, accel=None, jerk=None, input: 
     g = _make_grid(x0, x1, h, kind, through_limits, deg, max_rows=max_rows)
     x0 = g.value(0)  # start exactly on the first grid value (the two may differ by an ulp)
     rates = input_rates(ck, speed, accel, jerk)
-    kern = Kernel(ck)
+    kern = kernel_of(ck)
     lane = numbakin.fast_lane(kern, lazy=method != "batched") if fast else None
     started = lane.start(x0, mode=mode, guess=guess, settings=settings) if lane is not None else None
     z0, _, _ = started or start_position(ck, x0, mode=mode, guess=guess, settings=settings)
@@ -341,12 +343,14 @@ def sweep(mech, start, stop, step, *, speed=None, accel=None, jerk=None, input: 
     try:
         tracer = Tracer(kern, g, control, land=not use_batch, through_limits=through_limits, x_start=x0,
                          bar=None if use_batch else bar)
+        fused = None  # the rows' rates, computed in the fast lane's step loop
         if lane is not None:
             lane.lazy = not use_batch
+            lane.want_rates(rates, derivatives)
             tracer.fast = lane
         path = tracer.trace(first)
         if tracer.fast is not None and tracer.fast.whole is not None:  # traced whole by the fast lane
-            rows, sol = _whole_rows(tracer.fast, first, g, kern.nv)
+            rows, sol, fused = _whole_rows(tracer.fast, first, g, kern.nv)
         elif use_batch:
             rows = _enumerate_rows(kern, path, g)
             sol = batch.solve_rows(tracer, path, rows, g)
@@ -364,8 +368,10 @@ def sweep(mech, start, stop, step, *, speed=None, accel=None, jerk=None, input: 
     ok = sol.ok
     every = bool(ok.all())
     ix = ck.input_idx[0]
-    key = np.where(rows.node >= 0, rows.node, rows.seg + 0.5)  # position of each row along the path
-    key = key if every else key[ok]
+    key = None  # position of each row along the path (for the limit rows)
+    if limit_rows:
+        key = np.where(rows.node >= 0, rows.node, rows.seg + 0.5)
+        key = key if every else key[ok]
     Z = sol.Z if every else sol.Z[:, ok]
     Z[ix] = rows.x if every else rows.x[ok]
     J = None
@@ -374,7 +380,9 @@ def sweep(mech, start, stop, step, *, speed=None, accel=None, jerk=None, input: 
         missing = ~(sol.J_ok if every else sol.J_ok[ok])
         if missing.any():
             J[:, missing] = ck.module.jac_v(Z[:, missing], ck.p).reshape(J.shape[0], -1)
-    if lane is not None and J is None:  # the same rates, compiled
+    if fused is not None and every and J is None:  # computed at each node in the step loop
+        Z1, Z2, Z3, cond = lane.whole_rates(fused, rates)
+    elif lane is not None and J is None:  # the same rates, compiled
         Z1, Z2, Z3, cond = lane.rates(Z, rates, derivatives)
     else:
         Z1, Z2, Z3, cond = batch.rates_v(ck, Z, rates, J=J, derivatives=derivatives)
@@ -387,14 +395,19 @@ def sweep(mech, start, stop, step, *, speed=None, accel=None, jerk=None, input: 
                                 "row left out"))
         keep = ~bad
         Z, Z1, Z2, Z3, cond = Z[:, keep], Z1[:, keep], Z2[:, keep], Z3[:, keep], cond[keep]
-        code, res, its, key = code[keep], res[keep], its[keep], key[keep]
+        code, res, its = code[keep], res[keep], its[keep]
+        key = key[keep] if key is not None else None
     if limit_rows:
         Z, Z1, Z2, Z3, cond, code, res, its = _insert_limit_rows(ck, path, sol, key, rates, Z, Z1, Z2, Z3, cond,
                                                                 code, res, its)
-    names = np.empty(len(sol.sigs), dtype=object)
-    names[:] = sol.sigs
+    if len(sol.sigs) == 1:  # one mode on every row (codes are 0): no object array
+        modes = (sol.sigs[0],) * len(code)
+    else:
+        names = np.empty(len(sol.sigs), dtype=object)
+        names[:] = sol.sigs
+        modes = tuple(names[code])
     _announce_stop(ck, path.events, through_limits)
-    return Sweep.from_arrays(ck, Z.T, Z1.T, Z2.T, Z3.T, modes=tuple(names[code]), residual=res, n_iter=its,
+    return Sweep.from_arrays(ck, Z.T, Z1.T, Z2.T, Z3.T, modes=modes, residual=res, n_iter=its,
                              cond=cond, events=tuple(events), mode=first.sig,
                              method="batched" if use_batch else "tracked", copy=False)
 

@@ -32,6 +32,7 @@ import os
 import stat
 import tempfile
 import threading
+import weakref
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -77,7 +78,33 @@ def _sympy_version() -> str:
 
 
 def structure_key(mech: Mechanism, inputs: Sequence[str]) -> str:
-    """Hash of everything the generated code depends on (not the parameter values)."""
+    """Hash of everything the generated code depends on (not the parameter values).
+
+    Kept on the mechanism per choice of inputs (a ``Mechanism`` is immutable; hashing its
+    declaration is most of a cached ``compile()``, which every ``mech.sweep(...)`` calls)."""
+    inputs = tuple(inputs)
+    hit = _KEYS.get(id(mech))
+    if hit is not None and hit[0]() is mech and inputs in hit[1]:
+        return hit[1][inputs]
+    key = _structure_key(mech, inputs)
+    try:
+        ref = weakref.ref(mech, lambda _r, i=id(mech): _KEYS.pop(i, None))
+    except TypeError:  # not weak-referenceable: no memo
+        return key
+    with _LOCK:
+        hit = _KEYS.get(id(mech))
+        if hit is None or hit[0]() is not mech:
+            hit = _KEYS[id(mech)] = (ref, {})
+        hit[1][inputs] = key
+    return key
+
+
+#: structure keys of live mechanisms: id -> (weak reference, {inputs: key}) (not in the object:
+#: a pickled mechanism must not carry a key of another loopsolve version)
+_KEYS: dict = {}
+
+
+def _structure_key(mech: Mechanism, inputs: tuple) -> str:
     parts = (
         FORMAT,
         __version__,
