@@ -43,7 +43,7 @@ from ..errors import warn
 from ..model.units import Kind
 from .batch import SINGULAR_COND, rates_v
 from .continuation import _NEAR_SINGULAR, _RHO_TOUCH, _TRUST, Node
-from .kernel import ROUNDOFF
+from .kernel import ROUNDOFF, rho_2x3  # rho_2x3: compiled into the template from its one definition
 from .newton import Newton
 from .solve import guess_pose, initial_z
 
@@ -111,25 +111,6 @@ def natural_target(xa, d, dx, land, f, iv):
         if gidx != -(2**62):
             target = grid_value(gidx, f, iv)
     return target, gidx, at_bound
-
-
-def rho_2x3(a0, a1, a2, b0, b1, b2):
-    big = max(abs(a0), abs(a1), abs(a2), abs(b0), abs(b1), abs(b2))
-    if not (0.0 < big < math.inf):
-        return 0.0
-    a0, a1, a2, b0, b1, b2 = a0 / big, a1 / big, a2 / big, b0 / big, b1 / big, b2 / big
-    g11 = a0 * a0 + a1 * a1 + a2 * a2
-    g22 = b0 * b0 + b1 * b1 + b2 * b2
-    g12 = a0 * b0 + a1 * b1 + a2 * b2
-    m01 = a0 * b1 - a1 * b0
-    m02 = a0 * b2 - a2 * b0
-    m12 = a1 * b2 - a2 * b1
-    det = m01 * m01 + m02 * m02 + m12 * m12
-    tr = g11 + g22
-    lmax = 0.5 * (tr + math.sqrt(max((g11 - g22) ** 2 + 4 * g12 * g12, 0.0)))
-    if not lmax > 0:
-        return 0.0
-    return math.sqrt(max(det / lmax, 0.0) / lmax)
 
 
 def step2(az, at, has_prev, pt, xp, h, near, land, p, ex, f, iv, bz, out, rr):
