@@ -31,14 +31,26 @@ _POLISH_H = math.radians(5.0)
 _FREE_STEP = math.radians(10.0)
 
 
-def _residuals_and_jacobian(problem, V, X, signs, hmax):
-    """Residual vectors ``(D, M)``, Jacobians ``(D, M, k [+ T])`` and the reached flags of designs ``V`` ``(D, k)``."""
+def _residuals_and_jacobian(problem, V, X, signs, hmax, start=None):
+    """Residual vectors ``(D, M)``, Jacobians ``(D, M, k [+ T])``, the reached flags of designs ``V`` ``(D, k)``
+    and their positions at the first target ``(nv, D)``.
+
+    ``start``: positions at the first target of nearby designs (the last accepted step's), from
+    which the first position is found by Newton (:meth:`Batch.reassemble`) instead of the
+    multistart assembly of :meth:`Problem.trace`; the trace through the targets is the same.
+    """
     b = problem.batch
     T = problem.T
     P = b.params(V)
     D = P.shape[1]
     with np.errstate(all="ignore"):
-        Zt, reached = problem.trace(P, X, signs, hmax=hmax, singular_stop=False)
+        if start is None:
+            Zt, reached = problem.trace(P, X, signs, hmax=hmax, singular_stop=False)
+        else:
+            Z0, ok0 = b.reassemble(start, P, X[0], signs)
+            Z0[:, ~ok0] = np.nan
+            Zt, reached = b.follow(Z0, P, X, hmax=hmax, signs=signs, stop_on_singular=False)
+        first = Zt[:, 0].copy()
         ok = reached >= T
         Zt = np.where(ok[None, None, :], Zt, np.nan)
         Zs = np.nan_to_num(Zt[:, :T])
@@ -71,15 +83,39 @@ def _residuals_and_jacobian(problem, V, X, signs, hmax):
             Jxf[:, ar, :, ar] = np.transpose(Jx, (1, 0, 2))
             Jp = np.concatenate([Jp, Jxf.reshape(D, T * m, T)], axis=2)
         ok &= np.all(np.isfinite(Jp), axis=(1, 2))
-    return r, Jp, ok
+    return r, Jp, ok, first
 
 
-def batch_lm(problem, V, signs, X=None, *, iters: int = 25, hmax: float = _POLISH_H):
+#: the hopeless-column rule of :func:`batch_lm`: from this iteration on, a column whose objective exceeds
+#: ``_DROP_RATIO`` times the best column's (or the floor, if larger) stops. Measured on the benchmarks'
+#: trajectories (60 iterations, 260 starts): on the five-point problem ~70 % of the columns sit in a
+#: valley at f ≈ 0.13, 1.7e5 times the optimum, and crawl on to the cap; on the eighteen-point problem
+#: the column that ends in the 9.03e-3 basin was never above 350 times the best after iteration 10.
+_DROP_AFTER = 10
+_DROP_RATIO = 1e4
+#: the exact-fit stop of :func:`batch_lm`: once this many columns agree on the best objective (to a
+#: relative ``_AGREE_RTOL``, or ``_AGREE_ATOL`` times the floor for a zero optimum) and it is below the
+#: floor (an exact fit), the whole batch stops. On the five-point benchmark three columns agree on
+#: 7.4158e-7 after 14–37 iterations (six seeds) of the 60 the crawling columns would take.
+_AGREE = 3
+_AGREE_RTOL = 1e-6
+_AGREE_ATOL = 1e-12
+
+
+def batch_lm(problem, V, signs, X=None, *, iters: int = 25, hmax: float = _POLISH_H, floor: float | None = None):
     """Levenberg–Marquardt on every row of ``V`` ``(D, k)`` (model units) in its mode ``signs`` ``(nb, D)``.
 
     ``X``: the internal input values at the targets ``(T, D)`` (free timing: the starts of those
     unknowns; prescribed: ignored). Returns ``(V, X, f)``: the improved designs, their inputs and
     objectives (``inf`` where a start cannot be traced through the targets).
+
+    A column stops iterating when its step no longer lowers its objective by a relative 1e-12
+    (converged) or when damping has grown past 1e8 (stuck). With ``floor`` given, a column also
+    stops from iteration ``_DROP_AFTER`` on when its objective exceeds ``_DROP_RATIO`` times
+    ``max(best objective, floor)``: it is returned as it is (a finite value, not ``inf``), so only
+    the iterations spent on starts that cannot end near the best basin are saved; and once
+    ``_AGREE`` columns agree on the best objective and it is below ``floor``
+    (independent starts confirm one exact-fit basin bottom), every column stops.
     """
     from .synthesis import periodic
 
@@ -99,13 +135,19 @@ def batch_lm(problem, V, signs, X=None, *, iters: int = 25, hmax: float = _POLIS
         return np.where(per, Vw, np.clip(Vt, lo, hi))
 
     V = project(V)
-    r, J, ok = _residuals_and_jacobian(problem, V, X, signs, hmax)
+    r, J, ok, Z0 = _residuals_and_jacobian(problem, V, X, signs, hmax)
     f = np.where(ok, np.sum(r * r, axis=1), np.inf)
     lam = np.full(D, 1e-3)
     active = ok.copy()
     nk = k + (T if problem.free else 0)
     eye = np.eye(nk)
-    for _ in range(iters):
+    for it in range(iters):
+        if floor is not None and np.isfinite(f).any():
+            best = float(np.min(f))
+            if best <= floor and np.count_nonzero(f <= best * (1 + _AGREE_RTOL) + _AGREE_ATOL * floor) >= _AGREE:
+                break
+            if it >= _DROP_AFTER:
+                active &= ~(f > _DROP_RATIO * max(best, floor))
         if not active.any():
             break
         a = np.flatnonzero(active)
@@ -126,13 +168,14 @@ def batch_lm(problem, V, signs, X=None, *, iters: int = 25, hmax: float = _POLIS
             step = step * np.minimum(1.0, _FREE_STEP / np.where(big > 0, big, 1.0))[:, None]
         Vn = project(V[a] + np.where(good[:, None], step[:, :k], 0.0))
         Xn = X[:, a] + (np.where(good[:, None], step[:, k:], 0.0).T if problem.free else 0.0)
-        rn, Jn, okn = _residuals_and_jacobian(problem, Vn, Xn, signs[:, a], hmax)
+        rn, Jn, okn, Z0n = _residuals_and_jacobian(problem, Vn, Xn, signs[:, a], hmax, start=Z0[:, a])
         fn = np.where(okn & good, np.sum(rn * rn, axis=1), np.inf)
         acc = fn < f[a]
         ia = a[acc]
         # a column whose step no longer lowers f by a relative 1e-12 has converged
         small = acc & (f[a] - fn <= 1e-12 * f[a] + 1e-300)
         V[ia], r[ia], J[ia], f[ia] = Vn[acc], rn[acc], Jn[acc], fn[acc]
+        Z0[:, ia] = Z0n[:, acc]
         if problem.free:
             X[:, ia] = Xn[:, acc]
         lam[ia] = np.maximum(lam[ia] / 3.0, 1e-9)

@@ -262,7 +262,7 @@ def one_run(problem, seed, opts):
         X = np.hstack([s[2] for s in starts])
         di = np.concatenate([s[3] for s in starts])
         # every start polished at once (one batch per iteration); only distinct basins go on
-        V, X, f = batch_lm(problem, V, S, X, iters=opts["lm_iters"])
+        V, X, f = batch_lm(problem, V, S, X, iters=opts["lm_iters"], floor=_polish_floor(problem))
         per, period = periodic(problem)
         order = distinct(V, f, problem.lo, problem.hi, k=opts["polish"], rtol_f=1e-3, dist=0.02,
                          periodic_mask=per, period=period)
