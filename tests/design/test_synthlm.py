@@ -195,11 +195,22 @@ def test_batch_lm_exact_fit_stop_keeps_the_planted_optimum(fourbar, monkeypatch)
 
 
 def test_synthesize_with_the_lm_stops_recovers_a_planted_design(fourbar, monkeypatch):
-    """End to end with the defaults: the lockstep LM stops early (exact fit confirmed) and the planted
-    design is still found to f ≤ 1e-20 against the closed form, certified."""
+    """End to end with the defaults: the lockstep LM stops early (exact fit confirmed), the exact polish
+    stops after a second start lands on it, and the planted design is still found to f ≤ 1e-20
+    against the closed form, certified."""
     p = dict(PLANTED, theta0=10.0, phi=20.0)
     pr, t = planted_problem(fourbar, p)
+    from loopsolve.design import synthrun
+
     calls = _counting(monkeypatch)
+    polished = []
+    orig = synthrun.polish
+
+    def counted_polish(*a, **k):
+        polished.append(1)
+        return orig(*a, **k)
+
+    monkeypatch.setattr(synthrun, "polish", counted_polish)
     res = ls.synthesize(fourbar, path="P", targets={"x": t[:, 0], "y": t[:, 1]}, inputs=PLANT_INPUTS,
                         vary=VARY_TURN, seed=3, popsize=8, maxiter=20, progress=False)
     q = res.report["parameters"]
@@ -207,6 +218,7 @@ def test_synthesize_with_the_lm_stops_recovers_a_planted_design(fourbar, monkeyp
     assert closed_form_objective(q, t, -1 if res.report["mode"] == "-" else 1) <= 1e-20
     assert not res.report["certificate"]["defects"]
     assert len(calls) < 61  # the LM batch stopped before its cap of 60 iterations
+    assert len(polished) <= 2  # a second start polished onto the certified exact fit ends the polishing
 
 
 def test_batch_lm_drops_a_hopeless_column_but_not_the_optimum(fourbar, monkeypatch):
