@@ -221,37 +221,6 @@ def test_synthesize_with_the_lm_stops_recovers_a_planted_design(fourbar, monkeyp
     assert len(polished) <= 2  # a second start polished onto the certified exact fit ends the polishing
 
 
-def test_batch_lm_drops_a_hopeless_column_but_not_the_optimum(fourbar, monkeypatch):
-    """After ``_DROP_AFTER`` iterations a column above ``_DROP_RATIO`` × the best stops; the best is unharmed.
-
-    One start next to the planted design (no exact-fit stop: it needs three agreeing columns) and
-    one far start; with the floor the far column leaves the batch (the later evaluations hold one
-    design), the planted design is still recovered to f ≤ 1e-20 against the closed form, and the far
-    column's objective is the closed form's where it stopped.
-    """
-    from loopsolve.design import synthlm
-
-    p = dict(PLANTED, theta0=10.0, phi=20.0)
-    pr, t = planted_problem(fourbar, p)
-    exact = np.array([p[n] for n in pr.names])
-    far = np.array([5.5, 0.6, 2.2, 5.8, -2.9, 2.9, 300.0, 200.0])[:len(exact)]
-    far = np.clip(far, pr.lo, pr.hi)
-    starts = np.vstack([exact * 1.002, far])
-    calls = _counting(monkeypatch)
-    floor = _polish_floor(pr)
-    V, X, f = batch_lm(pr, starts, -np.ones((1, 2)), iters=40, floor=floor)
-    q = dict(zip(pr.names, V[0]))
-    assert f[0] <= 1e-20 and closed_form_objective(q, t, -1) <= 1e-20
-    assert np.allclose(V[0], exact, rtol=1e-8, atol=1e-8)
-    if np.isfinite(f[1]) and f[1] > synthlm._DROP_RATIO * floor:
-        # the far column was above the ratio from iteration _DROP_AFTER on: later batches hold one design
-        assert all(n == 1 for n in calls[synthlm._DROP_AFTER + 2:])
-        q1 = dict(zip(pr.names, V[1]))
-        assert f[1] == pytest.approx(closed_form_objective(q1, t, -1), rel=1e-9)
-    else:
-        pytest.fail(f"the far start should stay far from the planted design (f = {f[1]})")
-
-
 def test_reassemble_from_a_nearby_position_matches_the_closed_form(fourbar):
     """Newton from a neighbour design's positions gives the coupler point of the circle intersection;
     a NaN start falls back to the multistart assembly; the mode is the one asked for."""
