@@ -366,6 +366,46 @@ class Batch:
             conv = np.all(np.abs(F) <= 1e-10 * scale, axis=0) & np.all((signs == 0) | (sig == signs), axis=0)
         return conv
 
+    def reassemble(self, Z, P, x, signs, iters: int = 12):
+        """Positions ``(nv, D)`` at the inputs ``x`` ``(D,)`` from nearby ones ``Z`` (the same designs a step ago).
+
+        Newton on all unknowns per column from ``Z`` (a column whose correction exceeds half a
+        radian or scale, or is not finite, stops there), then, for the columns it left without a
+        root of the block signs ``signs``, the multistart :meth:`assemble`. Returns ``(Z, ok)`` as
+        :meth:`assemble`. Why: an optimizer's next trial design is a small step from the last one,
+        and its position there is a few Newton steps from the last position, where :meth:`assemble`
+        would run Newton from many starts per block.
+        """
+        ops = self.ops
+        Z = np.array(Z, dtype=float)
+        Z[self.ix] = x
+        D = Z.shape[1]
+        scale = self.scale(P)
+        w = np.where(self.is_len[:, None], 1.0 / scale, 1.0)
+        going = np.all(np.isfinite(Z), axis=0)
+        with np.errstate(all="ignore"):
+            for _ in range(iters):
+                a = np.flatnonzero(going)
+                if not a.size:
+                    break
+                Za, Pa = Z[:, a], P[:, a]
+                F, J = ops.phi_jac(Za, Pa)
+                dU = ops.solve(J, -F)
+                size = np.max(np.abs(dU * w[:, a]), axis=0)
+                bad = ~np.isfinite(size) | (size > 0.5)
+                Z[np.ix_(self.iu, a[~bad])] += dU[:, ~bad]
+                going[a[bad | (size <= 1e-13)]] = False
+            F, J = ops.phi_jac(Z, P)
+            sig, _ = ops.signs_and_regularity(J, scale)
+            ok = (np.all(np.abs(F) <= 1e-10 * scale, axis=0) & np.all((signs == 0) | (sig == signs), axis=0)
+                  & np.all(np.isfinite(Z), axis=0))
+        rest = np.flatnonzero(~ok)
+        if rest.size:
+            Zr, okr = self.assemble(P[:, rest], np.asarray(x, dtype=float)[rest], signs[:, rest])
+            Z[:, rest] = Zr
+            ok[rest] = okr
+        return Z, ok
+
     # ------------------------------------------------------------------ residuals
     def points(self, Z, P) -> np.ndarray:
         """``(npts, 2, N)`` point coordinates at positions ``Z`` ``(nv, N)``."""

@@ -65,10 +65,7 @@ the objective in internal units (lengths², radians for angles) as the contract 
 
 from __future__ import annotations
 
-import csv
-import io
 import math
-import os
 import time
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
@@ -77,103 +74,13 @@ import numpy as np
 
 from ..errors import ModelError, SynthesisError  # noqa: F401  (re-exported)
 from ..model.units import Kind
+from .targets import read_targets  # noqa: F401  (re-exported)
 
 __all__ = ["Problem", "define", "read_targets", "evaluate", "search", "search_many", "polish", "SynthesisError"]
 
-_TASK_COLUMNS = {"path": ("x", "y"), "function": ("input", "output"), "motion": ("x", "y", "angle")}
 #: input step of the search's grid for free timing, and its largest continuation substep
 _FREE_STEP = math.radians(10.0)
 _SEARCH_H = math.radians(10.0)
-
-
-# ---------------------------------------------------------------------------------------- targets
-
-
-def read_targets(targets, task: str = "path", *, source: str | None = None) -> dict[str, np.ndarray]:
-    """Target columns from a CSV file (path), CSV text, a mapping of columns or a list of rows.
-
-    Returns a dict of float arrays with the task's columns (``x,y`` / ``input,output`` /
-    ``x,y,angle``) and ``input`` when given (prescribed timing). Raises :class:`ModelError`
-    naming the file, line and column.
-
-    Examples
-    --------
-    >>> cols = read_targets("x,y,input\\n1,2,30\\n3,4,60\\n")
-    >>> cols["x"].tolist(), cols["input"].tolist()
-    ([1.0, 3.0], [30.0, 60.0])
-    """
-    need = _TASK_COLUMNS[task]
-    where = source or "targets"
-    if isinstance(targets, (str, os.PathLike)) and not (isinstance(targets, str) and "\n" in targets):
-        where = os.fspath(targets)
-        try:
-            with open(targets, newline="", encoding="utf-8") as f:
-                text = f.read(10_000_000)
-        except OSError as exc:
-            raise ModelError(f"{where}: cannot read the targets file: {exc.strerror or exc}") from None
-        rows = _csv_rows(text, where)
-    elif isinstance(targets, str):
-        rows = _csv_rows(targets, where)
-    elif isinstance(targets, Mapping):
-        cols = {str(k).strip().lower(): np.atleast_1d(np.asarray(v, dtype=float)) for k, v in targets.items()}
-        return _check_columns(cols, need, where)
-    else:
-        arr = np.asarray(targets, dtype=float)
-        if arr.ndim != 2 or arr.shape[1] not in (len(need), len(need) + 1):
-            raise ModelError(f"{where}: expected rows of {', '.join(need)} (and optionally input), got shape "
-                             f"{arr.shape}")
-        cols = {c: arr[:, j] for j, c in enumerate(need)}
-        if arr.shape[1] == len(need) + 1:
-            cols["input"] = arr[:, -1]
-        return _check_columns(cols, need, where)
-    header, body = rows
-    cols = {}
-    for j, h in enumerate(header):
-        vals = []
-        for line, r in body:
-            try:
-                v = float(r[j])
-            except (ValueError, IndexError):
-                raise ModelError(f"{where}: line {line}, column {h!r}: {r[j] if j < len(r) else ''!r} is not a "
-                                 "number") from None
-            if not math.isfinite(v):
-                raise ModelError(f"{where}: line {line}, column {h!r}: {r[j]!r} is not a finite number")
-            vals.append(v)
-        cols[h] = np.array(vals)
-    return _check_columns(cols, need, where)
-
-
-def _csv_rows(text: str, where: str):
-    lines = [(i + 1, r) for i, r in enumerate(csv.reader(io.StringIO(text)))
-             if r and any(c.strip() for c in r) and not r[0].lstrip().startswith("#")]
-    if not lines:
-        raise ModelError(f"{where}: no header line (expected a CSV with a header such as x,y)")
-    (hl, header), body = lines[0], lines[1:]
-    header = [h.strip().lower() for h in header]
-    if len(set(header)) != len(header):
-        raise ModelError(f"{where}: line {hl}: repeated column names in {','.join(header)}")
-    for line, r in body:
-        if len(r) != len(header):
-            raise ModelError(f"{where}: line {line}: {len(r)} values for {len(header)} columns "
-                             f"({','.join(header)})")
-    return header, body
-
-
-def _check_columns(cols, need, where):
-    missing = [c for c in need if c not in cols]
-    if missing:
-        raise ModelError(f"{where}: missing column(s) {', '.join(missing)}; the columns are "
-                         f"{', '.join(cols) or 'none'} (expected {','.join(need)}[,input])")
-    extra = [c for c in cols if c not in need and c != "input"]
-    if extra:
-        raise ModelError(f"{where}: unknown column(s) {', '.join(extra)} (expected {','.join(need)}[,input])")
-    n = {len(v) for v in cols.values()}
-    if len(n) != 1:
-        raise ModelError(f"{where}: columns of different lengths")
-    for c, v in cols.items():
-        if not np.all(np.isfinite(v)):
-            raise ModelError(f"{where}: column {c!r} holds a value that is not a finite number")
-    return {c: np.asarray(v, dtype=float) for c, v in cols.items()}
 
 
 # ---------------------------------------------------------------------------------------- problem

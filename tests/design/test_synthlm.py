@@ -14,6 +14,7 @@ import pytest
 import loopsolve as ls
 from loopsolve.design.synthesis import define, periodic
 from loopsolve.design.synthlm import batch_lm, distinct, sample
+from loopsolve.design.synthrun import _polish_floor
 
 from test_synthesis import FOURBAR, PLANT_INPUTS, PLANTED, VARY6, fourbar_point  # tests/ is on sys.path
 
@@ -144,3 +145,101 @@ def test_searches_of_both_modes_in_one_lockstep_batch_equal_the_searches_alone(f
 def planted_targets_default():
     pts = np.array([fourbar_point(PLANTED, x, -1) for x in PLANT_INPUTS])
     return {"x": pts[:, 0], "y": pts[:, 1]}
+
+
+def _counting(monkeypatch):
+    """Count the batch evaluations (one per LM iteration, plus the first) of :func:`batch_lm`."""
+    from loopsolve.design import synthlm
+
+    calls = []
+    orig = synthlm._residuals_and_jacobian
+
+    def counted(*a, **k):
+        calls.append(a[1].shape[0])
+        return orig(*a, **k)
+
+    monkeypatch.setattr(synthlm, "_residuals_and_jacobian", counted)
+    return calls
+
+
+def test_batch_lm_exact_fit_stop_keeps_the_planted_optimum(fourbar, monkeypatch):
+    """Three starts confirm the planted exact fit: the batch stops early, at the planted design.
+
+    Against the closed form: the three agreeing columns are at the planted design with f ≤ 2e-12 ×
+    the floor (the exact polish of synthesize takes them to f ≤ 1e-20, see the next test); a far start
+    that would still be crawling is returned as it stands, with the closed-form objective of where
+    it stands (not a made-up value).
+    """
+    p = dict(PLANTED, theta0=10.0, phi=20.0)
+    pr, t = planted_problem(fourbar, p)
+    exact = np.array([p[n] for n in pr.names])
+    far = exact.copy()
+    far[pr.names.index("rcx")] = -2.5
+    starts = np.vstack([exact * 1.002, exact * 0.998, exact * (1 + 0.001 * np.arange(len(exact))), far])
+    signs = -np.ones((1, 4))
+    calls = _counting(monkeypatch)
+    V0, _, f0 = batch_lm(pr, starts, signs, iters=60)  # no floor: every column to convergence or the cap
+    n_plain = len(calls)
+    calls.clear()
+    floor = _polish_floor(pr)  # the floor synthesize passes
+    V, X, f = batch_lm(pr, starts, signs, iters=60, floor=floor)
+    assert len(calls) < n_plain  # stopped once three columns agreed on the exact fit
+    assert np.min(f0) <= 1e-20
+    for j in range(3):  # the three agreeing columns: all at the planted design (the exact polish follows)
+        qj = dict(zip(pr.names, V[j]))
+        assert closed_form_objective(qj, t, -1) <= 2e-12 * floor
+        assert np.allclose(V[j], exact, rtol=1e-6, atol=1e-6)
+    if np.isfinite(f[3]):
+        q3 = dict(zip(pr.names, V[3]))
+        assert f[3] == pytest.approx(closed_form_objective(q3, t, -1), rel=1e-9)
+
+
+def test_synthesize_with_the_lm_stops_recovers_a_planted_design(fourbar, monkeypatch):
+    """End to end with the defaults: the lockstep LM stops early (exact fit confirmed), the exact polish
+    stops after a second start lands on it, and the planted design is still found to f ≤ 1e-20
+    against the closed form, certified."""
+    p = dict(PLANTED, theta0=10.0, phi=20.0)
+    pr, t = planted_problem(fourbar, p)
+    from loopsolve.design import synthrun
+
+    calls = _counting(monkeypatch)
+    polished = []
+    orig = synthrun.polish
+
+    def counted_polish(*a, **k):
+        polished.append(1)
+        return orig(*a, **k)
+
+    monkeypatch.setattr(synthrun, "polish", counted_polish)
+    res = ls.synthesize(fourbar, path="P", targets={"x": t[:, 0], "y": t[:, 1]}, inputs=PLANT_INPUTS,
+                        vary=VARY_TURN, seed=3, popsize=8, maxiter=20, progress=False)
+    q = res.report["parameters"]
+    assert res.objective <= 1e-20
+    assert closed_form_objective(q, t, -1 if res.report["mode"] == "-" else 1) <= 1e-20
+    assert not res.report["certificate"]["defects"]
+    assert len(calls) < 61  # the LM batch stopped before its cap of 60 iterations
+    assert len(polished) <= 2  # a second start polished onto the certified exact fit ends the polishing
+
+
+def test_reassemble_from_a_nearby_position_matches_the_closed_form(fourbar):
+    """Newton from a neighbour design's positions gives the coupler point of the circle intersection;
+    a NaN start falls back to the multistart assembly; the mode is the one asked for."""
+    p = dict(PLANTED, theta0=10.0, phi=20.0)
+    pr, t = planted_problem(fourbar, p)
+    b = pr.batch
+    v = np.array([p[n] for n in pr.names])
+    V = np.vstack([v, v * 1.01])
+    P = b.params(V)
+    x = np.full(2, math.radians(PLANT_INPUTS[0]))
+    signs = -np.ones((1, 2))
+    Z, ok = b.assemble(b.params(V * 0.99), x, signs)  # positions of nearby designs
+    assert ok.all()
+    Z[:, 1] = np.nan  # column 1: no start, the multistart assembly must step in
+    Zr, okr = b.reassemble(Z, P, x, signs)
+    assert okr.all()
+    pts = b.points(Zr, P)
+    ip = pr.ck.points.index("P")
+    for j in range(2):
+        q = dict(zip(pr.names, V[j]))
+        ref = fourbar_point(q, PLANT_INPUTS[0], -1)
+        assert np.allclose(pts[ip, :, j], ref, atol=1e-10)
