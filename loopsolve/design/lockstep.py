@@ -57,6 +57,8 @@ FOLD_SLOPE = 3.0
 REGULAR_MIN = 1e-3
 #: ... or the first corrector step is larger than this (scaled units)
 FIRST_CORRECTION = 0.05
+#: a design missing assembly at the start by less than this (relative, see AssemblyTest.at) is the single sweep's to decide
+_START_MARGIN = 1e-8
 #: a corrector step smaller than this (scaled) leaves an error ~ its square: converged
 _CONVERGED = 1e-11
 _SUB_ANGLE = math.radians(1.0)
@@ -434,7 +436,9 @@ def _not_assemblable(ck, P, xs, xs_disp, cand, ch) -> np.ndarray:
     if not test.usable:
         return cand
     x0 = float(xs[0])
-    ok, decided = test.at(np.full(len(cand), x0), cand)
+    # a design that misses assembly at the start by a hair (1e-8 relative, ~1e-4 in angle) goes to the
+    # single sweep, which may call it a singular start instead (its tolerance, not this closed form's)
+    ok, decided = test.at(np.full(len(cand), x0), cand, margin=_START_MARGIN)
     na = cand[decided & ~ok]
     near = test.nearest(x0, na)
     done = []

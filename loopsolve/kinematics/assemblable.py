@@ -59,6 +59,7 @@ class AssemblyTest:
         from .solve import initial_z
 
         self.ck, self.ops, self.P, self.scale = ck, ops, P, np.asarray(scale, dtype=float)
+        self._margin = 0.0  # see at()
         self.z0 = initial_z(ck, warn=False)
         self.ix = int(ck.input_idx[0])
         blocks = list(ck.blocks)
@@ -84,12 +85,17 @@ class AssemblyTest:
             Z[i] = v
         return self.ops.phi(Z, self.P[:, cols])
 
-    def at(self, x, cols=None):
+    def at(self, x, cols=None, *, margin: float = 0.0):
         """``(assemblable, decided)`` at inputs ``x`` (N,) of designs ``cols`` (N,; default all in order).
 
         The blocks in solve order, as :func:`loopsolve.kinematics.modes.branch_solutions` takes them: a block
         whose unknowns enter a later block splits the test into one branch per root (a dyad's two,
-        an angle's two, a length's one); assemblable where some branch has a root in every block."""
+        an angle's two, a length's one); assemblable where some branch has a root in every block.
+        With ``margin`` > 0, a block that misses a root by less than that (relative: the dyad's
+        squared half-chord over its larger radius squared, an angle's |cos| over 1) decides
+        nothing: there the single sweep tells "cannot be assembled" from "starts at a singular
+        position" with its own tolerance (about 1e-5 in angle)."""
+        self._margin = margin
         x = np.asarray(x, dtype=float)
         cols = np.arange(len(x)) if cols is None else np.asarray(cols)
         decided = np.full(len(x), self.usable)
@@ -159,6 +165,8 @@ class AssemblyTest:
             Pp = u * (m + 1j * sgn * h)
             roots.append((sa * (np.angle(Pp) - np.angle(A)), sb * (np.angle(D - Pp) - np.angle(B))))
         self._roots = roots
+        if self._margin:
+            decided &= ~((h2 < 0) & (-h2 <= self._margin * np.maximum(r1, r2) ** 2))
         return decided & ~(h2 < 0), decided & np.isfinite(h2), roots
 
     def _angle(self, base, cols, e, i, tol):
@@ -177,6 +185,8 @@ class AssemblyTest:
         decided &= A > tol
         c = -R / A
         ph, ac = np.arctan2(Q, Pc), np.arccos(np.clip(c, -1.0, 1.0))
+        if self._margin:
+            decided &= ~((np.abs(c) > 1.0) & (np.abs(c) - 1.0 <= self._margin))
         return decided & ~(np.abs(c) > 1.0), decided & np.isfinite(c), [(ph + ac,), (ph - ac,)]
 
     def _length(self, base, cols, e, i, s, tol):

@@ -563,3 +563,29 @@ def test_not_assemblable_offset_slider_cranks_decided_in_the_chunk(monkeypatch):
         else:
             a = math.degrees(math.asin((e[j] - r3) / r2[j]))
             assert near == pytest.approx([-180 - a, a], rel=1e-9)
+
+
+@pytest.mark.parametrize("gap", [1e-9, 1e-8, 5e-8, 1e-7, 1e-5])
+def test_a_start_a_hair_from_a_change_point_gets_the_single_sweeps_verdict(thesis, gap):
+    """r2 + r3 = r1 + r4 exactly is a change point at θ2 = 0 (B, O4 and C in line). A rocker
+    shorter by ``gap`` cannot be assembled there (|r3 − r4| > r1 − r2), but by so little that the
+    single sweep may call the start singular instead: the study must say what the single sweep
+    says (it used to decide "not-assemblable" from the closed form at 1e-9). Longer by ``gap``:
+    assemblable or singular, as the single sweep says."""
+    import warnings
+
+    for r4 in (40.0 - gap, 40.0 + gap):
+        mech = thesis.with_parameters(r2=25.0, r3=75.0, r4=r4)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            try:
+                mech.sweep(0, 10, 5)
+                want = "ok"
+            except ls.SingularPositionError:
+                want = "singular"
+            except ls.AssemblyError:
+                want = "not-assemblable"
+            ds = ls.study(thesis, {"r2": [25.0], "r3": [75.0], "r4": [r4]}, start=0, stop=10, step=5)
+        assert str(ds["status"].values[0]) == want, (r4, want)
+        if r4 < 40.0 and gap >= 1e-7:  # clearly apart: the closed form and the sweep agree
+            assert want == "not-assemblable"
