@@ -59,7 +59,6 @@ class AssemblyTest:
         from .solve import initial_z
 
         self.ck, self.ops, self.P, self.scale = ck, ops, P, np.asarray(scale, dtype=float)
-        self._margin = 0.0  # see at()
         self.z0 = initial_z(ck, warn=False)
         self.ix = int(ck.input_idx[0])
         blocks = list(ck.blocks)
@@ -95,7 +94,6 @@ class AssemblyTest:
         squared half-chord over its larger radius squared, an angle's |cos| over 1) decides
         nothing: there the single sweep tells "cannot be assembled" from "starts at a singular
         position" with its own tolerance (about 1e-5 in angle)."""
-        self._margin = margin
         x = np.asarray(x, dtype=float)
         cols = np.arange(len(x)) if cols is None else np.asarray(cols)
         decided = np.full(len(x), self.usable)
@@ -111,9 +109,9 @@ class AssemblyTest:
                 new = []
                 for Zb, alive in branches:
                     if kind == "dyad":
-                        r, d, roots = self._dyad(Zb, cols, eqs, iz, tol)
+                        r, d, roots = self._dyad(Zb, cols, eqs, iz, tol, margin)
                     elif kind == "angle":
-                        r, d, roots = self._angle(Zb, cols, eqs[0], iz[0], tol)
+                        r, d, roots = self._angle(Zb, cols, eqs[0], iz[0], tol, margin)
                     else:
                         r, d, roots = self._length(Zb, cols, eqs[0], iz[0], s, tol)
                     decided &= d | ~alive  # a branch already without a root decides nothing more
@@ -132,7 +130,7 @@ class AssemblyTest:
             ok |= alive
         return ok, decided
 
-    def _dyad(self, base, cols, eqs, iz, tol):
+    def _dyad(self, base, cols, eqs, iz, tol, margin=0.0):
         """The all-angle branch of :func:`loopsolve.kinematics.modes._dyad_roots`, on every column."""
         e0, e1 = eqs
         ia, ib = iz
@@ -165,11 +163,11 @@ class AssemblyTest:
             Pp = u * (m + 1j * sgn * h)
             roots.append((sa * (np.angle(Pp) - np.angle(A)), sb * (np.angle(D - Pp) - np.angle(B))))
         self._roots = roots
-        if self._margin:
-            decided &= ~((h2 < 0) & (-h2 <= self._margin * np.maximum(r1, r2) ** 2))
+        if margin:
+            decided &= ~((h2 < 0) & (-h2 <= margin * np.maximum(r1, r2) ** 2))
         return decided & ~(h2 < 0), decided & np.isfinite(h2), roots
 
-    def _angle(self, base, cols, e, i, tol):
+    def _angle(self, base, cols, e, i, tol, margin=0.0):
         """The angle branch of :func:`loopsolve.kinematics.modes._single_roots`: ``P cos a + Q sin a + R``."""
 
         def f(v):
@@ -185,8 +183,8 @@ class AssemblyTest:
         decided &= A > tol
         c = -R / A
         ph, ac = np.arctan2(Q, Pc), np.arccos(np.clip(c, -1.0, 1.0))
-        if self._margin:
-            decided &= ~((np.abs(c) > 1.0) & (np.abs(c) - 1.0 <= self._margin))
+        if margin:
+            decided &= ~((np.abs(c) > 1.0) & (np.abs(c) - 1.0 <= margin))
         return decided & ~(np.abs(c) > 1.0), decided & np.isfinite(c), [(ph + ac,), (ph - ac,)]
 
     def _length(self, base, cols, e, i, s, tol):
