@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-import importlib.util
+import importlib
 import os
 import sys
 from pathlib import Path
@@ -41,7 +41,12 @@ def _from_link(link: str) -> dict:
 def cmd_edit(args) -> int:
     from ..errors import MissingDependencyError, ModelError
 
-    missing = [m for m in ("starlette", "uvicorn") if importlib.util.find_spec(m) is None]
+    missing = []
+    for name in ("starlette", "uvicorn"):
+        try:
+            importlib.import_module(name)
+        except ImportError:
+            missing.append(name)
     if missing:
         raise MissingDependencyError(f"loopsolve edit needs the edit extra ({', '.join(missing)} missing): "
                                      "pip install 'loopsolve[edit]'")
