@@ -195,6 +195,7 @@
   }
   var drag = null;
   function onHandleDown(evt) {
+    if (drawing) return;  /* drawing a curve: the stroke may start on a joint */
     var name = evt.currentTarget.getAttribute("data-joint");
     if (tool === "drag") {
       evt.preventDefault();
@@ -302,7 +303,7 @@
   }
   function onDiagramDown(evt) {
     if (drawing) { startStroke(evt); return; }
-    if (!state || tool === "drag" || evt.target.getAttribute("data-joint")) return;
+    if (!state || tool === "drag" || evt.target.getAttribute("data-joint") || evt.button) return;
     var p = toModel(evt);
     if (!p) return;
     if (tool === "link") {
