@@ -326,6 +326,11 @@
         (mode ? "&mode=" + encodeURIComponent(mode) : "") + "&token=" + encodeURIComponent(TOKEN));
     });
     drawForceRow(i);
+    Array.prototype.forEach.call(document.querySelectorAll("#le-joint-table input[data-coord]"), function (inp) {
+      if (inp === document.activeElement) return;
+      var key = inp.getAttribute("data-coord"), p = jointAt(key.slice(0, -2));
+      if (p) inp.value = fmt(p[key.slice(-1) === "x" ? 0 : 1], 10);
+    });
   }
 
   /* ------------------------------------------------------------------ panels */
@@ -387,7 +392,7 @@
       var jb = h("tbody", {}, jt);
       A.joints.forEach(function (j) {
         var tr = h("tr", {}, jb), p = jointAt(j.name) || j.at || [null, null];
-        h("td", {}, tr, j.name + (j.ground ? " ⏚" : ""));
+        h("td", {}, tr, j.name + (j.ground ? " (ground)" : j.point ? " (point)" : ""));
         var xs = [0, 1].map(function (k) {
           return h("input", {type: "text", size: "10", value: fmt(p[k], 10), "data-coord": j.name + (k ? "_y" : "_x")}, h("td", {}, tr));
         });

@@ -310,3 +310,30 @@ def test_edit_without_the_extra_is_one_line(tmp_path):
     lines = proc.stderr.strip().splitlines()
     assert len(lines) == 1 and "MissingDependencyError" in lines[0] and "loopsolve[edit]" in lines[0], proc.stderr
     assert proc.stdout == ""
+
+
+def test_share_link_and_port_arguments(workdir):
+    """``loopsolve edit LINK`` opens a share link's design; ``--port`` takes that port (or says why not)."""
+    import base64
+    import socket
+
+    text = (ls.models_dir() / "fourbar_coupler_curve.toml").read_text()
+    code = base64.urlsafe_b64encode(text.encode()).decode().rstrip("=")
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    srv = EditorServer(f"http://127.0.0.1:1/?token=abc#model={code}", cwd=workdir, args=("--port", str(port)))
+    try:
+        assert srv.port == port
+        assert srv.model() == tomllib.loads(text)
+        status, body, _ = srv.post("/api/save", {})
+        assert status == 409 and body["need"] == "name"  # a shared design has no file yet
+        busy = subprocess.run([sys.executable, "-m", "loopsolve.cli", "edit", "--no-browser", "--port", str(port)],
+                              capture_output=True, text=True, cwd=workdir, timeout=120)
+        assert busy.returncode == 2 and len(busy.stderr.strip().splitlines()) == 1
+        assert f"--port {port}" in busy.stderr and busy.stdout == ""
+    finally:
+        srv.stop()
+    bad = subprocess.run([sys.executable, "-m", "loopsolve.cli", "edit", "--no-browser", "x#model=%%%"],
+                         capture_output=True, text=True, cwd=workdir, timeout=120)
+    assert bad.returncode == 2 and "share link" in bad.stderr
