@@ -9,12 +9,13 @@ import math
 import sys
 
 from .common import EXIT_OK, _check_output, _load, _write
+from .fileargs import file_argument
 
 
 def _synthesis_parser(sub) -> None:
     p = sub.add_parser("synthesize", help="find parameter values for a path, a function or a motion "
                        "(certified designs only)")
-    p.add_argument("model", help="model file (TOML)")
+    file_argument(p, "model", role="input", help="model file (TOML)")
     task = p.add_mutually_exclusive_group(required=True)
     task.add_argument("--path", metavar="POINT", help="path generation: POINT through the targets (CSV x,y)")
     task.add_argument("--function", metavar="OUT", help="function generation: unknown OUT of the input "
@@ -22,7 +23,7 @@ def _synthesis_parser(sub) -> None:
     task.add_argument("--motion", metavar="POINT", help="motion generation: POINT and the --link angle "
                       "(CSV x,y,angle)")
     p.add_argument("--link", metavar="VAR", help="with --motion: the angle variable of the guided link")
-    p.add_argument("--targets", required=True, metavar="T.csv", help="targets (CSV with a header line; an "
+    file_argument(p, "--targets", role="input", what="--targets", required=True, metavar="T.csv", help="targets (CSV with a header line; an "
                    "input column prescribes the timing)")
     p.add_argument("--inputs", metavar="X1,X2,...", help="prescribed input value of every target (model units)")
     p.add_argument("--vary", action="append", metavar="NAME=LOW:HIGH",
@@ -45,8 +46,9 @@ def _synthesis_parser(sub) -> None:
                    "polished in lockstep with the DE's (default 40 per varied parameter; 0: none)")
     p.add_argument("--workers", type=int, metavar="N", help="run the runs on a local Dask cluster of N processes")
     p.add_argument("--scheduler", metavar="ADDRESS", help="run the runs on the Dask cluster at ADDRESS")
-    p.add_argument("-o", "--output", metavar="design.toml", help="write the best design as a model file")
-    p.add_argument("--report", metavar="R.json", help="write the report (JSON)")
+    file_argument(p, "-o", "--output", role="output", fmt="toml", metavar="design.toml",
+                  help="write the best design as a model file (.toml)")
+    file_argument(p, "--report", role="output", fmt="json", metavar="R.json", help="write the report (.json)")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=cmd_synthesize)
 
