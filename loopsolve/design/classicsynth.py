@@ -12,8 +12,6 @@ synthesis contract (task, objective, parameters, mode, direction, targets, certi
 
 from __future__ import annotations
 
-import csv
-import io
 import math
 from dataclasses import dataclass
 from pathlib import Path
@@ -21,6 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import ModelError, SolveError
+from .targets import csv_records, read_text_file
 
 __all__ = ["read_table", "ClassicSynthesis", "classic_synthesize", "METHODS"]
 
@@ -52,15 +51,10 @@ def read_table(source, columns: tuple[str, ...], *, what: str = "targets") -> np
         return arr
     if isinstance(source, Path) or (isinstance(source, str) and "\n" not in source and "," not in source):
         where = str(source)
-        from ..model.files import read_regular
-
-        try:
-            text = read_regular(source, 50_000_000, what=f"{what} file").decode("utf-8-sig")
-        except (OSError, ValueError) as exc:  # UnicodeDecodeError is a ValueError
-            raise ModelError(f"{where}: cannot read the {what} file ({exc})") from None
+        text = read_text_file(source, what=what)
     else:
         where, text = f"<{what}>", str(source)
-    rows = [(i + 1, r) for i, r in enumerate(csv.reader(io.StringIO(text))) if r and any(c.strip() for c in r)]
+    rows = [(i, r) for i, r in csv_records(text, where) if r and any(c.strip() for c in r)]
     rows = [(i, r) for i, r in rows if not r[0].lstrip().startswith("#")]
     if not rows:
         raise ModelError(f"{where}: empty {what} file; expected a header line {','.join(columns)} and rows")
