@@ -84,6 +84,10 @@ def read_table(source, columns: tuple[str, ...], *, what: str = "targets") -> np
     return np.array(out, dtype=float)
 
 
+def _where(source) -> str:
+    return str(source) if isinstance(source, (str, Path)) and "\n" not in str(source) else "targets"
+
+
 def _check_fourbar(mech, method: str) -> None:
     if len(mech.loops) != 1 or len(mech.variables) != 3 or len(mech.inputs) != 1:
         raise ModelError(f"--method {method} is for four-bar models (one loop, one input, two unknowns); "
@@ -172,7 +176,7 @@ def _parameters(mech) -> dict:
 
 def classic_synthesize(mech, *, method: str, targets, function: str | None = None, motion: str | None = None,
                        link: str | None = None, fit: str | None = None, input_range=None,
-                       desired=None, polish: bool = True) -> ClassicSynthesis:
+                       desired=None, polish: bool = True, max_targets: int | None = None) -> ClassicSynthesis:
     """Run Freudenstein (``function=``) or Burmester (``motion=``, ``link=``) on a four-bar model.
 
     Raises
@@ -212,6 +216,9 @@ def classic_synthesize(mech, *, method: str, targets, function: str | None = Non
             raise ModelError(f"--function {function!r}: not an unknown of the model (unknowns: "
                              f"{', '.join(n for n in names if n not in mech.inputs)})")
         rows = read_table(targets, ("input", "output"))
+        from .synthlimits import MAX_TARGETS, check_target_count
+
+        check_target_count(len(rows), _where(targets), MAX_TARGETS if max_targets is None else max_targets)
         if len(rows) < 3:
             raise ModelError(f"too few targets for Freudenstein: {len(rows)} (three are met exactly, more by least "
                              "squares)")
