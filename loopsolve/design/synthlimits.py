@@ -60,10 +60,11 @@ _MULTISTART_CHUNK = 4000
 
 
 def _whole(option: str, value, low: int, what: str) -> int:
+    shown = f"{option} {value!r}" if option.startswith("--") else f"{option}={value!r}"
     if isinstance(value, bool) or not isinstance(value, numbers.Integral):
-        raise ModelError(f"{option} {value!r}: {what} must be a whole number (at least {low})")
+        raise ModelError(f"{shown}: {what} must be a whole number (at least {low})")
     if value < low:
-        raise ModelError(f"{option} {value}: {what} must be at least {low}")
+        raise ModelError(f"{shown}: {what} must be at least {low}")
     return int(value)
 
 
@@ -94,9 +95,9 @@ def check_options(*, runs, seed, popsize, maxiter, tol, restarts, starts, de_sta
     _whole("--restarts", restarts, 1, "the DE searches per assembly mode")
     if starts is not None:
         _whole("--starts", starts, 0, "the number of multistart starts (0: none)")
-    _whole("de_starts=", de_starts, 1, "the starts taken from each search")
-    _whole("lm_iters=", lm_iters, 0, "the lockstep Levenberg-Marquardt's iterations")
-    _whole("polish_candidates=", polish_candidates, 1, "the basins polished")
+    _whole("de_starts", de_starts, 1, "the starts taken from each search")
+    _whole("lm_iters", lm_iters, 0, "the lockstep Levenberg-Marquardt's iterations")
+    _whole("polish_candidates", polish_candidates, 1, "the basins polished")
     try:
         tol_ok = math.isfinite(float(tol)) and float(tol) >= 0
     except (TypeError, ValueError):
@@ -176,7 +177,7 @@ def _per_design(problem) -> tuple[int, int]:
         return _FREE_GRID + T, T * _FREE_GRID + nv * _FREE_GRID
     xs = np.asarray(problem.inputs, dtype=float)
     with np.errstate(all="ignore"):
-        sub = np.maximum(1.0, np.ceil(np.abs(np.diff(xs)) / _STEP))
+        sub = np.maximum(1.0, np.ceil(np.abs(np.diff(xs)) / _STEP - 1e-9))  # as the tracer counts them
     steps = 1.0 + float(np.sum(sub))
     if problem.crank:
         steps += 2 * math.pi / _STEP
