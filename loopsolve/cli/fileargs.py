@@ -144,8 +144,8 @@ def check_files(parser: argparse.ArgumentParser, args) -> None:
     :class:`~loopsolve.errors.ModelError` for the extension; each names the option and the path.
     """
     from ..errors import ModelError
+    from ..kinematics.export import printable as _one_line  # a path shown on one line
     from ..model.files import OutputError
-    from .common import _one_line
 
     sub = command_parsers(parser).get(getattr(args, "command", None))
     if sub is None:
