@@ -192,7 +192,8 @@ def classic_synthesize(mech, *, method: str, targets, function: str | None = Non
         reaches as much of the input range; the report's ``polish`` says what happened.
 
         Not a four-bar, an unknown ``function``/``link`` variable or ``motion`` point, a malformed
-        targets file, too few (or too many) targets for the method.
+        targets file, too few (or too many: more than ``max_targets``, default 1000, for
+        Freudenstein) targets for the method, two targets at one input angle, a repeated pose.
     SolveError
         No candidate is free of defects (the report is on ``.report`` of the error's ``args``).
 

@@ -183,7 +183,11 @@ def _signature(signs) -> str:
 def define(mech, *, path: str | None = None, function: str | None = None, motion: str | None = None,
            link: str | None = None, targets=None, inputs=None, vary: Mapping | None = None, crank: bool = False,
            transmission=None, mode: str | None = "any", max_targets: int | None = None) -> Problem:
-    """Check and build a :class:`Problem` (see :func:`synthesize` for the arguments)."""
+    """Check and build a :class:`Problem` (see :func:`synthesize` for the arguments).
+
+    The targets are checked by :mod:`loopsolve.design.synthlimits` (at most ``max_targets``, default
+    1000; none at the same prescribed input; no repeat in a row with free timing; an angle input's
+    values within one turn)."""
     from ..kinematics.solve import input_value
     from .synthbatch import Batch
     from .synthlimits import MAX_TARGETS, check_target_count, check_targets

@@ -463,7 +463,8 @@ def synthesize(mech, *, path=None, function=None, motion=None, link=None, target
     if workers or scheduler or client is not None:
         outs = _dask_runs(problem, mech, dict(path=path, function=function, motion=motion, link=link,
                                               targets=problem_targets(problem, targets), inputs=inputs, vary=vary,
-                                              crank=crank, transmission=transmission, mode=mode),
+                                              crank=crank, transmission=transmission, mode=mode,
+                                              max_targets=max_targets),
                           seeds, opts, workers, scheduler, client, bar)
     else:
         outs = []
