@@ -170,6 +170,6 @@ def check_files(parser: argparse.ArgumentParser, args) -> None:
         suffix = Path(path).suffix.lower()
         if suffix in suffixes or (bare and not suffix):
             continue
-        shown = ", ".join(suffixes)
+        shown = suffixes[0] if len(suffixes) == 1 else f"{', '.join(suffixes[:-1])} or {suffixes[-1]}"
         raise ModelError(f"{flag} {_one_line(path)!r}: {args.command} writes {what} there; the file name must end in "
                          f"{shown}{' (or have no extension)' if bare else ''}" + (f"; {hint}" if hint else ""))
