@@ -152,8 +152,7 @@ def build_parser() -> argparse.ArgumentParser:
                    "sweep (repeat for more; default: the tracer points such as a coupler point)")
     p.add_argument("--no-curves", action="store_true", help="CAD drawing: no point paths")
     file_argument(p, "-o", "--output", role="output", fmt="draw", required=True, help="image file: .png, .svg or "
-                  ".pdf; CAD drawing: .dxf "
-                   "(needs ezdxf: pip install 'loopsolve[cad]'), or .svg with --cad")
+                  ".pdf; CAD drawing: .dxf (needs ezdxf: pip install 'loopsolve[cad]'), or .svg with --cad")
     p.set_defaults(func=cmd_draw)
 
     p = sub.add_parser("animate", help="the linkage moving over a sweep (GIF, or MP4 with ffmpeg)")

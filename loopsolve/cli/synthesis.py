@@ -23,8 +23,8 @@ def _synthesis_parser(sub) -> None:
     task.add_argument("--motion", metavar="POINT", help="motion generation: POINT and the --link angle "
                       "(CSV x,y,angle)")
     p.add_argument("--link", metavar="VAR", help="with --motion: the angle variable of the guided link")
-    file_argument(p, "--targets", role="input", what="--targets", required=True, metavar="T.csv", help="targets (CSV with a header line; an "
-                   "input column prescribes the timing)")
+    file_argument(p, "--targets", role="input", what="--targets", required=True, metavar="T.csv",
+                  help="targets (CSV with a header line; an input column prescribes the timing)")
     p.add_argument("--inputs", metavar="X1,X2,...", help="prescribed input value of every target (model units)")
     p.add_argument("--vary", action="append", metavar="NAME=LOW:HIGH",
                    help="a design variable and its bounds (model units); repeat for more (general method)")
