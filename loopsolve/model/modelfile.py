@@ -103,9 +103,16 @@ def models_dir() -> Path:
     True
     """
     import sys
+    import sysconfig
 
     here = Path(__file__).resolve().parents[1]  # the package (this module is in model/)
-    for cand in (here.parent / "models", Path(sys.prefix) / "share" / "loopsolve" / "models"):
+    # a checkout; a wheel's data files in the environment (venv, system, conda) or the user's scheme (--user)
+    places = [here.parent / "models", Path(sys.prefix) / "share" / "loopsolve" / "models"]
+    try:
+        places.append(Path(sysconfig.get_path("data", f"{os.name}_user")) / "share" / "loopsolve" / "models")
+    except KeyError:  # no user scheme on this platform
+        pass
+    for cand in places:
         if cand.is_dir():
             return cand
     return here.parent / "models"
