@@ -8,12 +8,14 @@ import sys
 from pathlib import Path
 
 from .common import EXIT_OK
+from .fileargs import file_argument
 
 
 def _edit_parser(sub) -> None:
     p = sub.add_parser("edit", help="a local editor in the browser: drag joints, analyse, synthesize, save")
-    p.add_argument("model", nargs="?", help="model file (TOML) to edit, or a share link of the editor; without "
-                   "it the editor starts from a template four-bar and asks for a name when saving")
+    file_argument(p, "model", role="input", nargs="?", help="model file (TOML) to edit, or a share link of the "
+                  "editor; without it the editor starts from a template four-bar and asks for a name when saving "
+                  "(the editor saves through its own checks: it asks before replacing a file)")
     p.add_argument("--port", type=int, default=0, help="port on 127.0.0.1 (default: a random free port)")
     p.add_argument("--no-browser", action="store_true", help="print the URL only; do not open a browser")
     p.set_defaults(func=cmd_edit)
