@@ -324,10 +324,16 @@ def test_compiled_rates_are_rates_v(derivatives):
     rates = (2.0, -0.5, 0.25)
     got = lane.rates(Z, rates, derivatives)
     ref = rates_v(ck, Z.copy(), rates, derivatives=derivatives)
-    for g, r in zip(got, ref):
+    for g, r in zip(got[:3], ref[:3]):
         assert np.array_equal(np.isnan(g), np.isnan(r))
         assert _close(g, r) <= 1e-12
-    assert np.isinf(got[3][7]) and np.isnan(got[0][1:, 7]).all() and got[0][0, 7] == 2.0
+    # a condition number beyond SINGULAR_COND is round-off (θ3 = θ4 gives det = 0 exactly or ~1e-17
+    # depending on numpy's sine): both engines must call the same rows singular, and agree elsewhere
+    from loopsolve.kinematics.batch import SINGULAR_COND
+    singular = got[3] > SINGULAR_COND
+    assert np.array_equal(singular, ref[3] > SINGULAR_COND) and singular[7]
+    assert _close(got[3][~singular], ref[3][~singular]) <= 1e-12
+    assert np.isnan(got[0][1:, 7]).all() and got[0][0, 7] == 2.0
 
 
 def test_a_model_numba_cannot_compile_falls_back_to_python_with_one_warning(monkeypatch):
