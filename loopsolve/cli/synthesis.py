@@ -29,7 +29,8 @@ def _synthesis_parser(sub) -> None:
                    help="a design variable and its bounds (model units); repeat for more (general method)")
     p.add_argument("--method", choices=("general", "freudenstein", "burmester"), default="general",
                    help="general (default: any model, --vary), or the classical four-bar methods: freudenstein "
-                   "(--function) and burmester (--motion --link, five poses)")
+                   "(--function) and burmester (--motion --link, three to five poses; candidates ranked, "
+                   "see the report's ranking)")
     p.add_argument("--range", dest="input_range", metavar="LO:HI", help="with --function: the intended input range "
                    "(model units; default: the targets' inputs), checked and reported as the structural error")
     p.add_argument("--crank", action="store_true", help="the input must turn fully")
@@ -89,9 +90,15 @@ def cmd_synthesize(args) -> int:
         scheduler=args.scheduler, progress=None if not args.quiet else False,
         input_range=input_range), "")
     if rep is not None:
-        print(f"objective {rep['objective']:.6g} (mode {rep['mode']}, certified); wrote {args.report}"
-              + (f" and {args.output}" if args.output else ""), file=sys.stderr)
+        print(f"objective {rep['objective']:.6g} (mode {rep['mode']}, certified{_fit_phrase(rep)}); wrote "
+              f"{args.report}" + (f" and {args.output}" if args.output else ""), file=sys.stderr)
     return EXIT_OK
+
+
+def _fit_phrase(rep) -> str:
+    from ..design.synthreport import fit_phrase
+
+    return fit_phrase(rep.get("fit"))
 
 
 
@@ -120,9 +127,9 @@ def _synthesis_output(args, run, label: str):
         res = run()
     except SynthesisError as exc:
         if args.report and exc.report is not None:
-            _write(json.dumps(exc.report, indent=2) + "\n", args.report)
+            _write(json.dumps(exc.report, indent=2, allow_nan=False) + "\n", args.report)
         raise
-    text = json.dumps(res.report, indent=2) + "\n"
+    text = json.dumps(res.report, indent=2, allow_nan=False) + "\n"  # strict JSON: a NaN is a bug, not output
     if args.report:
         _write(text, args.report)
     if args.output:
@@ -140,15 +147,17 @@ def _classic_synthesize(args, input_range) -> int:
     from ..design.synthrun import synthesize
 
     for flag, given in (("--path", args.path), ("--vary", args.vary), ("--inputs", args.inputs),
-                        ("--crank", args.crank), ("--transmission", args.transmission),
                         ("--workers", args.workers), ("--scheduler", args.scheduler)):
         if given:
             raise ModelError(f"{flag} is not used by --method {args.method} (it is for the general method)")
     mech = _load(args.model)
     rep = _synthesis_output(args, lambda: synthesize(mech, method=args.method, targets=args.targets,
                                                      function=args.function, motion=args.motion, link=args.link,
-                                                     input_range=input_range), args.method)
+                                                     input_range=input_range, crank=args.crank,
+                                                     transmission=args.transmission), args.method)
     if rep is not None:
-        print(f"{args.method}: objective {rep['objective']:.6g} (certified); wrote {args.report}"
-              + (f" and {args.output}" if args.output else ""), file=sys.stderr)
+        rank = rep.get("ranking")
+        more = f", best of {rank['certified']} certified candidates by the ranking rule" if rank else ""
+        print(f"{args.method}: objective {rep['objective']:.6g} (certified{more}{_fit_phrase(rep)}); wrote "
+              f"{args.report}" + (f" and {args.output}" if args.output else ""), file=sys.stderr)
     return EXIT_OK

@@ -128,6 +128,8 @@ class Problem:
         Pt = np.tile(P, (1, T))
         if self.task == "function":
             r = flat[self.ck.index(self.output)] - np.repeat(self.targets[:, 0], D)
+            if self.ck.kinds[self.ck.index(self.output)] is Kind.ANGLE:  # an angle target in any turn
+                r = (r + math.pi) % (2 * math.pi) - math.pi
             return r.reshape(1, T, D)
         pts = b.points(flat, Pt)[self.ck.points.index(self.point)]  # (2, T*D)
         r = pts - np.repeat(self.targets[:, :2].T, D, axis=1)
@@ -431,7 +433,10 @@ def _pair_errors(problem, Zall, P):
     T = problem.T
     if problem.task == "function":
         y = flat[problem.ck.index(problem.output)]
-        return ((y[None, :] - problem.targets[:, :1]) ** 2).reshape(T, K, D)
+        d = y[None, :] - problem.targets[:, :1]
+        if problem.ck.kinds[problem.ck.index(problem.output)] is Kind.ANGLE:
+            d = (d + math.pi) % (2 * math.pi) - math.pi
+        return (d ** 2).reshape(T, K, D)
     pts = np.nan_to_num(b.points(np.nan_to_num(flat), Pt)[problem.ck.points.index(problem.point)], nan=np.inf)
     pts = np.where(np.all(np.isfinite(flat), axis=0), pts, np.inf)
     e = (pts[0][None] - problem.targets[:, :1]) ** 2 + (pts[1][None] - problem.targets[:, 1:2]) ** 2
