@@ -34,13 +34,13 @@ def burmester_synthesize(mech, *, targets, motion, link, crank: bool = False, tr
 
     if motion is None or link is None:
         raise ModelError("--method burmester is for motion generation (--motion POINT --link VAR)")
+    lay = fourbar_layout(mech, "burmester")
     if motion not in [p.name for p in mech.points]:
         raise ModelError(f"--motion {motion!r}: not a point of the model (points: "
                          f"{', '.join(p.name for p in mech.points) or 'none'})")
     names = [v.name for v in mech.variables]
     if link not in names:
         raise ModelError(f"--link {link!r}: not a variable of the model (variables: {', '.join(names)})")
-    lay = fourbar_layout(mech, "burmester")
     if link != lay.variables["coupler"]:
         raise ModelError(f"--link {link!r}: Burmester theory guides the coupler; the coupler's angle of "
                          f"{mech.name!r} is {lay.variables['coupler']!r}")

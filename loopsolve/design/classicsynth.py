@@ -221,13 +221,13 @@ def classic_synthesize(mech, *, method: str, targets, function: str | None = Non
                                     transmission=transmission)
     if function is None:
         raise ModelError("--method freudenstein is for function generation (--function OUT)")
+    from .classicmap import fourbar_layout
+
+    lay = fourbar_layout(mech, "freudenstein")
     names = [v.name for v in mech.variables]
     if function not in names or function in mech.inputs:
         raise ModelError(f"--function {function!r}: not an unknown of the model (unknowns: "
                          f"{', '.join(n for n in names if n not in mech.inputs)})")
-    from .classicmap import fourbar_layout
-
-    lay = fourbar_layout(mech, "freudenstein")
     if function != lay.variables["output"]:
         raise ModelError(f"--function {function!r}: Freudenstein's equation relates the angles of the input and "
                          f"output links; the output link's angle of {mech.name!r} is {lay.variables['output']!r}")
