@@ -275,7 +275,7 @@ def _certify(mech, inputs, poses, crank, transmission, point, targets):
             notes.append(f"transmission angle {'unknown' if mu is None else f'{mu[0]:.1f}-{mu[1]:.1f} deg'} "
                          f"outside {lo:g}-{hi:g} deg")
     return {**flags(defects),
-            "crank": turns,
+            "crank": False if "crank" in defects else turns,
             "transmission": None if mu is None else [round(mu[0], 6), round(mu[1], 6)],
             "grashof_margin": _grashof_margin(mech),
             "defects": sorted(defects, key=DEFECTS.index),

@@ -109,6 +109,10 @@ def burmester_synthesize(mech, *, targets, motion, link, crank: bool = False, tr
                        "fit": None, "certificate": {**flags(kinds), "defects": kinds}})
         what = (f"{len(tried)} four-bar(s) tried, none free of defects ({', '.join(kinds)})" if tried else
                 f"no four-bar of the {M} pairs of dyads passes the screening ({', '.join(kinds)})")
+        held = next((d["message"] for e in tried for d in e["defects"] if d["kind"] == "model"), None)
+        if held is not None:
+            n_ok = sum(1 for e in tried if [d["kind"] for d in e["defects"]] == ["model"])
+            what = f"{n_ok} four-bar(s) move through the poses but {held.split(': ', 1)[-1]}"
         err = SolveError(f"Burmester: {len(dyads)} dyads, {what}; the report lists them — try the general method")
         err.report = report
         raise err

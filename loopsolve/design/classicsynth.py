@@ -19,6 +19,7 @@ from __future__ import annotations
 import csv
 import io
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -43,6 +44,16 @@ def read_table(source, columns: tuple[str, ...], *, what: str = "targets") -> np
     >>> read_table("x,y,angle\\n1,2,30\\n3,4,45\\n", ("x", "y", "angle")).tolist()
     [[1.0, 2.0, 30.0], [3.0, 4.0, 45.0]]
     """
+    if isinstance(source, Mapping):  # columns by name, as the general method takes them
+        cols = {str(k).strip().lower(): v for k, v in source.items()}
+        missing = [c for c in columns if c not in cols]
+        if missing:
+            raise ModelError(f"{what}: missing column(s) {', '.join(missing)}; the columns are "
+                             f"{', '.join(cols) or 'none'} (expected {','.join(columns)})")
+        try:
+            source = np.column_stack([np.atleast_1d(np.asarray(cols[c], dtype=float)) for c in columns])
+        except (TypeError, ValueError):
+            raise ModelError(f"{what}: the columns {','.join(columns)} must be numbers of one length") from None
     if not isinstance(source, (str, Path)):  # rows of numbers already (an array or a list of rows)
         try:
             arr = np.array(source, dtype=float)
