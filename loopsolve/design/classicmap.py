@@ -135,6 +135,17 @@ def _probe(mech, names):
     return build_mechanism(spec, source=mech.source or mech.name)
 
 
+def _names(v) -> set:
+    from ..model import expr as _expr
+
+    out = set()
+    for f in ("length", "angle", "offset", "x", "y"):
+        n = getattr(v, f)
+        if n is not None:
+            out |= _expr.names(n)
+    return out
+
+
 def _wrap(a):
     return (np.asarray(a) + math.pi) % (2 * math.pi) - math.pi
 
@@ -346,6 +357,18 @@ def transplant(mech, layout: FourBarLayout, joints, known, *, point: str | None 
     pfull[:npar] = pstart
     offs = []
     u, err = solve(offs, np.r_[pstart, start_free(pfull)])
+    if err > 1e-10:  # a link that must point the other way starts where its angle parameter is stationary:
+        # try each angle parameter turned by half a turn (the least shared first)
+        ang = [i for i in range(npar) if mech.parameters[i].kind is Kind.ANGLE]
+        uses = {i: sum(mech.parameters[i].name in _names(v) for v in mech.vectors) for i in ang}
+        for i in sorted(ang, key=lambda i: uses[i]):
+            q = pfull.copy()
+            q[i] += math.pi
+            u2, err2 = solve(offs, np.r_[q[:npar], start_free(q)])
+            if err2 < err:
+                u, err = u2, err2
+            if err <= 1e-10:
+                break
     if err > 1e-10:  # no parameter gives some vector its direction: that vector's offset changes too
         # only vectors whose direction no parameter turns (else a parameter and the offset would trade off)
         pz, Zz = z_of(u, offs)

@@ -267,8 +267,14 @@ def _freudenstein(mech, lay, rows, fit, input_range, desired, polish, crank, tra
     b = np.degrees(y_int + s_out)
     rng = None if input_range is None else tuple(math.degrees(to_internal(mech, kin, float(v)) + s_in)
                                                 for v in input_range)
-    d = freudenstein_points(a, b, fit=fit or ("exact" if len(rows) == 3 else "least-squares"), ground=ground,
-                            length_unit=mech.units.length, name=f"{mech.name} (Freudenstein)", input_range=rng)
+    try:
+        d = freudenstein_points(a, b, fit=fit or ("exact" if len(rows) == 3 else "least-squares"), ground=ground,
+                                length_unit=mech.units.length, name=f"{mech.name} (Freudenstein)", input_range=rng)
+    except ModelError as exc:
+        if abs(s_in) < 1e-12 and abs(s_out) < 1e-12:
+            raise
+        raise ModelError(f"{exc} (Freudenstein's angles are measured from the ground line of {mech.name!r}: its "
+                         f"{in_var} {math.degrees(s_in):+.6g} deg, {out_var} {math.degrees(s_out):+.6g} deg)") from None
     # the design's joints at every target it assembles at, in the model's frame (turned by gamma)
     k1, k2, _ = d.K
     r2s, r4s = ground / k1, ground / k2
@@ -338,7 +344,8 @@ def _function_report(M, lay, rows, x_int, Z, at, crank, transmission, extra_defe
                    "grashof": info.get("grashof"), "defects": defects,
                    "notes": list(cert.get("notes", [])) + list(extra_notes)}
     x0 = float(rows[at[0], 0])
-    se = structural_error(M, out_var, x0, targets=(rows[:, 0], rows[:, 1]), input_range=input_range, desired=desired)
+    yref = rows[:, 1] if period is None else np.unwrap(rows[:, 1], period=period)  # one continuous curve
+    se = structural_error(M, out_var, x0, targets=(rows[:, 0], yref), input_range=input_range, desired=desired)
     params = {p.name: to_model(M, p.kind, p.value) for p in M.parameters}
     return {"objective": objective, "parameters": params, "mode": ck.signature(Z[:, 0]),
             "direction": 1 if rows[-1, 0] >= rows[0, 0] else -1, "targets": entries, "certificate": certificate,

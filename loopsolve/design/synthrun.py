@@ -509,8 +509,10 @@ def _function_structural_error(problem, mech, report, input_range, desired=None)
 
     ck = problem.ck
     y = problem.targets[:, 0]
-    if ck.kinds[ck.index(problem.output)] is Kind.ANGLE and problem.mech.units.angle == "deg":
-        y = np.degrees(y)
+    if ck.kinds[ck.index(problem.output)] is Kind.ANGLE:  # targets written in any turn: one continuous curve
+        y = np.unwrap(y)
+        if problem.mech.units.angle == "deg":
+            y = np.degrees(y)
     x = np.array([t["input"] for t in report["targets"]], dtype=float)
     return structural_error(mech, problem.output, float(x[0]), targets=(x, y), input_range=input_range,
                             desired=desired)
