@@ -110,6 +110,7 @@ class Screened:
     worst: np.ndarray  # (M,) mu* (degrees)
     score: np.ndarray  # (M,) inf where not feasible
     why: list  # (M,) the first reason a pair fails the screening ("" when feasible)
+    raw: np.ndarray = None  # (M,) the score whatever the screening says (the certificate decides)
 
 
 def screen(poses, dyads, *, crank: bool = False, transmission=None) -> Screened:
@@ -121,7 +122,7 @@ def screen(poses, dyads, *, crank: bool = False, transmission=None) -> Screened:
     M = len(pairs)
     if M == 0:
         e = np.zeros(0)
-        return Screened(pairs, np.zeros((0, 4)), e.astype(bool), e.astype(bool), e, e, np.zeros((0, 2)), e, e, [])
+        return Screened(pairs, np.zeros((0, 4)), e.astype(bool), e.astype(bool), e, e, np.zeros((0, 2)), e, e, [], e)
     C = np.array([d.center for d in dyads], dtype=float)
     K = np.array([d.circle for d in dyads], dtype=float)
     rho = np.array([d.radius for d in dyads], dtype=float)
@@ -190,5 +191,6 @@ def screen(poses, dyads, *, crank: bool = False, transmission=None) -> Screened:
             why[m] = "transmission"
         feasible &= okt
     with np.errstate(divide="ignore"):
-        score = np.where(feasible & (worst > 0), size / np.sin(np.radians(worst)), np.inf)
-    return Screened(pairs, lengths, turns, feasible, direction, size, mu_rng, worst, score, why)
+        raw = np.where(worst > 0, size / np.sin(np.radians(worst)), np.inf)
+    score = np.where(feasible, raw, np.inf)
+    return Screened(pairs, lengths, turns, feasible, direction, size, mu_rng, worst, score, why, raw)

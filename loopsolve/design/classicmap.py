@@ -209,13 +209,21 @@ def transplant(mech, layout: FourBarLayout, joints, known, *, point: str | None 
             w[layout.vectors[role]] = s * (np.asarray(j[head], float) - np.asarray(j[tail], float))
         want.append(w)
     # length parameters of links stay positive (a model refuses a link of negative length)
+    # and a loop vector's length parameter keeps its sign (a ground of length -49.5 turned by half a turn is the
+    # same frame, but not what a designer reads)
+    from ..model import expr as _expr
+
     link_len = set()
     for v in checked_links(mech.vectors, mech.parameters, mech.variables):
-        from ..model import expr as _expr
-
         if isinstance(v.length, _expr.Name) and v.length.id in pnames:
             link_len.add(v.length.id)
+    negative = set()
+    for n in layout.vectors.values():
+        v = mech.vector(n)
+        if isinstance(v.length, _expr.Name) and v.length.id in pnames:
+            (negative if p0[pnames.index(v.length.id)] < 0 else link_len).add(v.length.id)
     lo = np.array([1e-12 * scale if n in link_len else -np.inf for n in pnames])
+    hi = np.array([-1e-12 * scale if n in negative else np.inf for n in pnames])
 
     known_ix = [[ck.index(nm) for nm in kn] for kn in known]
     known_val = [[float(v) for v in kn.values()] for kn in known]
@@ -325,12 +333,13 @@ def transplant(mech, layout: FourBarLayout, joints, known, *, point: str | None 
 
     def solve(offs, u_start):
         lb = np.r_[lo, np.full(len(offs), -np.inf), np.full(sum(map(len, free)), -np.inf)]
-        ub = np.full_like(lb, np.inf)
+        ub = np.r_[hi, np.full(len(lb) - npar, np.inf)]
         hold = np.r_[held(np.clip(u_start, lb, ub), offs), np.zeros(len(u_start) - npar, dtype=bool)]
         width = np.maximum(1e-12 * np.maximum(np.abs(u_start), 1.0), 1e-300)
         lb = np.where(hold, u_start - width, lb)  # a held parameter stays (within round-off) where it is
         ub = np.where(hold, u_start + width, ub)
-        u_start = np.clip(u_start, np.where(np.isfinite(lb), lb * (1 + 1e-12) + 1e-300, lb), ub)
+        u_start = np.clip(u_start, np.where(np.isfinite(lb), lb + 1e-12 * np.abs(lb) + 1e-300, lb),
+                          np.where(np.isfinite(ub), ub - 1e-12 * np.abs(ub) - 1e-300, ub))
         res = least_squares(resid, u_start, jac=fd_jac, args=(offs,), bounds=(lb, ub), method="trf", xtol=1e-15,
                             ftol=1e-15, gtol=1e-15, max_nfev=400)
         x = np.where(hold, u_start, res.x)  # exactly the model's own value
@@ -352,7 +361,7 @@ def transplant(mech, layout: FourBarLayout, joints, known, *, point: str | None 
             out.append(math.remainder(math.atan2(want[0][n][1], want[0][n][0]) - th, 2 * math.pi) if fixed else 0.0)
         return out
 
-    pstart = np.clip(p0[:npar], lo, None)
+    pstart = np.clip(p0[:npar], lo, hi)
     pfull = p0.copy()
     pfull[:npar] = pstart
     offs = []

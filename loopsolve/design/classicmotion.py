@@ -145,7 +145,7 @@ def _try(mech, lay, pdeg, poses, dyads, scr, m, motion, link, crank, transmissio
     except ModelError:
         return None
     da, db = dyads[i], dyads[j]
-    score = float(scr.score[m]) if math.isfinite(scr.score[m]) else None
+    score = float(scr.raw[m]) if math.isfinite(scr.raw[m]) else None  # the rule's score (screening aside)
     entry = {"rank": None, "certified": False, "score": score, "size": float(scr.size[m]),
              "worst_transmission": float(scr.worst[m]), "transmission": [float(v) for v in scr.mu[m]],
              "grashof": cand.grashof.value, "turns_fully": bool(scr.crank[m]),
@@ -157,8 +157,6 @@ def _try(mech, lay, pdeg, poses, dyads, scr, m, motion, link, crank, transmissio
              "mode": None, "parameters": None, "defects": [], "certificate": None}
     defects = [{"kind": d.kind, "message": d.message, "input": None if d.input is None else _conv(mech, d.input)}
                for d in cand.defects]
-    if not defects and scr.why[m]:
-        defects.append({"kind": scr.why[m], "message": f"closed-form screening: {scr.why[m]}", "input": None})
     if defects:
         kinds = sort_defects({d["kind"] for d in defects})
         entry.update(defects=defects, certificate={**flags(kinds), "defects": kinds})
