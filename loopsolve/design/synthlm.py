@@ -101,6 +101,8 @@ def _residuals_and_jacobian(problem, V, X, signs, hmax, start=None):
 #: floor (an exact fit), the whole batch stops. On the five-point benchmark three columns agree on
 #: 7.4158e-7 after 14–37 iterations (six seeds) of the 60 the crawling columns would take.
 _AGREE = 3
+#: the columns at most that :func:`batch_lm` polishes again within the requirements (the best unconstrained ends
+#: that fail them); a constrained iteration traces every column over the motion once more
 _AGREE_RTOL = 1e-6
 _AGREE_ATOL = 1e-12
 
@@ -119,6 +121,12 @@ def batch_lm(problem, V, signs, X=None, *, iters: int = 25, hmax: float = _POLIS
     columns 1e4 times worse than the best after ten iterations was tried and removed: on a
     free-timing half circle the column that ends at f ≈ 1e-30 was above that early, and the run
     ended at 2.4e-7.)
+
+    Requirements (``crank``, ``transmission``; :mod:`loopsolve.design.synthreq`): the columns are
+    first polished without them; the columns whose ends fail them and are better than every end
+    that passes are polished again from their starts, each step accepted only when the design still
+    passes (the constrained iterations trace every column over the motion once more, so only where
+    the unconstrained polish left the requirements).
     """
     from . import synthreq
 
@@ -132,7 +140,10 @@ def batch_lm(problem, V, signs, X=None, *, iters: int = 25, hmax: float = _POLIS
     if ok.any():
         ok[ok] = synthreq.check(problem, problem.batch.params(Vr[ok]), np.asarray(signs, dtype=float)[:, ok],
                                 Xr[:, ok])[0]
-    redo = np.flatnonzero(fin & ~ok)  # (a start that cannot be traced stays so)
+    # (a start that cannot be traced stays so; a column whose end is already worse than a passing end is not
+    # redone: within the requirements it would end no better in the same basin)
+    best_ok = float(np.min(fr[ok])) if ok.any() else math.inf
+    redo = np.flatnonzero(fin & ~ok & (fr < best_ok))
     if redo.size:
         Vs = np.asarray(V, dtype=float)[redo]
         Xs = None if X is None or not problem.free else np.asarray(X, dtype=float)[:, redo]

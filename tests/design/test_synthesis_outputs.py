@@ -517,3 +517,11 @@ def test_every_certificate_agrees_with_its_defects(tmp_path):
     c = certify(m, np.radians([20.0, 40.0, 60.0, 80.0]), crank=True, transmission=(60, 120))
     check_certificate(c, transmission=(60, 120))
     assert "crank" in c["defects"]
+    # a triple rocker (one circuit) asked to reach the other assembly at the next target: a branch defect
+    tri = ls.load(PATHMODEL).with_parameters(r2=2.8)
+    z1 = np.array([m_.z for m_ in tri.modes(100)][0], dtype=float)
+    z2 = [np.array(m_.z, dtype=float) for m_ in tri.modes(120)]
+    z2 = max(z2, key=lambda z: abs(math.remainder(z[2] - z1[2], 2 * math.pi)))  # the other assembly
+    c = certify(tri, np.radians([100.0, 120.0]), poses=np.column_stack([z1, z2]))
+    assert c["defects"] and set(c["defects"]) <= {"branch", "circuit"}
+    check_certificate(c)
