@@ -57,7 +57,7 @@ def cmd_info(args) -> int:
     mech = _load(args.model)
     data = info(mech, input=args.input)
     if args.format == "json":
-        _write(json.dumps(data, indent=1) + "\n", None)
+        _write(json.dumps(data, indent=1, allow_nan=False) + "\n", None)
     else:
         _write(format_info(data), None)
     return EXIT_OK

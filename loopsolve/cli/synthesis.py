@@ -30,7 +30,8 @@ def _synthesis_parser(sub) -> None:
                    help="a design variable and its bounds (model units); repeat for more (general method)")
     p.add_argument("--method", choices=("general", "freudenstein", "burmester"), default="general",
                    help="general (default: any model, --vary), or the classical four-bar methods: freudenstein "
-                   "(--function) and burmester (--motion --link, five poses)")
+                   "(--function) and burmester (--motion --link, three to five poses; candidates ranked, "
+                   "see the report's ranking)")
     p.add_argument("--range", dest="input_range", metavar="LO:HI", help="with --function: the intended input range "
                    "(model units; default: the targets' inputs), checked and reported as the structural error")
     p.add_argument("--crank", action="store_true", help="the input must turn fully")
@@ -96,9 +97,15 @@ def cmd_synthesize(args) -> int:
         scheduler=args.scheduler, progress=None if not args.quiet else False,
         input_range=input_range, max_cells=args.max_cells, max_targets=args.max_targets), "")
     if rep is not None:
-        print(f"objective {rep['objective']:.6g} (mode {rep['mode']}, certified); wrote {args.report}"
-              + (f" and {args.output}" if args.output else ""), file=sys.stderr)
+        print(f"objective {rep['objective']:.6g} (mode {rep['mode']}, certified{_fit_phrase(rep)}); wrote "
+              f"{args.report}" + (f" and {args.output}" if args.output else ""), file=sys.stderr)
     return EXIT_OK
+
+
+def _fit_phrase(rep) -> str:
+    from ..design.synthreport import fit_phrase
+
+    return fit_phrase(rep.get("fit"))
 
 
 
@@ -127,9 +134,9 @@ def _synthesis_output(args, run, label: str):
         res = run()
     except SynthesisError as exc:
         if args.report and exc.report is not None:
-            _write(json.dumps(exc.report, indent=2) + "\n", args.report)
+            _write(json.dumps(exc.report, indent=2, allow_nan=False) + "\n", args.report)
         raise
-    text = json.dumps(res.report, indent=2) + "\n"
+    text = json.dumps(res.report, indent=2, allow_nan=False) + "\n"  # strict JSON: a NaN is a bug, not output
     if args.report:
         _write(text, args.report)
     if args.output:
@@ -147,7 +154,6 @@ def _classic_synthesize(args, input_range) -> int:
     from ..design.synthrun import synthesize
 
     for flag, given in (("--path", args.path), ("--vary", args.vary), ("--inputs", args.inputs),
-                        ("--crank", args.crank), ("--transmission", args.transmission),
                         ("--workers", args.workers), ("--scheduler", args.scheduler)):
         if given is not None and given is not False:
             raise ModelError(f"{flag} is not used by --method {args.method} (it is for the general method)")
@@ -157,9 +163,12 @@ def _classic_synthesize(args, input_range) -> int:
                                                      input_range=input_range, runs=args.runs, seed=args.seed,
                                                      popsize=args.popsize, maxiter=args.maxiter,
                                                      restarts=args.restarts, starts=args.starts,
-                                                     max_cells=args.max_cells, max_targets=args.max_targets),
+                                                     max_cells=args.max_cells, max_targets=args.max_targets,
+                                                     crank=args.crank, transmission=args.transmission),
                             args.method)
     if rep is not None:
-        print(f"{args.method}: objective {rep['objective']:.6g} (certified); wrote {args.report}"
-              + (f" and {args.output}" if args.output else ""), file=sys.stderr)
+        rank = rep.get("ranking")
+        more = f", best of {rank['certified']} certified candidates by the ranking rule" if rank else ""
+        print(f"{args.method}: objective {rep['objective']:.6g} (certified{more}{_fit_phrase(rep)}); wrote "
+              f"{args.report}" + (f" and {args.output}" if args.output else ""), file=sys.stderr)
     return EXIT_OK

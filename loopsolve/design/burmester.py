@@ -347,10 +347,11 @@ class FourBarCandidate:
 
     @property
     def certificate(self) -> dict:
+        from .certify import flags, sort_defects
+
         kinds = {d.kind for d in self.defects}
-        return {"assembles": "assembly" not in kinds, "one_circuit": not ({"circuit", "branch"} & kinds),
-                "order": "order" not in kinds, "grashof": self.grashof.value, "mode": self.mode,
-                "direction": self.direction, "defects": sorted(kinds)}
+        return {**flags(kinds), "grashof": self.grashof.value, "mode": self.mode,
+                "direction": self.direction, "defects": sort_defects(kinds)}
 
     def to_dict(self) -> dict:
         return {"dyads": list(self.dyads), "lengths": list(self.lengths), "grashof": self.grashof.value,

@@ -36,9 +36,33 @@ import numpy as np
 from ..errors import LoopsolveError, LoopsolveWarning
 from ..model.units import Kind
 
-__all__ = ["certify", "DEFECTS"]
+__all__ = ["certify", "DEFECTS", "flags", "sort_defects"]
 
-DEFECTS = ("assembly", "circuit", "branch", "order", "crank", "transmission")
+#: every defect kind of a certificate (``range``: function generation, part of the intended input range
+#: cannot be reached; the classical methods report it)
+DEFECTS = ("assembly", "circuit", "branch", "order", "crank", "transmission", "range")
+
+
+def sort_defects(kinds) -> list:
+    """The defect kinds in the order of :data:`DEFECTS` (unknown kinds last, by name)."""
+    return sorted(set(kinds), key=lambda k: (DEFECTS.index(k) if k in DEFECTS else len(DEFECTS), k))
+
+
+def flags(defects) -> dict:
+    """The certificate's flags, one function for every method so they always agree with ``defects``.
+
+    ``assembles``: no ``assembly`` defect; ``one_circuit``: none of ``assembly``, ``circuit``,
+    ``branch`` (one continuous motion in one mode joins the targets); ``order``: no ``order``
+    defect. ``crank``/``transmission``/``range`` defects leave them as they are.
+
+    Examples
+    --------
+    >>> flags(["branch"])
+    {'assembles': True, 'one_circuit': False, 'order': True}
+    """
+    d = set(defects)
+    return {"assembles": "assembly" not in d, "one_circuit": not ({"circuit", "branch", "assembly"} & d),
+            "order": "order" not in d}
 _TWO_PI = 2 * math.pi
 
 
@@ -110,7 +134,7 @@ def _transmission(ck, Z) -> tuple[float, float] | None:
 
 def _grashof_margin(mech) -> float | None:
     try:
-        fbs = mech.info().get("fourbars") or []
+        fbs = mech.info(reach=False).get("fourbars") or []
     except LoopsolveError:
         return None
     margins = []
@@ -250,10 +274,8 @@ def _certify(mech, inputs, poses, crank, transmission, point, targets):
             defects.add("transmission")
             notes.append(f"transmission angle {'unknown' if mu is None else f'{mu[0]:.1f}-{mu[1]:.1f} deg'} "
                          f"outside {lo:g}-{hi:g} deg")
-    return {"assembles": "assembly" not in defects,
-            "one_circuit": not ({"circuit", "branch", "assembly"} & defects),
-            "order": "order" not in defects,
-            "crank": turns,
+    return {**flags(defects),
+            "crank": False if "crank" in defects else turns,
             "transmission": None if mu is None else [round(mu[0], 6), round(mu[1], 6)],
             "grashof_margin": _grashof_margin(mech),
             "defects": sorted(defects, key=DEFECTS.index),

@@ -146,9 +146,15 @@ class FunctionDesign:
     at the first precision point, in the mode that passes through it (``mode``).
     ``defects`` empty means certified: one motion of the input in ``mode``, crossing no limit,
     meets every precision point and covers the whole intended input range.
+    ``precision`` holds the wanted values ``(x, y, input angle, output angle)`` of each point (never
+    the linkage's), ``outputs`` the linkage's output angle at each point's input (degrees, within
+    half a turn of the wanted one; None where it cannot be assembled); ``root`` the sign of the
+    closed-form output (:func:`fourbar_output`) the design follows.
     ``max_error`` is the largest |θ4 − θ4_desired| over the reachable part of the input range
-    (degrees of output), ``max_error_y`` the same in the function's units;
-    ``error_input``/``error`` the curve it comes from (input angle, signed error in degrees).
+    (degrees of output; from precision points alone: the largest |output − wanted| at them),
+    ``max_error_y`` the same in the function's units (``max_error`` times the function units per
+    output degree); ``error_input``/``error`` the curve it comes from (input angle, signed error
+    design − wanted, degrees).
     """
 
     K: tuple[float, float, float]
@@ -169,6 +175,8 @@ class FunctionDesign:
     reachable: tuple[float, float] | None = None
     suggestion: str = ""
     redesign: Callable | None = field(default=None, repr=False, compare=False)
+    outputs: tuple = ()
+    root: int = 1
 
     @property
     def certified(self) -> bool:
@@ -197,7 +205,9 @@ class FunctionDesign:
         """A JSON-ready summary (the numbers and the defects)."""
         return {"method": "freudenstein", "fit": self.fit, "K": list(self.K), "lengths": list(self.lengths),
                 "offsets": list(self.offsets), "mode": self.mode, "grashof": self.grashof.value,
-                "precision": [dict(zip(("x", "y", "input", "output"), p)) for p in self.precision],
+                "precision": [dict(zip(("x", "y", "input", "output"), p), design_output=o,
+                                   error=None if o is None else o - p[3])
+                              for p, o in zip(self.precision, self.outputs or [None] * len(self.precision))],
                 "max_error_deg": self.max_error, "max_error_y": self.max_error_y,
                 "reachable": list(self.reachable) if self.reachable else None,
                 "certified": self.certified, "defects": [d.to_dict() for d in self.defects],
@@ -413,6 +423,7 @@ def freudenstein(function: Callable | None, x_range: Sequence[float], input_rang
     offs_deg = tuple(float(math.degrees(_wrap(o))) for o in offsets)
     # the first precision point (or the range's start for minimax) fixes the guesses and the mode
     i0 = 0
+    t4w = t4p.copy()  # the wanted output angles (the linkage's replace t4p below)
     if fit != "exact":  # the linkage's own outputs at the points (met only approximately)
         if fit == "least-squares":
             sign = min((1, -1), key=lambda sg: float(np.nansum(np.where(
@@ -423,7 +434,7 @@ def freudenstein(function: Callable | None, x_range: Sequence[float], input_rang
             raise ModelError(f"the {fit} design cannot be assembled at any of its points; try fit='minimax' or "
                              "other ranges")
         i0 = int(np.argmax(ok))
-    t2p, t4p = np.r_[t2p[i0:], t2p[:i0]], np.r_[t4p[i0:], t4p[:i0]]
+    t2p, t4p, t4w = np.r_[t2p[i0:], t2p[:i0]], np.r_[t4p[i0:], t4p[:i0]], np.r_[t4w[i0:], t4w[:i0]]
     t2f0, t4f0 = t2p[0] + offsets[0], t4p[0] + offsets[1]
     t3 = _theta3(lengths, t2f0, t4f0)
     z0 = (math.degrees(t2p[0]), math.degrees(t3), math.degrees(t4p[0]))
@@ -433,7 +444,7 @@ def freudenstein(function: Callable | None, x_range: Sequence[float], input_rang
     xs, ys = np.r_[xs[i0:], xs[:i0]], np.r_[ys[i0:], ys[:i0]]
     prec = tuple((float(x), float(y), float(math.degrees(a)), float(math.degrees(b)))
                  for x, y, a, b in zip(xs, ys, t2p, t4p))
-    design = _analyse(mech, K, lengths, offs_deg, fit, prec, (a0, a1), (b0, b1), cls, sign,
+    design = _analyse(mech, K, lengths, offs_deg, fit, prec, tuple(np.degrees(t4w)), (a0, a1), (b0, b1), cls, sign,
                       lambda t: np.degrees(fourbar_output(K, np.radians(t) + offsets[0], sign)[0]) - offs_deg[1],
                       lambda t: th4(function(x0 + (np.asarray(t) - a0) / (a1 - a0) * (x1 - x0))),
                       (y1 - y0) / (b1 - b0))
@@ -489,9 +500,11 @@ def freudenstein_points(inputs, outputs, *, fit: str = "exact", ground: float = 
     t4_0 = float(fourbar_output(K, t2p[:1], sign)[0][0]) if fit != "exact" else t4p[0]
     t3 = _theta3(lengths, t2p[0], t4_0)
     mech = _build(lengths, (0.0, 0.0), (a[0], math.degrees(t3), math.degrees(t4_0)), name, length_unit)
-    prec = tuple((float(x), float(y), float(x), float(y)) for x, y in zip(a, b))
-    if fit != "exact":
-        prec = ((prec[0][0], prec[0][1], prec[0][2], math.degrees(t4_0)),) + prec[1:]
+    # the linkage's outputs (degrees; NaN where it cannot be assembled) hold the configurations, the
+    # targets stay what they are
+    outs, ok = fourbar_output(K, t2p, sign)
+    outs = np.where(ok, np.degrees(outs), np.nan) if fit != "exact" else b
+    prec = tuple((float(x), float(y), float(x), float(o)) for x, y, o in zip(a, b, outs))
     cls = grashof(*(abs(v) for v in lengths))
     in_rng = (float(a[0]), float(a[-1]))
     if input_range is not None:
@@ -499,7 +512,7 @@ def freudenstein_points(inputs, outputs, *, fit: str = "exact", ground: float = 
         if not (lo <= min(a) and max(a) <= hi):
             raise ModelError(f"input range {lo:g}°:{hi:g}° does not hold every target input ({min(a):g}°…{max(a):g}°)")
         in_rng = (lo, hi) if a[-1] >= a[0] else (hi, lo)
-    return _analyse(mech, K, lengths, (0.0, 0.0), fit, prec, in_rng,
+    return _analyse(mech, K, lengths, (0.0, 0.0), fit, prec, tuple(float(v) for v in b), in_rng,
                     (float(b[0]), float(b[-1])), cls, sign,
                     lambda t: np.degrees(fourbar_output(K, np.radians(t), sign)[0]), None, 1.0)
 
@@ -524,7 +537,9 @@ def _signed_angles(lengths, t2f, t3, t4f):
     return (0.0, t2f + (math.pi if r2 < 0 else 0.0), t3, t4f + (math.pi if r4 < 0 else 0.0))
 
 
-def _analyse(mech, K, lengths, offs, fit, prec, in_rng, out_rng, cls, sign, closed, desired, y_per_deg):
+def _analyse(mech, K, lengths, offs, fit, prec, wanted, in_rng, out_rng, cls, sign, closed, desired, y_per_deg):
+    """The tracker's verdict. ``prec``: ``(x, y, input, linkage output)`` per point (degrees; the output
+    holds the configuration), ``wanted``: the wanted output angle of each point (degrees)."""
     ck = mech.compile()
     al, be = (math.radians(v) for v in offs)
     pos = tuple(abs(v) for v in lengths)
@@ -612,9 +627,9 @@ def _analyse(mech, K, lengths, offs, fit, prec, in_rng, out_rng, cls, sign, clos
     else:
         xe, ee = np.array([start]), np.array([0.0])
     max_err = float(np.abs(ee).max())
-    if desired is None:  # targets only: the error at each target, from the tracked design
+    if desired is None:  # targets only: the error at each target (against the wanted output), within reach
         max_err = 0.0
-        for _, _, a, b in prec:
+        for (_, _, a, _), b in zip(prec, wanted):
             if reach[0] - 1e-9 <= a <= reach[1] + 1e-9 or reach[1] - 1e-9 <= a <= reach[0] + 1e-9:
                 out = float(closed(np.array([a]))[0])
                 max_err = max(max_err, abs((out - b + 180.0) % 360.0 - 180.0))
@@ -623,6 +638,17 @@ def _analyse(mech, K, lengths, offs, fit, prec, in_rng, out_rng, cls, sign, clos
         suggestion = ("this design is defective; alternatives: design.alternative() (a minimax fit over the whole "
                       "input range, which keeps it assemblable, with the reference angles α, β free), or "
                       "fit='least-squares' with more points (e.g. points=7): check the new design's defects")
-    return FunctionDesign(tuple(K), tuple(abs(v) for v in lengths), offs, fit, prec, tuple(in_rng),
+    outputs = []
+    for (_, _, a, _), b in zip(prec, wanted):
+        o = float(closed(np.array([a]))[0])
+        ok = bool(np.isfinite(o)) and fourbar_ok(K, math.radians(a) + al, sign)
+        outputs.append(float(b + (o - b + 180.0) % 360.0 - 180.0) if ok else None)
+    precision = tuple((x, y, a, float(b)) for (x, y, a, _), b in zip(prec, wanted))
+    return FunctionDesign(tuple(K), tuple(abs(v) for v in lengths), offs, fit, precision, tuple(in_rng),
                           tuple(out_rng), mech, mode, cls, tuple(defects), max_err, max_err * abs(y_per_deg),
-                          xe, ee, (float(min(reach)), float(max(reach))), suggestion)
+                          xe, ee, (float(min(reach)), float(max(reach))), suggestion, None, tuple(outputs), sign)
+
+
+def fourbar_ok(K, theta2: float, sign: int) -> bool:
+    """Whether the Freudenstein linkage ``K`` assembles at the input angle ``theta2`` (radians)."""
+    return bool(fourbar_output(K, np.array([theta2]), sign)[1][0])

@@ -129,6 +129,8 @@ class Problem:
         Pt = np.tile(P, (1, T))
         if self.task == "function":
             r = flat[self.ck.index(self.output)] - np.repeat(self.targets[:, 0], D)
+            if self.ck.kinds[self.ck.index(self.output)] is Kind.ANGLE:  # an angle target in any turn
+                r = (r + math.pi) % (2 * math.pi) - math.pi
             return r.reshape(1, T, D)
         pts = b.points(flat, Pt)[self.ck.points.index(self.point)]  # (2, T*D)
         r = pts - np.repeat(self.targets[:, :2].T, D, axis=1)
@@ -315,10 +317,14 @@ def evaluate(problem: Problem, V, signs=None) -> tuple[np.ndarray, np.ndarray, n
     """Search objective of the designs ``V`` ``(D, k)``: ``(f, mode index, direction, inputs (T, D))``.
 
     Penalized: every target a design cannot reach in one continuous motion in one mode adds
-    :func:`_big`; with ``crank`` a design whose input cannot turn fully back to the first
-    target's pose adds one more. ``signs`` ``(nb, D)``: each design's own mode instead of the
-    problem's modes (the mode index is then 0).
+    :func:`_big`; a design that fails a requirement (``crank``: its input cannot turn fully back
+    to the first target's pose; ``transmission``: the angle leaves the bounds over the motion;
+    :func:`loopsolve.design.synthreq.check`) adds one more, growing with how far it fails.
+    ``signs`` ``(nb, D)``: each design's own mode instead of the problem's modes (the mode index
+    is then 0).
     """
+    from . import synthreq
+
     b = problem.batch
     P = b.params(V)
     D = P.shape[1]
@@ -341,27 +347,37 @@ def evaluate(problem: Problem, V, signs=None) -> tuple[np.ndarray, np.ndarray, n
     return best, mode_ix, direc, X_best
 
 
+def _penalty(problem, P, big, Zg, full, mask=None):
+    """The requirements' penalty of :func:`evaluate` from positions along the motion (see synthreq.assess)."""
+    from . import synthreq
+
+    ok, viol = synthreq.assess(problem, P, Zg, full, mask)
+    return np.where(ok, 0.0, big * (1.0 + viol / 90.0))
+
+
 def _timed_objective(problem, P, signs, big):
+    from . import synthreq
+
     D = P.shape[1]
     xs = problem.inputs
     X = np.repeat(xs[:, None], D, axis=1)
     direction = 1 if xs[-1] >= xs[0] else -1
-    if problem.crank:
-        X = np.vstack([X, X[:1] + direction * 2 * math.pi])
-    Zt, reached = problem.trace(P, X, signs)
     T = problem.T
+    if synthreq.active(problem):  # one trace through the targets and the motion the requirements concern
+        u = np.unique(np.r_[synthreq.grid(problem, xs[:, None])[:, 0], xs])
+        u = u if direction > 0 else u[::-1]
+        at = np.array([int(np.argmin(np.abs(u - x))) for x in xs])
+        Zu, ru = problem.trace(P, np.repeat(u[:, None], D, axis=1), signs)
+        Zt = Zu[:, at]
+        reached = np.sum(at[:, None] < ru[None, :], axis=0)
+        extra = _penalty(problem, P, big, Zu, ru >= len(u))
+    else:
+        Zt, reached = problem.trace(P, X, signs)
+        extra = 0.0
     R = problem.residuals(np.nan_to_num(Zt[:, :T]), P)
     e = np.sum(R * R, axis=0)  # (T, D)
     got = np.arange(T)[:, None] < reached[None, :]
-    f = np.sum(np.where(got, e, 0.0), axis=0) + big * (T - np.minimum(reached, T))
-    if problem.crank:
-        closes = reached > T
-        d = Zt[:, T] - Zt[:, 0]
-        ang = ~problem.batch.is_len
-        dq = d[problem.batch.iu]
-        dq = np.where(ang[:, None], (dq + math.pi) % (2 * math.pi) - math.pi, dq)
-        closes &= np.all(np.abs(dq) < 1e-6, axis=0)
-        f = f + big * ~closes
+    f = np.sum(np.where(got, e, 0.0), axis=0) + big * (T - np.minimum(reached, T)) + extra
     f = np.where(np.isfinite(f), f, big * (T + 2))
     return f, np.full(D, direction), X[:T]
 
@@ -387,6 +403,7 @@ def _free_objective(problem, P, signs, big):
     best_f = np.full(D, np.inf)
     best_dir = np.ones(D, dtype=int)
     best_X = np.full((T, D), np.nan)
+    best_k = np.zeros((2, D), dtype=int)  # the first and last grid index of the motion
     for direction in (1, -1):
         E = Rt if direction == 1 else Rt[::-1]
         cost, idx = _monotone_assignment(E)
@@ -399,6 +416,17 @@ def _free_objective(problem, P, signs, big):
         best_f = np.where(better, cost, best_f)
         best_dir = np.where(better, direction, best_dir)
         best_X[:, better] = Xd[:, better]
+        best_k[:, better] = np.stack([idx[0], idx[-1]])[:, better]
+    from . import synthreq
+
+    if synthreq.active(problem) and D:
+        if problem.crank:  # the turn from the guess: a design that turns fully turns from any of its poses
+            best_f = best_f + _penalty(problem, P, big, Zf, rf >= N + 1)
+        else:
+            k = np.arange(K)[:, None]
+            mask = (k >= best_k[0][None, :]) & (k <= best_k[1][None, :])
+            full = np.all(np.isfinite(Zall) | ~mask[None], axis=(0, 1))
+            best_f = best_f + _penalty(problem, P, big, Zall, full, mask)
     best_f = np.where(np.isfinite(best_f), best_f, big * (T + 2))
     return best_f, best_dir, best_X
 
@@ -412,7 +440,10 @@ def _pair_errors(problem, Zall, P):
     T = problem.T
     if problem.task == "function":
         y = flat[problem.ck.index(problem.output)]
-        return ((y[None, :] - problem.targets[:, :1]) ** 2).reshape(T, K, D)
+        d = y[None, :] - problem.targets[:, :1]
+        if problem.ck.kinds[problem.ck.index(problem.output)] is Kind.ANGLE:
+            d = (d + math.pi) % (2 * math.pi) - math.pi
+        return (d ** 2).reshape(T, K, D)
     pts = np.nan_to_num(b.points(np.nan_to_num(flat), Pt)[problem.ck.points.index(problem.point)], nan=np.inf)
     pts = np.where(np.all(np.isfinite(flat), axis=0), pts, np.inf)
     e = (pts[0][None] - problem.targets[:, :1]) ** 2 + (pts[1][None] - problem.targets[:, 1:2]) ** 2
@@ -628,6 +659,8 @@ def polish(problem: Problem, values, *, signs=None, inputs=None, max_nfev: int =
     """
     from scipy.optimize import least_squares
 
+    from . import synthreq
+
     b = problem.batch
     v0 = np.clip(np.asarray(values, dtype=float), problem.lo, problem.hi)
     k = len(v0)
@@ -666,6 +699,8 @@ def polish(problem: Problem, values, *, signs=None, inputs=None, max_nfev: int =
                 with np.errstate(all="ignore"):
                     Zt, r = problem.trace(P, x[:, None], sg, hmax=hmax, singular_stop=False)
                 reached = int(r[0])
+            if reached >= T and wall["on"] and not synthreq.check(problem, P, sg, x[:, None])[0][0]:
+                reached = -1  # a trial design that fails a requirement is a wall, like one that cannot be traced
             if reached >= T:
                 last["Z"] = Zt[:, :, 0].copy()
             cache.clear()
@@ -695,6 +730,9 @@ def polish(problem: Problem, values, *, signs=None, inputs=None, max_nfev: int =
             J = np.hstack([J, Jx_full.reshape(T * m, T)])
         return J
 
+    # the requirements (crank, transmission) cost a trace per trial design: polished first without
+    # them; only when that polish ends failing them is it redone with every trial design within them
+    wall = {"on": False}
     u0 = np.concatenate([v0, inputs]) if free else v0
     P0, Zt0, reached0 = state(u0)
     if reached0 < T:
@@ -714,13 +752,27 @@ def polish(problem: Problem, values, *, signs=None, inputs=None, max_nfev: int =
                                 xtol=1e-15, gtol=1e-15, max_nfev=max_nfev)
         return res.x if float(np.sum(fun(res.x) ** 2)) <= float(np.sum(r0 ** 2)) else u0
 
-    u = solve(plo, phi_)
-    if np.any(per):
-        uw = u.copy()
-        uw[:k][per] = problem.lo[per] + np.mod(u[:k][per] - problem.lo[per], period[per])
-        if not np.array_equal(uw, u):
-            f_u, f_w = float(np.sum(fun(u) ** 2)), float(np.sum(fun(uw) ** 2))
-            u = uw if abs(f_w - f_u) <= 1e-9 * f_u + 1e-24 else solve(problem.lo, problem.hi)
+    def run():
+        u = solve(plo, phi_)
+        if np.any(per):
+            uw = u.copy()
+            uw[:k][per] = problem.lo[per] + np.mod(u[:k][per] - problem.lo[per], period[per])
+            if not np.array_equal(uw, u):
+                f_u, f_w = float(np.sum(fun(u) ** 2)), float(np.sum(fun(uw) ** 2))
+                u = uw if abs(f_w - f_u) <= 1e-9 * f_u + 1e-24 else solve(problem.lo, problem.hi)
+        return u
+
+    u = run()
+    if synthreq.active(problem):
+        P, Zt, reached = state(u)
+        x = u[k:] if free else inputs
+        if reached < T or not synthreq.check(problem, P, sg, x[:, None])[0][0]:
+            wall["on"] = True
+            cache.clear()
+            last.clear()
+            if state(u0)[2] < T:  # the start itself fails the requirements
+                return {"objective": math.inf, "values": v0, "inputs": inputs, "signs": sg[:, 0]}
+            u = run()
     P, Zt, reached = state(u)
     if reached < T:
         return {"objective": math.inf, "values": u[:k], "inputs": inputs, "signs": sg[:, 0]}

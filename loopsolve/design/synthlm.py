@@ -101,6 +101,8 @@ def _residuals_and_jacobian(problem, V, X, signs, hmax, start=None):
 #: floor (an exact fit), the whole batch stops. On the five-point benchmark three columns agree on
 #: 7.4158e-7 after 14–37 iterations (six seeds) of the 60 the crawling columns would take.
 _AGREE = 3
+#: the columns at most that :func:`batch_lm` polishes again within the requirements (the best unconstrained ends
+#: that fail them); a constrained iteration traces every column over the motion once more
 _AGREE_RTOL = 1e-6
 _AGREE_ATOL = 1e-12
 
@@ -119,9 +121,43 @@ def batch_lm(problem, V, signs, X=None, *, iters: int = 25, hmax: float = _POLIS
     columns 1e4 times worse than the best after ten iterations was tried and removed: on a
     free-timing half circle the column that ends at f ≈ 1e-30 was above that early, and the run
     ended at 2.4e-7.)
+
+    Requirements (``crank``, ``transmission``; :mod:`loopsolve.design.synthreq`): the columns are
+    first polished without them; the columns whose ends fail them and are better than every end
+    that passes are polished again from their starts, each step accepted only when the design still
+    passes (the constrained iterations trace every column over the motion once more, so only where
+    the unconstrained polish left the requirements).
     """
+    from . import synthreq
+
+    if not synthreq.active(problem):
+        return _lm(problem, V, signs, X, iters, hmax, floor, False)
+    # the requirements (crank, transmission) cost a trace per iteration: first without them; the
+    # columns that end failing them are polished again from their starts, every step kept within them
+    Vr, Xr, fr = _lm(problem, V, signs, X, iters, hmax, floor, False)
+    fin = np.isfinite(fr)
+    ok = fin.copy()
+    if ok.any():
+        ok[ok] = synthreq.check(problem, problem.batch.params(Vr[ok]), np.asarray(signs, dtype=float)[:, ok],
+                                Xr[:, ok])[0]
+    # (a start that cannot be traced stays so; a column whose end is already worse than a passing end is not
+    # redone: within the requirements it would end no better in the same basin)
+    best_ok = float(np.min(fr[ok])) if ok.any() else math.inf
+    redo = np.flatnonzero(fin & ~ok & (fr < best_ok))
+    if redo.size:
+        Vs = np.asarray(V, dtype=float)[redo]
+        Xs = None if X is None or not problem.free else np.asarray(X, dtype=float)[:, redo]
+        v2, x2, f2 = _lm(problem, Vs, np.asarray(signs, dtype=float)[:, redo], Xs, iters, hmax, floor, True)
+        Vr[redo], Xr[:, redo], fr[redo] = v2, x2, f2
+    return Vr, Xr, fr
+
+
+def _lm(problem, V, signs, X, iters, hmax, floor, need):
+    """The lockstep Levenberg–Marquardt of :func:`batch_lm`; ``need``: every step within the requirements."""
+    from . import synthreq
     from .synthesis import periodic
 
+    b = problem.batch
     V = np.array(V, dtype=float)
     D, k = V.shape
     T = problem.T
@@ -139,6 +175,8 @@ def batch_lm(problem, V, signs, X=None, *, iters: int = 25, hmax: float = _POLIS
 
     V = project(V)
     r, J, ok, Z0 = _residuals_and_jacobian(problem, V, X, signs, hmax)
+    if need and ok.any():  # a start that fails the requirements is not polished (its steps could not be judged)
+        ok[ok] = synthreq.check(problem, b.params(V[ok]), signs[:, ok], X[:, ok])[0]
     f = np.where(ok, np.sum(r * r, axis=1), np.inf)
     lam = np.full(D, 1e-3)
     active = ok.copy()
@@ -172,6 +210,10 @@ def batch_lm(problem, V, signs, X=None, *, iters: int = 25, hmax: float = _POLIS
         rn, Jn, okn, Z0n = _residuals_and_jacobian(problem, Vn, Xn, signs[:, a], hmax, start=Z0[:, a])
         fn = np.where(okn & good, np.sum(rn * rn, axis=1), np.inf)
         acc = fn < f[a]
+        if need and acc.any():  # a step must keep the design within the requirements (crank, transmission)
+            ia_ = np.flatnonzero(acc)
+            Xa = Xn[:, ia_] if problem.free else X[:, a[ia_]]
+            acc[ia_] = synthreq.check(problem, b.params(Vn[ia_]), signs[:, a[ia_]], Xa)[0]
         ia = a[acc]
         # a column whose step no longer lowers f by a relative 1e-12 has converged
         small = acc & (f[a] - fn <= 1e-12 * f[a] + 1e-300)

@@ -95,7 +95,7 @@ class SynthesisResult:
         return dumps(self.mechanism)
 
     def to_json(self) -> str:
-        return json.dumps(self.report, indent=2)
+        return json.dumps(self.report, indent=2, allow_nan=False)
 
     def plot(self, *, ax=None, output=None, linkages: bool = True):
         """Targets, the design's curve over the motion and (``linkages``) the linkage at each target."""
@@ -477,8 +477,8 @@ def synthesize(mech, *, path=None, function=None, motion=None, link=None, target
     return _result(problem, outs, input_range, desired)
 
 
-def _classic(mech, method, *, path, function, motion, link, targets, input_range, desired, max_targets,
-             **general_only):
+def _classic(mech, method, *, path, function, motion, link, targets, input_range, desired, crank, transmission,
+             max_targets, **general_only):
     from .classicsynth import METHODS, classic_synthesize
 
     if method not in METHODS:
@@ -493,18 +493,33 @@ def _classic(mech, method, *, path, function, motion, link, targets, input_range
 
     try:
         res = classic_synthesize(mech, method=method, targets=targets, function=function, motion=motion, link=link,
-                                 input_range=input_range, desired=desired, max_targets=max_targets)
+                                 input_range=input_range, desired=desired, crank=crank, transmission=transmission,
+                                 max_targets=max_targets)
     except SynthesisError:
         raise
     except SolveError as exc:  # no usable candidate: the same error as the general method's, with the report
         raise SynthesisError(str(exc), report=getattr(exc, "report", None)) from None
     defects = res.report["certificate"]["defects"]
     if defects:
-        msgs = [d["message"] for d in res.report.get("design", {}).get("defects", [])[:2]]
+        msgs = [d["message"] for d in res.report.get("design", {}).get("defects", [])[:2]] or \
+            res.report["certificate"].get("notes", [])[:2]
         raise SynthesisError(f"{method}: the design has defects ({', '.join(defects)})"
                              + (": " + "; ".join(msgs) if msgs else "")
                              + "; try more targets (least squares) or the general method", report=res.report)
     return res
+
+
+def _shown_targets(problem) -> np.ndarray:
+    """The targets in model units (a function's angle output or a motion's angle in the model's angle unit)."""
+    from ..model.units import Kind
+
+    t = np.array(problem.targets, dtype=float)
+    deg = problem.mech.units.angle == "deg"
+    if problem.task == "function" and deg and problem.ck.kinds[problem.ck.index(problem.output)] is Kind.ANGLE:
+        t = np.degrees(t)
+    if problem.task == "motion" and deg:
+        t[:, 2] = np.degrees(t[:, 2])
+    return t
 
 
 def _function_structural_error(problem, mech, report, input_range, desired=None):
@@ -513,8 +528,10 @@ def _function_structural_error(problem, mech, report, input_range, desired=None)
 
     ck = problem.ck
     y = problem.targets[:, 0]
-    if ck.kinds[ck.index(problem.output)] is Kind.ANGLE and problem.mech.units.angle == "deg":
-        y = np.degrees(y)
+    if ck.kinds[ck.index(problem.output)] is Kind.ANGLE:  # targets written in any turn: one continuous curve
+        y = np.unwrap(y)
+        if problem.mech.units.angle == "deg":
+            y = np.degrees(y)
     x = np.array([t["input"] for t in report["targets"]], dtype=float)
     return structural_error(mech, problem.output, float(x[0]), targets=(x, y), input_range=input_range,
                             desired=desired)
@@ -576,16 +593,21 @@ def _result(problem, outs, input_range=None, desired=None) -> SynthesisResult:
         raise SynthesisError(f"{problem.mech.source or problem.mech.name}: no certified design in {len(outs)} run(s) "
                              f"({why}); widen the bounds, add runs (--runs) or relax --transmission/--crank",
                              report=_clean(report))
+    from .synthreport import fit_block, target_entries, targets_scale
+
     ck = problem.ck
     cert = dict(best["certificate"])
+    shown = [problem.shown_inputs[i] if problem.shown_inputs else display_value(ck, float(x))
+             for i, x in enumerate(best["inputs"])]
+    entries = target_entries(problem, best["values"], shown, best["Z"])
     report.update({
         "objective": best["objective"],
         "parameters": dict(zip(problem.names, map(float, best["values"]))),
         "mode": _signature(best["signs"]),
         "direction": best["direction"],
-        "targets": [{"input": (problem.shown_inputs[i] if problem.shown_inputs else display_value(ck, float(x))),
-                     "error": float(e)} for i, (x, e) in enumerate(zip(best["inputs"], best["errors"]))],
+        "targets": entries,
         "certificate": cert,
+        "fit": fit_block([t["error"] for t in entries], targets_scale(problem.task, _shown_targets(problem))),
     })
     report = _clean(report)
     mech = design_model(problem, best["values"], best["inputs"], best["Z"])

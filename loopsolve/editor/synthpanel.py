@@ -151,8 +151,7 @@ def path_synthesis(params: Mapping[str, Any], progress: Callable[[float, str], N
 def freudenstein_synthesis(params: Mapping[str, Any], progress: Callable[[float, str], None]) -> dict:
     """Function generation through precision points ``[[input, output], ...]`` (degrees), Freudenstein."""
     from ..design.classicsynth import classic_synthesize
-    from ..model.factories import fourbar
-    from ..model.modelfile import dumps
+    from ..model.modelfile import dumps, loads
 
     rows = params.get("points")
     try:
@@ -163,7 +162,15 @@ def freudenstein_synthesis(params: Mapping[str, Any], progress: Callable[[float,
         raise ModelError(f"precision points: give 3 to {MAX_TARGETS} rows [input angle, output angle] (degrees)")
     progress(0.0, "Freudenstein's equation")
     units = params.get("units") or {"length": "mm", "angle": "deg"}
-    base = fourbar(60, 25, 70, 45)
+    # the four-bar the design is written into (classical designs keep the model's names): its joints as points
+    base = loads(dumps({
+        "name": "four-bar", "units": {"length": "mm", "angle": "deg"},
+        "parameters": {"r1": 60, "r2": 25, "r3": 70, "r4": 45},
+        "variables": {"theta2": {"input": True, "guess": 90.0}, "theta3": {"guess": 16.1}, "theta4": {"guess": 80.7}},
+        "vectors": {"r1": {"length": "r1", "angle": 0}, "r2": {"length": "r2", "angle": "theta2"},
+                    "r3": {"length": "r3", "angle": "theta3"}, "r4": {"length": "r4", "angle": "theta4"}},
+        "loops": [{"equation": "r2 + r3 = r1 + r4"}],
+        "points": {"O2": "0", "B": "r2", "C": "r2 + r3", "O4": "r1"}}), source="<Freudenstein>")
     try:
         res = classic_synthesize(base, method="freudenstein", function="theta4", targets=arr.tolist())
     except SynthesisError:
@@ -179,7 +186,7 @@ def freudenstein_synthesis(params: Mapping[str, Any], progress: Callable[[float,
                         "Function generator through " + ", ".join(f"({a:g}, {b:g})" for a, b in arr)
                         + " deg (loopsolve edit, Freudenstein)")
     curve, extra = _curve(model, "C")
-    errs = [float(t["error"]) for t in rep["targets"]]
+    errs = [abs(float(t["error"])) for t in rep["targets"]]  # degrees of output (signed in the report)
     progress(1.0, "done")
     return {"task": "function", "targets": arr.tolist(), "notes": [], "candidates": [{
         "objective": rep["objective"], "rms": math.sqrt(sum(e * e for e in errs) / len(errs)), "max": max(errs),

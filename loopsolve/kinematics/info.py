@@ -15,7 +15,7 @@ from ..model.units import Kind
 __all__ = ["info", "format_info"]
 
 
-def info(mech: Mechanism, *, input=None) -> dict:
+def info(mech: Mechanism, *, input=None, reach: bool = True) -> dict:
     """Structure summary of ``mech`` as a JSON-ready dict.
 
     Keys: ``name``, ``source``, ``units``, ``mobility``, ``inputs``, ``unknowns``, ``variables``,
@@ -35,6 +35,8 @@ def info(mech: Mechanism, *, input=None) -> dict:
     time ratio and lever swing from :func:`loopsolve.kinematics.classic.quick_return`) or ``whitworth``;
     ``rams`` gives the stroke and time ratio of every later slider over a full crank turn,
     and ``stroke`` the output stroke (the first ram, else the lever swing).
+    ``reachable_input_ranges`` (the input's reachable intervals, by assembly tests along a full
+    range) is left out with ``reach=False`` (the costly part, for callers that need the structure).
 
     Examples
     --------
@@ -80,7 +82,8 @@ def info(mech: Mechanism, *, input=None) -> dict:
     if classic is not None:
         data["fourbars"] = _fourbars(mech, ck, top, z0, conv, classic)
         data["quick_return"] = _quick_returns(mech, ck, z0, conv, classic)
-    data["reachable_input_ranges"] = _reachable_ranges(ck)
+    if reach:
+        data["reachable_input_ranges"] = _reachable_ranges(ck)
     return data
 
 

@@ -585,4 +585,4 @@ def modes_to_json(modes) -> str:
     >>> [d["signature"] for d in json.loads(modes_to_json(ls.fourbar(60, 25, 70, 45).modes(90)))]
     ['+', '-']
     """
-    return json.dumps([m.to_dict() for m in modes], indent=1)
+    return json.dumps([m.to_dict() for m in modes], indent=1, allow_nan=False)

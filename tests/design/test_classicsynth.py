@@ -21,10 +21,13 @@ def poses_file(tmp_path):
 
 
 MECH = ls.fourbar(60, 25, 70, 45)
+# a four-bar whose frame (x0, y0, theta0) and coupler point (rcx, rcy) are parameters: it can hold any
+# Burmester four-bar of poses of P and of the coupler line's angle theta3
+PATHMECH = ls.load(ls.models_dir() / "fourbar_path_synthesis.toml")
 
 
 def test_burmester_door_recovers_and_writes_a_loadable_model(poses_file):
-    r = classic_synthesize(MECH, method="burmester", motion="C", link="theta3", targets=poses_file)
+    r = classic_synthesize(PATHMECH, method="burmester", motion="P", link="theta3", targets=poses_file)
     rep = r.report
     assert rep["task"] == "motion" and rep["method"] == "burmester"
     assert rep["certificate"]["defects"] == [] and rep["objective"] <= 1e-20
@@ -35,7 +38,7 @@ def test_burmester_door_recovers_and_writes_a_loadable_model(poses_file):
         s = mech.solve(target["input"], mode=rep["mode"])
         want = planted_pose(t)[0]
         assert (s["P_x"], s["P_y"]) == pytest.approx(want[:2], abs=1e-8)
-        assert (s["phi"] - want[2] + 180) % 360 - 180 == pytest.approx(0, abs=1e-8)
+        assert (s["theta3"] - want[2] + 180) % 360 - 180 == pytest.approx(0, abs=1e-8)
     p = rep["parameters"]
     assert sorted((p["r1"], p["r2"], p["r3"], p["r4"])) == pytest.approx(sorted((R1, R2, R3, R4)))
 
@@ -56,14 +59,16 @@ def test_freudenstein_door_meets_the_targets():
     ("x,y,angle\n1,2,inf\n", "not a finite number"),
     ("", "empty"),
     ("x,y,angle\n", "no poses rows"),
-    ("x,y,angle\n0,0,0\n1,0,10\n2,1,20\n3,3,40\n", "too few poses for Burmester: 4"),
+    ("x,y,angle\n0,0,0\n1,0,10\n", "too few poses for Burmester: 2"),
+    ("x,y,angle\n" + "0,0,0\n1,0,10\n2,1,20\n3,3,40\n4,4,50\n5,5,60\n", "too many poses for Burmester: 6"),
 ])
 def test_malformed_or_too_few_poses(tmp_path, text, match):
     p = tmp_path / "poses.csv"
     p.write_text(text)
     with pytest.raises(ModelError, match=match) as exc:
         classic_synthesize(MECH, method="burmester", motion="C", link="theta3", targets=p)
-    assert "\n" not in str(exc.value) and str(p) in str(exc.value) or "too few" in str(exc.value)
+    assert "\n" not in str(exc.value) and str(p) in str(exc.value) or "too few" in str(exc.value) \
+        or "too many" in str(exc.value)
     assert exc.value.exit_code == 2
 
 

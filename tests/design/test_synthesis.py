@@ -467,10 +467,12 @@ def test_function_generation_recovers_a_planted_four_bar(fourbar):
     assert rep["task"] == "function" and rep["objective"] <= 1e-20
     assert rep["parameters"]["r2"] == pytest.approx(1.5, abs=1e-8)
     assert rep["parameters"]["r1"] == pytest.approx(4.0, abs=1e-8)
-    # the reported error is the output angle's, in radians, against the closed form
+    # the reported error is the output angle's, design minus target, in the model's unit (degrees), against
+    # the closed form
     q = dict(plant, **rep["parameters"])
     for (x, y), t in zip(zip(xs, ys), rep["targets"]):
-        assert t["error"] == pytest.approx(abs(math.radians(fourbar_angles(q, x, -1)[1] - y)), abs=1e-12)
+        assert t["error"] == pytest.approx(fourbar_angles(q, x, -1)[1] - y, abs=1e-9)
+        assert t["value"] - t["target"] == pytest.approx(t["error"], abs=1e-12) and t["target"] == y
 
 
 def test_motion_generation_recovers_a_planted_coupler(fourbar):

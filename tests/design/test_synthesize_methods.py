@@ -20,6 +20,7 @@ from loopsolve.errors import ModelError, SynthesisError
 
 MODELS = Path(__file__).resolve().parents[2] / "models"
 FOURBAR = MODELS / "prob1_fourbar.toml"
+PATHMODEL = MODELS / "fourbar_path_synthesis.toml"  # frame and coupler point are parameters: holds any four-bar
 
 
 def run(*args, cwd=None):
@@ -152,9 +153,9 @@ def poses_csv(tmp_path):
     return p
 
 
-def test_cli_burmester_returns_the_planted_crank_rocker(fourbar_file, poses_csv, tmp_path):
+def test_cli_burmester_returns_the_planted_crank_rocker(poses_csv, tmp_path):
     rep_path, out = tmp_path / "r.json", tmp_path / "d.toml"
-    p = run("synthesize", fourbar_file, "--method", "burmester", "--motion", "C", "--link", "theta3",
+    p = run("synthesize", PATHMODEL, "--method", "burmester", "--motion", "P", "--link", "theta3",
             "--targets", poses_csv, "--report", rep_path, "-o", out, "-q")
     assert p.returncode == 0, p.stderr
     rep = json.loads(rep_path.read_text())
@@ -171,7 +172,7 @@ def test_cli_burmester_returns_the_planted_crank_rocker(fourbar_file, poses_csv,
         s = mech.solve(target["input"], mode=rep["mode"])
         x, y, a = pose(t)
         assert (s["P_x"], s["P_y"]) == pytest.approx((x, y), abs=1e-7)
-        assert (s["phi"] - a + 180) % 360 - 180 == pytest.approx(0, abs=1e-7)
+        assert (s["theta3"] - a + 180) % 360 - 180 == pytest.approx(0, abs=1e-7)
 
 
 # The hand-built motion problem with an order defect: the planted crank-rocker's poses listed in the crank order
@@ -214,7 +215,7 @@ def test_python_burmester_flags_the_order_defect(fourbar_file, shuffled_csv):
     # the same poses in the crank's order are met by a certified design
     ordered = shuffled_csv.parent / "ordered.csv"
     ordered.write_text("x,y,angle\n" + "".join(f"{x!r},{y!r},{a!r}\n" for x, y, a in map(pose, sorted(SHUFFLED))))
-    res = ls.synthesize(ls.load(fourbar_file), method="burmester", motion="C", link="theta3", targets=ordered)
+    res = ls.synthesize(ls.load(PATHMODEL), method="burmester", motion="P", link="theta3", targets=ordered)
     assert res.report["certificate"]["defects"] == []
 
 
@@ -235,11 +236,11 @@ def test_cli_unknown_link(fourbar_file, poses_csv):
 
 
 def test_cli_too_few_poses(fourbar_file, tmp_path):
-    four = tmp_path / "four.csv"
-    four.write_text("x,y,angle\n" + "".join(f"{x!r},{y!r},{a!r}\n" for x, y, a in map(pose, INPUTS[:4])))
+    two = tmp_path / "two.csv"
+    two.write_text("x,y,angle\n" + "".join(f"{x!r},{y!r},{a!r}\n" for x, y, a in map(pose, INPUTS[:2])))
     err = one_line_error(run("synthesize", fourbar_file, "--method", "burmester", "--motion", "C", "--link",
-                             "theta3", "--targets", four))
-    assert "too few poses" in err and "4" in err
+                             "theta3", "--targets", two))
+    assert "too few poses" in err and "2" in err
 
 
 def test_cli_method_on_a_non_fourbar(poses_csv):
@@ -372,11 +373,13 @@ def test_least_squares_freudenstein_is_polished_by_the_general_method(tmp_path):
     res = ls.synthesize(ls.load(FOURBAR), method="freudenstein", function="theta4", targets=t)
     rep = res.report
     assert rep["polish"]["used"] and rep["polish"]["objective_before"] == pytest.approx(f_linear, rel=1e-6)
-    p = rep["parameters"]
+    p = rep["parameters"]  # the model's own names: AD ground, AB input, BC coupler, CD output
+    p = {"r1": p["AD"], "r2": p["AB"], "r3": p["BC"], "r4": p["CD"]}
     e = outputs(p["r1"], p["r2"], p["r3"], p["r4"], s2, s4)
     f = float(np.sum(e ** 2))
     assert rep["objective"] == pytest.approx(f, rel=1e-6) and f < 0.5 * f_linear
-    assert [t_["error"] for t_ in rep["targets"]] == pytest.approx(list(e), abs=1e-9)
+    # the errors at the targets: design minus target, in the model's angle unit (degrees)
+    assert [t_["error"] for t_ in rep["targets"]] == pytest.approx(list(np.degrees(e)), abs=1e-7)
     # a local minimum of the closed-form objective: along r2, r3, r4 both neighbours are higher and the parabola
     # through the three values has its vertex within 5 % of the step from the polished value
     for k in ("r2", "r3", "r4"):
