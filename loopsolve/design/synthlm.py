@@ -41,13 +41,18 @@ _POLISH_H = math.radians(5.0)
 _FREE_STEP = math.radians(10.0)
 
 
-def _residuals_and_jacobian(problem, V, X, signs, hmax, start=None):
+def _residuals_and_jacobian(problem, V, X, signs, hmax, start=None, warm=False):
     """Residual vectors ``(D, M)``, Jacobians ``(D, M, k [+ T])``, the reached flags of designs ``V`` ``(D, k)``
-    and their positions at the first target ``(nv, D)``.
+    and their positions at the first target ``(nv, D)`` (``warm``: at every target, ``(nv, T, D)``).
 
     ``start``: positions at the first target of nearby designs (the last accepted step's), from
     which the first position is found by Newton (:meth:`Batch.reassemble`) instead of the
     multistart assembly of :meth:`Problem.trace`; the trace through the targets is the same.
+    ``warm`` (``start`` then ``(nv, T, D)``): the position at *every* target by Newton from the
+    nearby design's there, in its mode — one batch of T·D columns instead of a trace through the
+    targets; a design whose Newton fails at some target is traced as above. (The poses are of
+    the asked mode at every target but not checked to be one continuous motion: shape synthesis,
+    which uses this, certifies its designs with the tracker.)
     """
     b = problem.batch
     T = problem.T
@@ -56,11 +61,13 @@ def _residuals_and_jacobian(problem, V, X, signs, hmax, start=None):
     with np.errstate(all="ignore"):
         if start is None:
             Zt, reached = problem.trace(P, X, signs, hmax=hmax, singular_stop=False)
+        elif warm:
+            Zt, reached = _warm_poses(problem, start, P, X, signs, hmax)
         else:
             Z0, ok0 = b.reassemble(start, P, X[0], signs)
             Z0[:, ~ok0] = np.nan
             Zt, reached = b.follow(Z0, P, X, hmax=hmax, signs=signs, stop_on_singular=False)
-        first = Zt[:, 0].copy()
+        first = Zt[:, :T].copy() if warm else Zt[:, 0].copy()
         ok = reached >= T
         Zt = np.where(ok[None, None, :], Zt, np.nan)
         Zs = np.nan_to_num(Zt[:, :T])
@@ -96,6 +103,28 @@ def _residuals_and_jacobian(problem, V, X, signs, hmax, start=None):
     return r, Jp, ok, first
 
 
+def _warm_poses(problem, start, P, X, signs, hmax):
+    """Positions at every target by Newton from ``start`` ``(nv, T, D)`` (see :func:`_residuals_and_jacobian`)."""
+    b = problem.batch
+    T, D = X.shape
+    nv = start.shape[0]
+    Zs = start.reshape(nv, T * D)  # column t*D + d
+    PT = np.tile(P, (1, T))
+    S = np.tile(signs, (1, T))
+    Z, ok = b.reassemble(Zs, PT, X.reshape(-1), S)
+    ok = ok.reshape(T, D).all(axis=0)
+    Zt = np.where(ok[None, None, :], Z.reshape(nv, T, D), np.nan)
+    reached = np.where(ok, T, 0)
+    bad = np.flatnonzero(~ok)
+    if bad.size:  # traced from the first target's position, as without warm poses
+        Z0, ok0 = b.reassemble(start[:, 0, bad], P[:, bad], X[0, bad], signs[:, bad])
+        Z0[:, ~ok0] = np.nan
+        Zb, rb = b.follow(Z0, P[:, bad], X[:, bad], hmax=hmax, signs=signs[:, bad], stop_on_singular=False)
+        Zt[:, :, bad] = Zb
+        reached[bad] = rb
+    return Zt, reached
+
+
 #: the exact-fit stop of :func:`batch_lm`: once this many columns agree on the best objective (to a
 #: relative ``_AGREE_RTOL``, or ``_AGREE_ATOL`` times the floor for a zero optimum) and it is below the
 #: floor (an exact fit), the whole batch stops. On the five-point benchmark three columns agree on
@@ -105,7 +134,8 @@ _AGREE_RTOL = 1e-6
 _AGREE_ATOL = 1e-12
 
 
-def batch_lm(problem, V, signs, X=None, *, iters: int = 25, hmax: float = _POLISH_H, floor: float | None = None):
+def batch_lm(problem, V, signs, X=None, *, iters: int = 25, hmax: float = _POLISH_H, floor: float | None = None,
+             warm: bool = False):
     """Levenberg–Marquardt on every row of ``V`` ``(D, k)`` (model units) in its mode ``signs`` ``(nb, D)``.
 
     ``X``: the internal input values at the targets ``(T, D)`` (free timing: the starts of those
@@ -118,7 +148,8 @@ def batch_lm(problem, V, signs, X=None, *, iters: int = 25, hmax: float = _POLIS
     exact-fit basin bottom), every column stops and is returned as it stands. (A rule that dropped
     columns 1e4 times worse than the best after ten iterations was tried and removed: on a
     free-timing half circle the column that ends at f ≈ 1e-30 was above that early, and the run
-    ended at 2.4e-7.)
+    ended at 2.4e-7.) ``warm``: a trial design's positions at every target by Newton from the last
+    accepted ones (:func:`_residuals_and_jacobian`; shape synthesis, which certifies afterwards).
     """
     from .synthesis import periodic
 
@@ -138,7 +169,7 @@ def batch_lm(problem, V, signs, X=None, *, iters: int = 25, hmax: float = _POLIS
         return np.where(per, Vw, np.clip(Vt, lo, hi))
 
     V = project(V)
-    r, J, ok, Z0 = _residuals_and_jacobian(problem, V, X, signs, hmax)
+    r, J, ok, Z0 = _residuals_and_jacobian(problem, V, X, signs, hmax, warm=warm)
     f = np.where(ok, np.sum(r * r, axis=1), np.inf)
     lam = np.full(D, 1e-3)
     active = ok.copy()
@@ -169,14 +200,14 @@ def batch_lm(problem, V, signs, X=None, *, iters: int = 25, hmax: float = _POLIS
             step = step * np.minimum(1.0, _FREE_STEP / np.where(big > 0, big, 1.0))[:, None]
         Vn = project(V[a] + np.where(good[:, None], step[:, :k], 0.0))
         Xn = X[:, a] + (np.where(good[:, None], step[:, k:], 0.0).T if problem.free else 0.0)
-        rn, Jn, okn, Z0n = _residuals_and_jacobian(problem, Vn, Xn, signs[:, a], hmax, start=Z0[:, a])
+        rn, Jn, okn, Z0n = _residuals_and_jacobian(problem, Vn, Xn, signs[:, a], hmax, start=Z0[..., a], warm=warm)
         fn = np.where(okn & good, np.sum(rn * rn, axis=1), np.inf)
         acc = fn < f[a]
         ia = a[acc]
         # a column whose step no longer lowers f by a relative 1e-12 has converged
         small = acc & (f[a] - fn <= 1e-12 * f[a] + 1e-300)
         V[ia], r[ia], J[ia], f[ia] = Vn[acc], rn[acc], Jn[acc], fn[acc]
-        Z0[:, ia] = Z0n[:, acc]
+        Z0[..., ia] = Z0n[..., acc]
         if problem.free:
             X[:, ia] = Xn[:, acc]
         lam[ia] = np.maximum(lam[ia] / 3.0, 1e-9)
