@@ -26,6 +26,7 @@ from .common import (EXIT_OK, EXIT_SOLVE, EXIT_USAGE, _INPUTS, _check_output, _i
                      _output, _Parser, _rate_args, _render, _write)
 from .forces import _force_parsers
 from .synthesis import _synthesis_parser
+from .atlas import _atlas_parsers
 
 __all__ = ["main", "build_parser"]
 
@@ -200,6 +201,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=cmd_study)
     _synthesis_parser(sub)
+    _atlas_parsers(sub)
     _force_parsers(sub)
     return parser
 

@@ -21,6 +21,15 @@ def _synthesis_parser(sub) -> None:
                       "(CSV input,output)")
     task.add_argument("--motion", metavar="POINT", help="motion generation: POINT and the --link angle "
                       "(CSV x,y,angle)")
+    task.add_argument("--shape", metavar="POINT", help="shape synthesis: POINT traces the curve of --targets (CSV "
+                      "x,y), free in position, orientation, scale and timing, from an atlas")
+    closure = p.add_mutually_exclusive_group()
+    closure.add_argument("--closed", action="store_true", help="with --shape: the curve is closed (default)")
+    closure.add_argument("--open", action="store_true", help="with --shape: the curve is an open stretch")
+    p.add_argument("--atlas", metavar="ATLAS.zarr", help="with --shape: the atlas (default: the model's default "
+                   "atlas, built once into the cache on first use)")
+    p.add_argument("--top", type=int, default=5, metavar="K", help="with --shape: certified designs reported "
+                   "(default 5)")
     p.add_argument("--link", metavar="VAR", help="with --motion: the angle variable of the guided link")
     p.add_argument("--targets", required=True, metavar="T.csv", help="targets (CSV with a header line; an "
                    "input column prescribes the timing)")
@@ -55,6 +64,15 @@ def _synthesis_parser(sub) -> None:
 def cmd_synthesize(args) -> int:
     from ..errors import ModelError
     from ..design.synthrun import synthesize
+
+    if args.shape is not None:
+        from .atlas import cmd_shape
+
+        return cmd_shape(args)
+    for flag, given in (("--closed", args.closed), ("--open", args.open), ("--atlas", args.atlas),
+                        ("--top", args.top != 5)):
+        if given:
+            raise ModelError(f"{flag} is for shape synthesis (--shape POINT)")
 
     for out in (args.output, args.report):
         _check_output(out)

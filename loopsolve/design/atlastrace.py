@@ -88,8 +88,7 @@ def _loop_lengths(ck, loops, Z, P):
                     if vec is None:
                         vec = np.asarray(ck.module.vectors0_v(Z, P), dtype=float)
                         vec = np.broadcast_to(vec.reshape(len(ck.vectors), 2, -1), (len(ck.vectors), 2, Z.shape[1]))
-                    v = vec[lp["vectors"][role]]
-                    out[i, r] = np.hypot(v[0], v[1])
+                    out[i, r] = np.abs(vec[lp["vectors"][role], 0])  # (length, angle) of every vector
                 else:
                     if pts is None:
                         pts = np.asarray(ck.module.points0_v(Z, P), dtype=float)

@@ -248,7 +248,7 @@ def synthesize_shape(mech, *, shape: str, targets, closed: bool = True, atlas=No
     if atlas is None:
         from .atlasdefault import default_atlas
 
-        atlas = default_atlas(mech, shape, progress=progress)
+        atlas = default_atlas(mech, shape, progress=progress, seed=seed)
     elif not isinstance(atlas, Atlas):
         atlas = open_atlas(atlas, mech)
     else:

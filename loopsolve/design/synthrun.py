@@ -335,7 +335,8 @@ def synthesize(mech, *, path=None, function=None, motion=None, link=None, target
                strategy: str = "best1bin", polish_candidates: int = 6, starts: int | None = None,
                de_starts: int = 10, lm_iters: int = 60,
                workers: int | None = None, scheduler: str | None = None, client=None,
-               progress: bool | None = None, method: str = "general", input_range=None, desired=None):
+               progress: bool | None = None, method: str = "general", input_range=None, desired=None,
+               shape=None, closed: bool = True, atlas=None, top: int = 5):
     """Find parameter values that make ``mech`` do a job; only certified designs are returned.
 
     Parameters
@@ -395,9 +396,15 @@ def synthesize(mech, *, path=None, function=None, motion=None, link=None, target
         Function generation: the wanted output y(x) (model units, vectorized) as the reference
         of ``structural_error`` instead of the PCHIP through the targets.
 
+    shape, closed, atlas, top
+        Shape synthesis: the point ``shape`` traces the curve ``targets`` (``closed`` or an open
+        stretch), free in position, orientation, scale and timing, from ``atlas`` (default: the
+        model's default atlas); the ``top`` best certified designs: see
+        :func:`loopsolve.design.shape.synthesize_shape` (``vary`` bounds or fixes parameters there).
+
     Returns
     -------
-    SynthesisResult (ClassicSynthesis for the classical methods)
+    SynthesisResult (ClassicSynthesis for the classical methods, ShapeResult for ``shape``)
 
     Raises
     ------
@@ -419,6 +426,14 @@ def synthesize(mech, *, path=None, function=None, motion=None, link=None, target
     >>> {k: round(v, 3) for k, v in res.report["parameters"].items()}, res.report["certificate"]["defects"]
     ({'r2': 1.0, 'rcx': 1.5}, [])
     """
+    if shape is not None:
+        from .shape import synthesize_shape
+
+        for k, v in (("path", path), ("function", function), ("motion", motion), ("inputs", inputs)):
+            if v is not None:
+                raise ModelError(f"{k}= is not used with shape= (shape synthesis is free in timing)")
+        return synthesize_shape(mech, shape=shape, targets=targets, closed=closed, atlas=atlas, top=top, crank=crank,
+                                transmission=transmission, vary=vary, seed=seed, progress=progress)
     if method != "general":
         return _classic(mech, method, path=path, function=function, motion=motion, link=link, targets=targets,
                         input_range=input_range, desired=desired, vary=vary, inputs=inputs, crank=crank,
