@@ -51,8 +51,26 @@ GRASHOF_CLASSES = ("", "double crank", "crank-rocker", "rocker-crank", "double r
 _RING = math.radians(30.0)
 
 
+_LOOPS: dict = {}
+
+
 def fourbar_loops(mech) -> list[dict]:
-    """The four-bar loops of ``mech`` (``info()['fourbars']``) with how to measure their lengths in a design."""
+    """The four-bar loops of ``mech`` (``info()['fourbars']``) with how to measure their lengths in a design.
+
+    Kept per model structure (``info()`` of a six-bar takes seconds, and the loops are the same for
+    every design of a model).
+    """
+    from .atlasstore import fingerprint
+
+    key = fingerprint(mech)
+    if key not in _LOOPS:
+        if len(_LOOPS) > 64:
+            _LOOPS.clear()
+        _LOOPS[key] = _fourbar_loops(mech)
+    return [dict(lp) for lp in _LOOPS[key]]
+
+
+def _fourbar_loops(mech) -> list[dict]:
     from ..errors import LoopsolveError
 
     try:

@@ -16,7 +16,7 @@
    lockstep Levenberg–Marquardt (:func:`loopsolve.design.synthlm.batch_lm`; the input value of
    every target point is a variable, so at the optimum each residual is the distance of that
    point to the design's curve), the distinct basins then by the exact least-squares polish.
-5. **Certificate** from the tracker (:func:`loopsolve.design.certify.certify`) at up to 12 of the
+5. **Certificate** from the tracker (:func:`loopsolve.design.certify.certify`) at up to 8 of the
    polished targets spread along the curve (the motion between them is swept): one circuit, in
    order, with a full turn of the input for a closed curve or ``crank``, within ``transmission``.
 6. **Shape error**: every target point's distance to the design's curve, traced by the public
@@ -48,7 +48,7 @@ __all__ = ["synthesize_shape", "ShapeResult", "read_curve"]
 #: target points the polish works on at most (spread along the curve by arc length)
 POLISH_POINTS = 32
 #: certificate checkpoints at most
-_CERT_POINTS = 12
+_CERT_POINTS = 8
 
 
 def read_curve(targets, closed: bool, where: str = "--targets") -> np.ndarray:
@@ -197,7 +197,7 @@ def _same_design(a, b, frame, size, deg) -> bool:
 
 def synthesize_shape(mech, *, shape: str, targets, closed: bool = True, atlas=None, top: int = 5,
                      crank: bool = False, transmission=None, vary=None, seed: int = 0, progress=None,
-                     polish_points: int = POLISH_POINTS, starts: int | None = None, lm_iters: int = 300):
+                     polish_points: int = POLISH_POINTS, starts: int | None = None, lm_iters: int = 40):
     """Linkages of ``mech`` whose point ``shape`` traces the curve ``targets`` (see the module docstring).
 
     Parameters
@@ -289,29 +289,100 @@ def synthesize_shape(mech, *, shape: str, targets, closed: bool = True, atlas=No
     return _result(problem, frame, atlas, xy, closed, cands, top, stats, time.perf_counter() - t0)
 
 
+def _lm_polish(problem, v, x, signs, Z, max_nfev: int = 80):
+    """One design polished by MINPACK's Levenberg–Marquardt (``scipy.optimize.least_squares(method="lm")``) on the
+    same residuals and Jacobian as the lockstep LM (its positions at every target by Newton from the last ones).
+
+    Why a second LM: the lockstep one crawls along the valleys of these problems (a planted four-bar took 400
+    iterations to its exact dimensions), MINPACK's trust region with scaling by the Jacobian's columns leaves
+    them in tens of steps (69 evaluations there). Returns ``(values, inputs, objective, poses)`` or None; a result
+    outside the bounds (MINPACK's LM has none) is not taken.
+    """
+    from scipy.optimize import least_squares
+
+    from .synthlm import _POLISH_H, _residuals_and_jacobian
+
+    k = len(v)
+    state = {"Z": np.asarray(Z, dtype=float)[:, :, None].copy()}
+    cache = {}
+    sg = np.asarray(signs, dtype=float)[:, None]
+
+    def ev(u):
+        key = u.tobytes()
+        if key not in cache:
+            cache.clear()
+            with np.errstate(all="ignore"):
+                r, J, ok, Zn = _residuals_and_jacobian(problem, u[:k][None], u[k:][:, None], sg, _POLISH_H,
+                                                       start=state["Z"], warm=True)
+            if ok[0]:
+                state["Z"] = Zn
+                cache[key] = (r[0], J[0], Zn[:, :, 0])
+            else:
+                cache[key] = (None, None, None)
+        return cache[key]
+
+    u0 = np.concatenate([np.asarray(v, dtype=float), np.asarray(x, dtype=float)])
+    r0, J0, _ = ev(u0)
+    if r0 is None:
+        return None
+    big = 10 * float(np.max(np.abs(r0))) + 1.0
+
+    def fun(u):
+        r = ev(u)[0]
+        return r if r is not None else np.full_like(r0, big)
+
+    def jac(u):
+        J = ev(u)[1]
+        return J if J is not None else np.zeros_like(J0)
+
+    try:
+        res = least_squares(fun, u0, jac=jac, method="lm", x_scale="jac", ftol=1e-15, xtol=1e-15, gtol=1e-15,
+                            max_nfev=max_nfev)
+    except (ValueError, np.linalg.LinAlgError):
+        return None
+    u = res.x
+    from .synthesis import periodic
+
+    per, period = periodic(problem)
+    vals = u[:k].copy()
+    vals[per] = problem.lo[per] + np.mod(vals[per] - problem.lo[per], period[per])
+    if np.any((vals < problem.lo) | (vals > problem.hi)):
+        return None
+    r, _, Zf = ev(np.concatenate([vals, u[k:]]))
+    if r is None:
+        return None
+    return vals, u[k:], float(np.sum(r * r)), Zf
+
+
 def _polish_and_certify(problem, frame, atlas, xy, idx, closed, V, S, X, used, top, lm_iters, transmission, deg):
+    """The lockstep LM on every start, then MINPACK's LM on the distinct basins (best first), then certificates."""
     from .atlastrace import fourbar_loops
     from .synthesis import periodic
     from .synthlm import batch_lm, distinct
-    from .synthrun import _polish_floor
 
     if not len(V):
         return [], []
     size = float(np.max(np.ptp(xy, axis=0)))
-    Vl, Xl, fl = batch_lm(problem, V, S, X, iters=lm_iters, floor=_polish_floor(problem), warm=True)
+    Vl, Xl, fl = batch_lm(problem, V, S, X, iters=lm_iters, warm=True)
     per, period = periodic(problem)
     order = distinct(Vl, fl, problem.lo, problem.hi, k=max(2 * top, 6), rtol_f=1e-3, dist=0.01,
                      periodic_mask=per, period=period)
     loops = fourbar_loops(problem.mech)
     cands, rejected = [], []
     for i in order:
+        if len(cands) >= top and fl[i] > 10 * max(c["polished"] for c in cands) + 1e-300:
+            break  # the basins left start far above every design kept
         p = {"values": Vl[i], "inputs": Xl[:, i], "signs": S[:, i], "objective": fl[i]}
         p.update(_poses(problem, p))
         if p.get("Z") is None:
             continue
+        lm = _lm_polish(problem, p["values"], p["inputs"], p["signs"], p["Z"])
+        if lm is not None and lm[2] <= p["objective"]:
+            p.update({"values": lm[0], "inputs": lm[1], "objective": lm[2], "Z": lm[3]})
         c = _candidate(problem, frame, atlas, xy, closed, p, used[i], transmission, deg, loops)
         if c is None:
             continue
+        c["polished"] = p["objective"]
         if c["certificate"]["defects"]:
             rejected.append({"objective": c["objective"], "parameters": c["parameters"],
                              "defects": c["certificate"]["defects"], "notes": c["certificate"]["notes"]})
@@ -347,8 +418,16 @@ def _candidate(problem, frame, atlas, xy, closed, p, match, transmission, deg, l
         return None
     T = problem.T
     sub = np.unique(np.round(np.linspace(0, T - 1, min(T, _CERT_POINTS))).astype(int))
+    margin, grashof = None, ""
+    if loops:
+        from .atlastrace import GRASHOF_CLASSES, _grashof, _loop_lengths
+
+        Pd = problem.batch.params(values[None])
+        codes, marg = _grashof(_loop_lengths(problem.ck, loops, Z[:, :1], Pd))
+        grashof = " + ".join(GRASHOF_CLASSES[c] for c in codes[:, 0] if c)
+        margin = float(marg[0]) if np.isfinite(marg[0]) else None
     cert = certify(mech, inputs[sub], poses=Z[:, sub], crank=problem.crank, transmission=transmission,
-                   point=problem.point, targets=problem.targets[sub])
+                   point=problem.point, targets=problem.targets[sub], grashof_margin=margin)
     direction = 1 if inputs[-1] >= inputs[0] else -1
     span = 2 * math.pi if problem.crank else abs(float(inputs[-1] - inputs[0]))
     try:
@@ -363,7 +442,9 @@ def _candidate(problem, frame, atlas, xy, closed, p, match, transmission, deg, l
         near_x = xs[k] + t * (xs[np.minimum(k + 1, len(xs) - 1)] - xs[k])
         lo_x, hi_x = (min(xs[0], xs[-1]), max(xs[0], xs[-1])) if not problem.crank else (-np.inf, np.inf)
         fine, fx = _refine(problem, values, p["signs"], xy, near_x, zs[k], lo_x, hi_x)
-        better = np.isfinite(fine) & (fine <= dist + 1e-9 * float(np.max(np.ptp(xy, axis=0))))
+        # the refined foot is on the curve itself; the polyline's chords can be nearer a point than the curve by
+        # their sagitta, so the refined distance wins unless it went to another part of the curve
+        better = np.isfinite(fine) & (fine <= dist + 1e-3 * float(np.max(np.ptp(xy, axis=0))))
         dist = np.where(better, fine, dist)
         near_x = np.where(better, fx, near_x)
     ck = mech.compile()
@@ -374,13 +455,6 @@ def _candidate(problem, frame, atlas, xy, closed, p, match, transmission, deg, l
     scale = abs(params.get(ref, vals.get(ref, 1.0)) / vals[ref]) if ref else 1.0
     full = dict(zip([q.name for q in mech.parameters], [float(mech.spec["parameters"][q.name])
                                                         for q in mech.parameters]))
-    grashof = ""
-    if loops:
-        from .atlastrace import GRASHOF_CLASSES, _grashof, _loop_lengths
-
-        Pd = problem.batch.params(values[None])
-        codes, _ = _grashof(_loop_lengths(ck, loops, Z[:, :1], Pd))
-        grashof = " + ".join(GRASHOF_CLASSES[c] for c in codes[:, 0] if c)
     return {
         "parameters": full,
         "placement": {"x": full[frame.x], "y": full[frame.y], "angle": full[frame.angle], "scale": scale,
@@ -451,7 +525,7 @@ def _result(problem, frame, atlas, xy, closed, cands, top, stats, seconds):
     for c in cands:
         m = design_model(problem, [c["parameters"][n] for n in problem.names], c["_inputs"], c["_Z"])
         c["mechanism"] = m
-        out.append({k: v for k, v in c.items() if not k.startswith("_") and k != "mechanism"})
+        out.append({k: v for k, v in c.items() if not k.startswith("_") and k not in ("mechanism", "polished")})
     best = cands[0]
     report.update({
         "objective": best["objective"], "parameters": out[0]["parameters"], "runs": [best["objective"]],
