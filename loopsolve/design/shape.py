@@ -280,7 +280,7 @@ def synthesize_shape(mech, *, shape: str, targets, closed: bool = True, atlas=No
     V, S, X, used = placed_starts(atlas, picked, xy, idx, closed, frame, problem, deg=deg)
     t2 = time.perf_counter()
     cands, rejected = _polish_and_certify(problem, frame, atlas, xy, idx, closed, V, S, X, used, top, lm_iters,
-                                          transmission, deg)
+                                          problem.transmission, deg)
     t3 = time.perf_counter()
     stats = {"retrieval": {**rstats, "matches": len(matches), "starts": len(used),
                            "best_distance": used[0].dist if used else None},
