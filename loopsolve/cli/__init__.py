@@ -166,6 +166,8 @@ def build_parser() -> argparse.ArgumentParser:
     _sweep_args(p)
     p.add_argument("--vars", nargs="+", metavar="NAME", help="variables or point coordinates to plot "
                    "(default: the unknowns)")
+    p.add_argument("--shape", metavar="R.json", help="the page of a shape synthesis' report (synthesize --shape ... "
+                   "--report R.json) made with MODEL: the target, the candidates, the chosen one moving")
     p.add_argument("-o", "--output", required=True, help=".html file")
     p.set_defaults(func=cmd_view)
     p = sub.add_parser("study", help="sweep every design of a parameter grid or sample (xarray Dataset out)")
@@ -361,6 +363,10 @@ def cmd_view(args) -> int:
 
     check_output(args.output)
     _check_output(args.output)
+    if args.shape:
+        from .atlas import view_shape
+
+        return view_shape(args)
     _write(to_html(_sweep_for(args), args.vars), args.output)
     return EXIT_OK
 

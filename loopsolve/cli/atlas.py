@@ -102,7 +102,7 @@ def cmd_shape(args) -> int:
 
     for flag, given in (("--function", args.function), ("--motion", args.motion), ("--link", args.link),
                         ("--inputs", args.inputs), ("--range", args.input_range), ("--runs", args.runs != 1),
-                        ("--method", args.method != "general")):
+                        ("--method", args.method != "general"), ("--no-atlas", args.no_atlas)):
         if given:
             raise ModelError(f"{flag} is not used by --shape (shape synthesis is free in timing; see --help)")
     for out in (args.output, args.report):
@@ -122,4 +122,26 @@ def cmd_shape(args) -> int:
         print(f"shape: {len(c)} certified design(s), best rms {c[0]['shape_error']['rms']:.4g}, max "
               f"{c[0]['shape_error']['max']:.4g}; wrote {args.report}" + (f" and {args.output}" if args.output else ""),
               file=sys.stderr)
+    return EXIT_OK
+
+
+def view_shape(args) -> int:
+    """``loopsolve view MODEL --shape R.json -o page.html``."""
+    import numpy as np
+
+    from ..errors import ModelError
+    from ..model.files import read_regular
+    from ..output.shapeview import shape_html, sweeps_from_report
+
+    try:
+        report = json.loads(read_regular(args.shape, 100_000_000, what="report").decode("utf-8"))
+    except (OSError, ValueError) as exc:
+        raise ModelError(f"--shape {args.shape}: cannot read the report ({exc})") from None
+    mech = _load(args.model)
+    sweeps = sweeps_from_report(mech, report)
+    try:
+        xy = np.array([[t["x"], t["y"]] for t in report["targets"]], dtype=float)
+    except (KeyError, TypeError, ValueError):
+        raise ModelError(f"--shape {args.shape}: the report has no target coordinates") from None
+    _write(shape_html(xy, report, sweeps), args.output)
     return EXIT_OK

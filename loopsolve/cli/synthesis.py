@@ -30,6 +30,8 @@ def _synthesis_parser(sub) -> None:
                    "atlas, built once into the cache on first use)")
     p.add_argument("--top", type=int, default=5, metavar="K", help="with --shape: certified designs reported "
                    "(default 5)")
+    p.add_argument("--no-atlas", action="store_true", help="with --path and free timing: no starts from the "
+                   "model's default atlas")
     p.add_argument("--link", metavar="VAR", help="with --motion: the angle variable of the guided link")
     p.add_argument("--targets", required=True, metavar="T.csv", help="targets (CSV with a header line; an "
                    "input column prescribes the timing)")
@@ -69,10 +71,11 @@ def cmd_synthesize(args) -> int:
         from .atlas import cmd_shape
 
         return cmd_shape(args)
-    for flag, given in (("--closed", args.closed), ("--open", args.open), ("--atlas", args.atlas),
-                        ("--top", args.top != 5)):
+    for flag, given in (("--closed", args.closed), ("--open", args.open), ("--top", args.top != 5)):
         if given:
             raise ModelError(f"{flag} is for shape synthesis (--shape POINT)")
+    if (args.atlas or args.no_atlas) and not (args.path and not args.inputs):
+        raise ModelError("--atlas/--no-atlas are for shape synthesis and for path synthesis with free timing")
 
     for out in (args.output, args.report):
         _check_output(out)
@@ -105,7 +108,7 @@ def cmd_synthesize(args) -> int:
         transmission=args.transmission, runs=args.runs, seed=args.seed, mode=args.mode,
         popsize=args.popsize, maxiter=args.maxiter, restarts=args.restarts, starts=args.starts, workers=args.workers,
         scheduler=args.scheduler, progress=None if not args.quiet else False,
-        input_range=input_range), "")
+        input_range=input_range, atlas=False if args.no_atlas else args.atlas), "")
     if rep is not None:
         print(f"objective {rep['objective']:.6g} (mode {rep['mode']}, certified); wrote {args.report}"
               + (f" and {args.output}" if args.output else ""), file=sys.stderr)

@@ -348,10 +348,14 @@ def _lm_polish(problem, v, x, signs, Z, max_nfev: int = 80):
     vals[per] = problem.lo[per] + np.mod(vals[per] - problem.lo[per], period[per])
     if np.any((vals < problem.lo) | (vals > problem.hi)):
         return None
-    r, _, Zf = ev(np.concatenate([vals, u[k:]]))
-    if r is None:
+    # the result's positions traced through the targets in the mode (the warm poses of the last trial need not
+    # be the result's, and a traced motion is what the certificate checks)
+    got = _poses(problem, {"values": vals, "inputs": u[k:], "signs": signs})
+    if got["Z"] is None:
         return None
-    return vals, u[k:], float(np.sum(r * r)), Zf
+    P = problem.batch.params(vals[None])
+    r = problem.residuals(got["Z"][:, :, None], P)
+    return vals, u[k:], float(np.sum(r * r)), got["Z"]
 
 
 def _polish_and_certify(problem, frame, atlas, xy, idx, closed, V, S, X, used, top, lm_iters, transmission, deg):
@@ -395,11 +399,15 @@ def _polish_and_certify(problem, frame, atlas, xy, idx, closed, V, S, X, used, t
 
 
 def _poses(problem, p):
+    """The positions at the targets, traced through them in the design's mode (5° substeps, then 1°)."""
     with np.errstate(all="ignore"):
         P = problem.batch.params(np.asarray(p["values"])[None])
-        Zt, r = problem.trace(P, np.asarray(p["inputs"])[:, None], np.asarray(p["signs"])[:, None],
-                              singular_stop=False)
-    return {"Z": Zt[:, :, 0] if r[0] >= problem.T else None}
+        for h in (5.0, 1.0):
+            Zt, r = problem.trace(P, np.asarray(p["inputs"])[:, None], np.asarray(p["signs"])[:, None],
+                                  hmax=math.radians(h), singular_stop=False)
+            if r[0] >= problem.T:
+                return {"Z": Zt[:, :, 0]}
+    return {"Z": None}
 
 
 def _candidate(problem, frame, atlas, xy, closed, p, match, transmission, deg, loops):
@@ -466,6 +474,7 @@ def _candidate(problem, frame, atlas, xy, closed, p, match, transmission, deg, l
         "certificate": cert,
         "objective": float(np.sum(dist ** 2)),
         "direction": direction,
+        "motion": [display_value(ck, float(inputs[0])), display_value(ck, float(inputs[-1]))],
         "atlas_entry": int(match.entry),
         "descriptor_distance": float(match.dist),
         "_inputs": inputs, "_Z": Z, "_errors": dist, "_near_x": near_x, "_curve": pts,
@@ -503,9 +512,21 @@ class ShapeResult:
 
     def plot(self, *, ax=None, output=None, k: int | None = None):
         """The target curve and the candidates' curves (``k``: only that one, with its linkage)."""
-        from .shapeplot import plot_shape
+        from ..output.shapeview import plot_shape
 
         return plot_shape(self, ax=ax, output=output, k=k)
+
+    def to_html(self, *, title=None) -> str:
+        """The interactive page: the target, the candidates (switchable), the chosen one moving."""
+        from ..output.shapeview import candidate_sweeps, shape_html
+
+        return shape_html(self.targets, self.report, candidate_sweeps(self), title=title)
+
+    def view(self):
+        """The interactive page inline in Jupyter (a :class:`loopsolve.output.view.Page`)."""
+        from ..output.view import Page
+
+        return Page(self.to_html(), height=1250)
 
 
 def _result(problem, frame, atlas, xy, closed, cands, top, stats, seconds):
@@ -513,8 +534,8 @@ def _result(problem, frame, atlas, xy, closed, cands, top, stats, seconds):
 
     cands = cands[:top]
     report = {"task": "shape", "objective": None, "parameters": None, "runs": [], "seconds": [seconds],
-              "mode": None, "direction": None, "targets": None, "certificate": None, "closed": bool(closed),
-              "candidates": [], "statistics": stats}
+              "mode": None, "direction": None, "targets": None, "certificate": None, "point": problem.point,
+              "closed": bool(closed), "candidates": [], "statistics": stats}
     if not cands:
         rej = stats["rejected"]
         why = "; ".join(f"rms {math.sqrt(r['objective'] / len(xy)):.3g}: {', '.join(r['defects'])}"
@@ -530,8 +551,9 @@ def _result(problem, frame, atlas, xy, closed, cands, top, stats, seconds):
     report.update({
         "objective": best["objective"], "parameters": out[0]["parameters"], "runs": [best["objective"]],
         "mode": best["mode"], "direction": best["direction"],
-        "targets": [{"input": (None if best["_display_inputs"] is None else float(x)), "error": float(e)}
-                    for x, e in zip(best["_display_inputs"] or [None] * len(xy), best["_errors"])],
+        "targets": [{"input": (None if best["_display_inputs"] is None else float(x)), "error": float(e),
+                     "x": float(q[0]), "y": float(q[1])}
+                    for x, e, q in zip(best["_display_inputs"] or [None] * len(xy), best["_errors"], xy)],
         "certificate": best["certificate"], "placement": out[0]["placement"], "shape_error": out[0]["shape_error"],
         "candidates": out,
     })

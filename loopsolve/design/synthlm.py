@@ -149,7 +149,9 @@ def batch_lm(problem, V, signs, X=None, *, iters: int = 25, hmax: float = _POLIS
     columns 1e4 times worse than the best after ten iterations was tried and removed: on a
     free-timing half circle the column that ends at f ≈ 1e-30 was above that early, and the run
     ended at 2.4e-7.) ``warm``: a trial design's positions at every target by Newton from the last
-    accepted ones (:func:`_residuals_and_jacobian`; shape synthesis, which certifies afterwards).
+    accepted ones (:func:`_residuals_and_jacobian`), checked every ``_VALIDATE`` iterations and at
+    the end by a trace through the targets (:func:`_validate`: a column that left the one motion
+    goes back to where it last passed and stops); shape synthesis uses it.
     """
     from .synthesis import periodic
 
@@ -170,6 +172,9 @@ def batch_lm(problem, V, signs, X=None, *, iters: int = 25, hmax: float = _POLIS
 
     V = project(V)
     r, J, ok, Z0 = _residuals_and_jacobian(problem, V, X, signs, hmax, warm=warm)
+    checked = None
+    if warm:  # the starts, traced through their targets: the first checked states
+        checked = {"V": V.copy(), "X": X.copy(), "f": np.where(ok, np.sum(r * r, axis=1), np.inf)}
     f = np.where(ok, np.sum(r * r, axis=1), np.inf)
     lam = np.full(D, 1e-3)
     active = ok.copy()
@@ -214,7 +219,40 @@ def batch_lm(problem, V, signs, X=None, *, iters: int = 25, hmax: float = _POLIS
         lam[a[~acc]] *= 4.0
         active[a[small]] = False
         active[a[~acc & (lam[a] > 1e8)]] = False
+        if warm and ((it + 1) % _VALIDATE == 0 or it == iters - 1 or not active.any()):
+            checked = _validate(problem, V, X, signs, hmax, checked, active)
+    if warm:
+        checked = _validate(problem, V, X, signs, hmax, checked, active)
+        V, X, f = checked["V"], checked["X"], checked["f"]
     return V, X, f
+
+
+#: warm steps are checked every this many iterations: every target reached by one motion in the mode
+_VALIDATE = 8
+
+
+def _validate(problem, V, X, signs, hmax, checked, active):
+    """Warm poses are of the right mode at every target but may lie on another circuit (a design that drifted
+    into a rocker whose swing cannot reach every target in one motion). Trace every column through its targets;
+    one that passes becomes its new checked state, one that fails goes back to its last checked state and stops.
+    Returns the checked states ``{"V", "X", "f"}`` (copies)."""
+    D = V.shape[0]
+    P = problem.batch.params(V)
+    with np.errstate(all="ignore"):
+        Zt, reached = problem.trace(P, X, signs, hmax=hmax, singular_stop=False)
+    passed = reached >= problem.T
+    if checked is None:
+        checked = {"V": V.copy(), "X": X.copy(), "f": np.full(D, np.inf)}
+    r = np.nan_to_num(problem.residuals(np.nan_to_num(Zt[:, :problem.T]), P))
+    f_now = np.where(passed, np.sum(r * r, axis=(0, 1)), np.inf)
+    checked["V"][passed] = V[passed]
+    checked["X"][:, passed] = X[:, passed]
+    checked["f"][passed] = f_now[passed]
+    failed = ~passed
+    V[failed] = checked["V"][failed]
+    X[:, failed] = checked["X"][:, failed]
+    active[failed] = False
+    return {k: v.copy() for k, v in checked.items()}
 
 
 def distinct(V, f, lo, hi, *, k: int, rtol_f: float = 1e-6, dist: float = 0.01, periodic_mask=None, period=None):

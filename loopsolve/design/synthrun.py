@@ -267,6 +267,12 @@ def one_run(problem, seed, opts):
         if len(fm):
             dm = (np.sign(Xm[-1] - Xm[0]) if problem.free else np.ones(len(fm))).astype(int)
             starts.append((Vm, Sm, Xm, np.where(dm == 0, 1, dm)))
+    if opts.get("atlas") is not False and problem.task == "path" and problem.free:
+        from .pathatlas import atlas_starts  # the targets as a curve: its nearest atlas designs, placed on it
+
+        got = atlas_starts(problem, atlas=opts.get("atlas"))
+        if got is not None:
+            starts.append(got)
     if starts:
         from .synthlm import batch_lm, distinct
         from .synthesis import periodic
@@ -401,6 +407,8 @@ def synthesize(mech, *, path=None, function=None, motion=None, link=None, target
         stretch), free in position, orientation, scale and timing, from ``atlas`` (default: the
         model's default atlas); the ``top`` best certified designs: see
         :func:`loopsolve.design.shape.synthesize_shape` (``vary`` bounds or fixes parameters there).
+        Path generation with free timing also takes starts from ``atlas`` (default: the model's
+        default atlas when it has one; ``False``: none), see :mod:`loopsolve.design.pathatlas`.
 
     Returns
     -------
@@ -446,7 +454,8 @@ def synthesize(mech, *, path=None, function=None, motion=None, link=None, target
                      vary=vary, crank=crank, transmission=transmission, mode=mode)
     opts = {"popsize": popsize, "maxiter": maxiter, "tol": tol, "polish": polish_candidates, "restarts": restarts,
             "strategy": strategy, "starts": 40 * len(problem.names) if starts is None else starts,
-            "de_starts": de_starts, "lm_iters": lm_iters}
+            "de_starts": de_starts, "lm_iters": lm_iters,
+            "atlas": atlas if atlas is None or atlas is False else str(getattr(atlas, "path", atlas))}
     seeds = [seed + r for r in range(runs)]
     if progress is None:
         progress = sys.stderr.isatty()
