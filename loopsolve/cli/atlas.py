@@ -1,4 +1,4 @@
-"""``loopsolve atlas build|info`` and ``loopsolve synthesize --shape``: atlases and shape synthesis.
+"""``loopsolve atlas build|default|info`` and ``loopsolve synthesize --shape``: atlases and shape synthesis.
 
 The contract is in ``DESIGN.md`` ("Atlas and shape synthesis"). Errors are one line, exit 2
 (a bad curve, an atlas of another model, a foreign or damaged atlas), 3 (no certified design).
@@ -35,6 +35,12 @@ def _atlas_parsers(sub) -> None:
                    "or resumed")
     b.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
     b.set_defaults(func=cmd_atlas_build)
+    d = asub.add_parser("default", help="build a model's default atlas into the cache now (else: on first use)")
+    d.add_argument("model", help="model file (TOML)")
+    d.add_argument("--point", default="P", metavar="P", help="the point (default P)")
+    d.add_argument("--workers", type=int, metavar="N", help="build on a local Dask cluster of N processes")
+    d.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
+    d.set_defaults(func=cmd_atlas_default)
     i = asub.add_parser("info", help="what an atlas holds (JSON)")
     i.add_argument("atlas", help="the atlas (ATLAS.zarr)")
     i.set_defaults(func=cmd_atlas_info)
@@ -82,6 +88,23 @@ def cmd_atlas_build(args) -> int:
     s = atlas.summary()
     print(f"wrote {out}: {s['size']} designs, {s['certified']} certified ({s['crank']} with a crank, "
           f"{s['rocker']} rocking), {s['not_assemblable']} not assemblable, {s['degenerate']} degenerate curves",
+          file=sys.stderr)
+    return EXIT_OK
+
+
+def cmd_atlas_default(args) -> int:
+    import time
+
+    from ..design.atlasdefault import default_atlas
+    from ..design.studies import _check_cluster
+
+    _check_cluster(args.workers, None)
+    mech = _load(args.model)
+    t0 = time.perf_counter()
+    a = default_atlas(mech, args.point, progress=None if not args.quiet else False, workers=args.workers)
+    s = a.summary()
+    print(f"default atlas of {s['model']!r} point {s['point']!r}: {a.path or '(in memory: the cache is off)'}: "
+          f"{s['size']} designs, {s['certified']} certified ({s['crank']} with a crank); {time.perf_counter() - t0:.0f} s",
           file=sys.stderr)
     return EXIT_OK
 

@@ -11,12 +11,14 @@ of its own (:func:`generic_recipe`: 16,384 designs around the model's own dimens
 The atlas is built the first time it is needed into ``<cache>/atlas/`` (the compile cache's
 directory, :func:`loopsolve.symbolic.compiled.cache_dir`; ``LOOPSOLVE_CACHE_DIR=""`` disables it:
 the atlas is then built in memory at every use), with a progress bar on a terminal, seeded
-(the same atlas on every machine), on a local Dask cluster of one worker per CPU when
-``distributed`` is installed. A lock file keeps two processes from building it at once (the
+(the same atlas on every machine), in this process (``LOOPSOLVE_ATLAS_WORKERS=N``: on a local Dask
+cluster of N processes — only from a script guarded by ``if __name__ == "__main__":`` or from the
+command line, as Dask's spawned workers import the caller's main module again). A lock file keeps two processes from building it at once (the
 second waits, then opens it); an interrupted build resumes where it stopped.
 
 Environment: ``LOOPSOLVE_ATLAS_SIZE=N`` builds every default atlas with N designs instead (tests,
-a quick look); ``LOOPSOLVE_ATLAS_WORKERS=N`` builds on N local processes (1: in this process).
+a quick look); ``LOOPSOLVE_ATLAS_WORKERS=N`` builds on N local processes (default, 1: in this process).
+``loopsolve atlas default MODEL --point P [--workers N]`` builds one ahead of its first use.
 """
 
 from __future__ import annotations
@@ -70,17 +72,22 @@ def _size(default: int) -> int:
 
 
 def _workers():
+    """Local Dask workers for a default build: ``LOOPSOLVE_ATLAS_WORKERS`` (default: none, this process).
+
+    Not one per CPU by default: Dask starts its worker processes by *spawning* them, which imports the
+    caller's ``__main__`` again — a user's script without an ``if __name__ == "__main__":`` guard that calls
+    ``ls.synthesize(..., shape=...)`` would run again in every worker (and wait for the atlas it is building).
+    """
     from .studies import _cpus
 
     env = os.environ.get("LOOPSOLVE_ATLAS_WORKERS")
-    if env:
-        try:
-            n = int(env)
-        except ValueError:
-            raise ModelError(f"LOOPSOLVE_ATLAS_WORKERS={env!r}: a whole number of processes") from None
-        n = max(1, min(n, _cpus()))
-    else:
-        n = _cpus()
+    if not env:
+        return None
+    try:
+        n = int(env)
+    except ValueError:
+        raise ModelError(f"LOOPSOLVE_ATLAS_WORKERS={env!r}: a whole number of processes") from None
+    n = max(1, min(n, _cpus()))
     if n <= 1:
         return None
     try:
@@ -137,8 +144,11 @@ def recipe_for(mech, point):
     return name, mech, pt, vary, _size(size)
 
 
-def default_atlas(mech, point, *, progress=None, seed: int = 0):
-    """The default atlas of ``mech``'s ``point``: opened from the cache, or built there first (see the module docstring)."""
+def default_atlas(mech, point, *, progress=None, seed: int = 0, workers: int | None = None):
+    """The default atlas of ``mech``'s ``point``: opened from the cache, or built there first (see the module docstring).
+
+    ``workers``: build on a local Dask cluster of that many processes (default ``LOOPSOLVE_ATLAS_WORKERS``).
+    """
     from .atlas import build_atlas, describe, open_atlas
 
     name, model, pt, vary, size = recipe_for(mech, point)
@@ -150,7 +160,7 @@ def default_atlas(mech, point, *, progress=None, seed: int = 0):
     kwargs = dict(point=pt, vary=vary, size=size, seed=seed, chunk=CHUNK, step_deg=STEP_DEG, progress=progress,
                   max_size=max(size, 1), _desc=f"default atlas ({name}, once)")
     if base is None:
-        return build_atlas(model, workers=_workers(), **kwargs)
+        return build_atlas(model, workers=workers or _workers(), **kwargs)
     from ..symbolic.compiled import _ensure_dir
 
     _ensure_dir(base.parent)
@@ -180,7 +190,7 @@ def default_atlas(mech, point, *, progress=None, seed: int = 0):
         if progress is None and sys.stderr.isatty() or progress:
             _note(f"building the default atlas of {model.name!r} point {pt!r} ({size} designs, once) into {path}",
                   True)
-        return build_atlas(model, out=path, workers=_workers(), **kwargs)
+        return build_atlas(model, out=path, workers=workers or _workers(), **kwargs)
     finally:
         try:
             fcntl.flock(fd, fcntl.LOCK_UN)
