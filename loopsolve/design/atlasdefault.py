@@ -169,7 +169,7 @@ def default_atlas(mech, point, *, progress=None, seed: int = 0, workers: int | N
     lock = base / f"{name}-{key}-{size}.lock"
     if path.is_dir():
         try:
-            atlas = open_atlas(path)
+            atlas = _opened(path)
             if atlas.complete:
                 return atlas
         except ModelError:
@@ -196,6 +196,29 @@ def default_atlas(mech, point, *, progress=None, seed: int = 0, workers: int | N
             fcntl.flock(fd, fcntl.LOCK_UN)
         finally:
             os.close(fd)
+
+
+_OPEN: dict = {}
+
+
+def _opened(path):
+    """The default atlas at ``path``, read once per process (again when its chunk counts changed on disk)."""
+    from .atlas import open_atlas
+
+    try:
+        stamp = os.stat(path / "filled" / "c" / "0").st_mtime_ns
+    except OSError:
+        stamp = None
+    hit = _OPEN.get(str(path))
+    if hit is not None and hit[0] == stamp and stamp is not None:
+        from .atlasstore import check_tree
+
+        check_tree(path)  # still ours and nobody else's to change
+        return hit[1]
+    atlas = open_atlas(path)
+    _OPEN.clear()  # one atlas kept: they are tens of megabytes
+    _OPEN[str(path)] = (stamp, atlas)
+    return atlas
 
 
 def _note(text, progress):

@@ -240,7 +240,7 @@ def synthesize_shape(mech, *, shape: str, targets, closed: bool = True, atlas=No
     from .shapematch import diverse, placed_starts, retrieve
     from .synthesis import define
 
-    t0 = time.perf_counter()
+    t0, c0 = time.perf_counter(), time.process_time()
     if isinstance(top, bool) or not isinstance(top, (int, np.integer)) or top < 1:
         raise ModelError(f"--top {top!r}: the number of designs to report, at least 1")
     xy = read_curve(targets, closed)
@@ -270,7 +270,7 @@ def synthesize_shape(mech, *, shape: str, targets, closed: bool = True, atlas=No
     problem = define(fmech, path=shape, targets={"x": xy[idx, 0], "y": xy[idx, 1]}, vary=bounds, crank=need_crank,
                      transmission=transmission, mode="any")
     n_starts = max(12, 3 * top) if starts is None else int(starts)
-    t1 = time.perf_counter()
+    t1, c1 = time.perf_counter(), time.process_time()
     matches, rstats = retrieve(atlas, xy, closed=closed, crank=crank, count=max(400, 40 * n_starts))
     if not matches:
         why = "no entry of the atlas has a full turn of the input" if need_crank else "the atlas has no traced entry"
@@ -278,13 +278,14 @@ def synthesize_shape(mech, *, shape: str, targets, closed: bool = True, atlas=No
                              report={"task": "shape", "objective": None, "candidates": []})
     picked = diverse(atlas, matches, n_starts)
     V, S, X, used = placed_starts(atlas, picked, xy, idx, closed, frame, problem, deg=deg)
-    t2 = time.perf_counter()
+    t2, c2 = time.perf_counter(), time.process_time()
     cands, rejected = _polish_and_certify(problem, frame, atlas, xy, idx, closed, V, S, X, used, top, lm_iters,
                                           problem.transmission, deg)
-    t3 = time.perf_counter()
+    t3, c3 = time.perf_counter(), time.process_time()
     stats = {"retrieval": {**rstats, "matches": len(matches), "starts": len(used),
                            "best_distance": used[0].dist if used else None},
              "seconds": {"setup": t1 - t0, "retrieval": t2 - t1, "polish_certify": t3 - t2},
+             "cpu_seconds": {"setup": c1 - c0, "retrieval": c2 - c1, "polish_certify": c3 - c2},
              "rejected": rejected, "atlas": atlas.summary() | {"path": str(atlas.path) if atlas.path else None}}
     return _result(problem, frame, atlas, xy, closed, cands, top, stats, time.perf_counter() - t0)
 

@@ -32,7 +32,7 @@ from .atlastrace import STATUS
 __all__ = ["Match", "retrieve", "placed_starts"]
 
 #: window lengths of an open target, in stored-curve steps between its 9 points (N = 64: 1/8 … 1)
-_OPEN_STRIDES = (1, 2, 3, 4, 5, 6, 8)
+_OPEN_STRIDES = (1, 2, 3, 4, 6, 8)
 _OPEN_POINTS = 9
 #: entries kept after the descriptor stage for the Procrustes ranking of a closed target
 _PREFILTER = 600
@@ -89,13 +89,14 @@ def retrieve(atlas, xy, *, closed: bool, crank: bool = False, count: int = 40, p
         fw = _d.procrustes(curves[cand], np.ones(cand.size, bool), R, strides=(1,))
         R_rev = np.roll(R[::-1], 1, axis=0)  # the same points from point 0 backwards
         bw = _d.procrustes(curves[cand], np.ones(cand.size, bool), R_rev, strides=(1,))
+        if not stats["efd_stage"]:
+            stats["candidates"] = int(cand.size)
     else:
         cand = pool
         efd_dist = np.full(cand.size, np.nan)
         R = _d.resample(xy, _OPEN_POINTS, closed=False)
         cl = atlas.arrays["crank"][cand]
-        fw = _d.procrustes(curves[cand], cl, R, strides=_OPEN_STRIDES)
-        bw = _d.procrustes(curves[cand], cl, R[::-1], strides=_OPEN_STRIDES)
+        fw, bw = _d.procrustes_both(curves[cand], cl, R, strides=_OPEN_STRIDES)
         stats["efd_stage"] = False
     rev = bw[0] < fw[0]
     best = [np.where(rev, b, f) for f, b in zip(fw, bw)]

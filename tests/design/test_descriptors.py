@@ -143,7 +143,8 @@ def test_procrustes_finds_a_moved_stretch_of_a_stored_curve(base):
     idx = (50 + 3 * np.arange(9)) % N
     stretch = similar(zc[idx], -1.1, 7.0, (3, 4))
     dist, start, stride, fac, mean = d.procrustes(stored, [True, False], stretch, strides=(1, 2, 3, 4))
-    assert dist[0] < 1e-9 and start[0] == 50 and stride[0] == 3
+    # the distance is the square root of 1 − |C|²/var: round-off of 1e-16 there is 1e-8 here
+    assert dist[0] < 1e-6 and start[0] == 50 and stride[0] == 3
     assert dist[1] > dist[0]
     # the fit maps the window onto the normalized target
     t, c, nrm = d.target_vector(stretch)
@@ -151,7 +152,7 @@ def test_procrustes_finds_a_moved_stretch_of_a_stored_curve(base):
     assert np.allclose(fac[0] * (w - mean[0]), t, atol=1e-9)
     # the whole closed curve from any start point
     dist, start, stride, _, _ = d.procrustes(stored[:1], [True], similar(np.roll(zc, -17, axis=0), 2, 3, (0, 0)))
-    assert dist[0] < 1e-9 and start[0] == 17
+    assert dist[0] < 1e-6 and start[0] == 17
 
 
 @pytest.mark.parametrize("rows,closed,message", [
