@@ -260,6 +260,8 @@ def _path_runs(name, prob, runs, atlas):
 def path(args, out):
     rows = []
     for name, prob in PATH_PROBLEMS.items():
+        if args.problem and args.problem not in name:
+            continue
         for atlas in ([None, False] if args.compare else [None]):
             row = _path_runs(name, prob, args.runs, atlas)
             rows.append(row)
@@ -316,6 +318,7 @@ def main():
     ap.add_argument("--only", choices=("literature", "path", "speed"))
     ap.add_argument("--runs", type=int, default=30)
     ap.add_argument("--compare", action="store_true", help="path problems also without the atlas starts")
+    ap.add_argument("--problem", help="only the path problems whose name holds this text (ellipse, line, ...)")
     ap.add_argument("--build-size", type=int, default=16384)
     ap.add_argument("--json", help="write the figures to this file")
     args = ap.parse_args()

@@ -26,8 +26,8 @@ def _synthesis_parser(sub) -> None:
     closure = p.add_mutually_exclusive_group()
     closure.add_argument("--closed", action="store_true", help="with --shape: the curve is closed (default)")
     closure.add_argument("--open", action="store_true", help="with --shape: the curve is an open stretch")
-    p.add_argument("--atlas", metavar="ATLAS.zarr", help="with --shape: the atlas (default: the model's default "
-                   "atlas, built once into the cache on first use)")
+    p.add_argument("--atlas", metavar="ATLAS.zarr", help="with --shape (and --path with free timing: its starts): "
+                   "the atlas (default: the model's default atlas, built once into the cache on first use)")
     p.add_argument("--top", type=int, default=5, metavar="K", help="with --shape: certified designs reported "
                    "(default 5)")
     p.add_argument("--no-atlas", action="store_true", help="with --path and free timing: no starts from the "

@@ -95,8 +95,9 @@ def check_curve(xy, *, closed: bool, where: str = "curve") -> np.ndarray:
     if bad.size:
         raise ModelError(f"{where}: point {bad[0] + 1} is not a finite number pair (NaN or infinite); "
                          "give finite x,y on every row")
-    if closed and len(a) > 1 and np.array_equal(a[0], a[-1]):
-        a = a[:-1]
+    extent0 = float(np.max(np.ptp(a, axis=0))) if len(a) else 0.0
+    if closed and len(a) > 1 and float(np.hypot(*(a[0] - a[-1]))) <= 1e-9 * extent0:
+        a = a[:-1]  # the curve drawn back to its start (to round-off: 10 + 8 sin 360° is not 10 + 8 sin 0°)
     if len(a) < MIN_POINTS:
         raise ModelError(f"{where}: {len(a)} distinct point(s); a shape needs at least {MIN_POINTS} "
                          f"(an ordered curve: give more rows)")
@@ -109,7 +110,7 @@ def check_curve(xy, *, closed: bool, where: str = "curve") -> np.ndarray:
         i = int(same[0])
         raise ModelError(f"{where}: points {i + 1} and {i + 2} are the same ({a[i, 0]:g}, {a[i, 1]:g}); "
                          "remove the repeated point")
-    if closed and np.hypot(*(a[0] - a[-1])) <= 1e-12 * extent:
+    if closed and np.hypot(*(a[0] - a[-1])) <= 1e-9 * extent:
         raise ModelError(f"{where}: the last point repeats the first twice; remove the repeated point")
     # all points on one line through a point (a segment): fine for an open curve, a degenerate
     # closed one (no area, but still a shape) is allowed too; only a single point is refused

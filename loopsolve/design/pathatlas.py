@@ -3,7 +3,8 @@
 A free-timing path problem (``synthesize --path P`` without inputs) asks for a design whose point
 passes through the targets in order: a curve through them. :func:`atlas_starts` treats the targets
 as that curve — closed when the last target repeats the first, open otherwise — retrieves the atlas
-designs whose curves are nearest it (:mod:`loopsolve.design.shapematch`), places each on the
+designs whose curves are nearest it (:mod:`loopsolve.design.shapematch`) and whose placed
+dimensions lie within the problem's bounds (a start clipped into them would be another design), places each on the
 targets (scaled, turned and moved by the similarity of its match, written into the problem's
 varied parameters: the frame's translation and rotation, every length) and gives the input value
 of every target on the placed design's motion. These starts join the differential evolution's and
@@ -80,7 +81,7 @@ def atlas_starts(problem, *, atlas=None, count: int = ATLAS_STARTS):
     from ..errors import LoopsolveError
     from .descriptors import check_curve
     from .frame import frame_of
-    from .shapematch import diverse, placed_starts, retrieve
+    from .shapematch import diverse, placed_starts, retrieve, within_bounds
 
     if atlas is False or not usable(problem):
         return None
@@ -100,11 +101,12 @@ def atlas_starts(problem, *, atlas=None, count: int = ATLAS_STARTS):
     except LoopsolveError:
         return None
     fr = frame_of(problem.mech, problem.point)
-    matches, _ = retrieve(a, xy, closed=closed, crank=problem.crank, count=max(400, 40 * count))
+    matches, _ = retrieve(a, xy, closed=closed, crank=problem.crank, count=max(2000, 100 * count))
+    deg = problem.mech.units.angle == "deg"
+    matches = within_bounds(a, matches, xy, closed, fr, problem, deg=deg)  # a clipped start is another design
     if not matches:
         return None
     picked = diverse(a, matches, count)
-    deg = problem.mech.units.angle == "deg"
     idx = np.arange(len(xy))
     V, S, X, used = placed_starts(a, picked, xy, idx, closed, fr, problem, deg=deg)
     if not len(used):

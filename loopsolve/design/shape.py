@@ -237,7 +237,7 @@ def synthesize_shape(mech, *, shape: str, targets, closed: bool = True, atlas=No
     """
     from .atlas import Atlas, open_atlas
     from .frame import frame_of
-    from .shapematch import diverse, placed_starts, retrieve
+    from .shapematch import diverse, placed_starts, retrieve, within_bounds
     from .synthesis import define
 
     t0, c0 = time.perf_counter(), time.process_time()
@@ -276,6 +276,9 @@ def synthesize_shape(mech, *, shape: str, targets, closed: bool = True, atlas=No
         why = "no entry of the atlas has a full turn of the input" if need_crank else "the atlas has no traced entry"
         raise SynthesisError(f"{atlas.path or 'the atlas'}: {why}; build a larger atlas or widen its box",
                              report={"task": "shape", "objective": None, "candidates": []})
+    if vary:  # bounds the user gave: starts within them (a start clipped into them would be another design)
+        inside = within_bounds(atlas, matches, xy, closed, frame, problem, deg=deg)
+        matches = inside or matches
     picked = diverse(atlas, matches, n_starts)
     V, S, X, used = placed_starts(atlas, picked, xy, idx, closed, frame, problem, deg=deg)
     t2, c2 = time.perf_counter(), time.process_time()

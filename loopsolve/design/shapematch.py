@@ -197,6 +197,54 @@ def _input_at(xs, pts, n, closed, frac):
     return np.interp(np.clip(frac, 0.0, 1.0) * s[-1], s, x)
 
 
+def _placed_values(atlas, m, c_t, n_t, frame, names, deg):
+    """The problem's varied values of match ``m``'s design placed on the target (model units), and its scale and turn."""
+    cx, cy, psi, se, _ = atlas.arrays["place"][m.entry]
+    a = m.factor
+    A = n_t * a * np.exp(-1j * psi) / se
+    B = c_t - A * (cx + 1j * cy) - n_t * a * m.mean
+    vals = atlas.values(m.entry)
+    te = complex(vals.get(frame.x, 0.0), vals.get(frame.y, 0.0))
+    th_e = vals.get(frame.angle, 0.0)
+    th_e = math.radians(th_e) if deg else th_e
+    t_new = A * te + B
+    turn = math.atan2(A.imag, A.real)
+    th = math.remainder(th_e + turn, 2 * math.pi)
+    scale = abs(A)
+    row = []
+    for n in names:
+        if n == frame.x:
+            row.append(t_new.real)
+        elif n == frame.y:
+            row.append(t_new.imag)
+        elif n == frame.angle:
+            row.append(math.degrees(th) if deg else th)
+        elif n in frame.lengths:
+            row.append(vals[n] * scale)
+        else:
+            row.append(vals[n])
+    return np.array(row), th, th_e
+
+
+def within_bounds(atlas, matches, xy, closed: bool, frame, problem, *, deg: bool, slack: float = 0.05):
+    """The matches whose design, placed on the target, lies within the problem's bounds (to ``slack`` of each
+    range; a periodic angle always does): a start clipped into the bounds would be another design."""
+    from .synthesis import periodic
+
+    N = int(atlas.meta["curve_points"])
+    R = _d.resample(xy, N if closed else _OPEN_POINTS, closed=closed)
+    _, c_t, n_t = _d.target_vector(R)
+    per, _ = periodic(problem)
+    span = problem.hi - problem.lo
+    lo, hi = problem.lo - slack * span, problem.hi + slack * span
+    out = []
+    for m in matches:
+        v, _, _ = _placed_values(atlas, m, c_t, n_t, frame, problem.names, deg)
+        if np.all(per | ((v >= lo) & (v <= hi))):
+            out.append(m)
+    return out
+
+
 def placed_starts(atlas, matches, xy, idx, closed: bool, frame, problem, *, deg: bool):
     """Starts of the polish from ``matches``: ``(V (S, k), signs (nb, S), X (M, S), entries)``.
 
@@ -215,34 +263,10 @@ def placed_starts(atlas, matches, xy, idx, closed: bool, frame, problem, *, deg:
     _, c_t, n_t = _d.target_vector(R)
     names = problem.names
     V, S, X, used = [], [], [], []
-    place = atlas.arrays["place"]
     for j, m in enumerate(matches):
         if cnt[j] < 3:
             continue
-        cx, cy, psi, se, _ = place[m.entry]
-        a = m.factor
-        A = n_t * a * np.exp(-1j * psi) / se
-        B = c_t - A * (cx + 1j * cy) - n_t * a * m.mean
-        vals = atlas.values(m.entry)
-        te = complex(vals.get(frame.x, 0.0), vals.get(frame.y, 0.0))
-        th_e = vals.get(frame.angle, 0.0)
-        th_e = math.radians(th_e) if deg else th_e
-        t_new = A * te + B
-        turn = math.atan2(A.imag, A.real)
-        th = math.remainder(th_e + turn, 2 * math.pi)
-        scale = abs(A)
-        row = []
-        for n in names:
-            if n == frame.x:
-                row.append(t_new.real)
-            elif n == frame.y:
-                row.append(t_new.imag)
-            elif n == frame.angle:
-                row.append(math.degrees(th) if deg else th)
-            elif n in frame.lengths:
-                row.append(vals[n] * scale)
-            else:
-                row.append(vals[n])
+        row, th, th_e = _placed_values(atlas, m, c_t, n_t, frame, names, deg)
         # stored-curve fraction of every polish point (see the module docstring), then its input
         if closed:
             f = m.start / N + (-u if m.reverse else u)

@@ -172,3 +172,11 @@ def test_a_closed_curve_drawn_back_to_its_start_drops_the_repeated_point():
     xy[-1] = xy[0]
     assert len(d.check_curve(xy, closed=True)) == 8
     assert len(d.check_curve(xy, closed=False)) == 9
+
+
+def test_a_closed_curve_back_at_its_start_to_round_off_drops_the_repeated_point():
+    """x = 10 + 10 cos φ, y = 10 + 8 sin φ at φ = 0°, 40°, …, 360°: the tenth point is the first to round-off only."""
+    phi = np.radians(np.arange(0, 361, 40))
+    xy = np.stack([10 + 10 * np.cos(phi), 10 + 8 * np.sin(phi)], axis=1)
+    assert not np.array_equal(xy[0], xy[-1])
+    assert len(d.check_curve(xy, closed=True)) == 9
