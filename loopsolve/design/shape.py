@@ -387,6 +387,12 @@ def _polish_and_certify(problem, frame, atlas, xy, idx, closed, V, S, X, used, t
         lm = _lm_polish(problem, p["values"], p["inputs"], p["signs"], p["Z"])
         if lm is not None and lm[2] <= p["objective"]:
             p.update({"values": lm[0], "inputs": lm[1], "objective": lm[2], "Z": lm[3]})
+        elif lm is None:  # MINPACK's LM left the bounds (an optimum on a bound): the bounded trust region
+            from .synthesis import polish
+
+            q = polish(problem, p["values"], signs=p["signs"], inputs=p["inputs"], max_nfev=60)
+            if math.isfinite(q.get("objective", math.inf)) and q["objective"] <= p["objective"]:
+                p.update({"values": q["values"], "inputs": q["inputs"], "objective": q["objective"], "Z": q["Z"]})
         c = _candidate(problem, frame, atlas, xy, closed, p, used[i], transmission, deg, loops)
         if c is None:
             continue
