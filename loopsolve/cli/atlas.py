@@ -139,7 +139,7 @@ def cmd_shape(args) -> int:
     rep = _synthesis_output(args, lambda: synthesize_shape(
         mech, shape=args.shape, targets=args.targets, closed=not args.open, atlas=args.atlas, top=args.top,
         crank=args.crank, transmission=args.transmission, vary=vary, seed=args.seed,
-        progress=None if not args.quiet else False), "")
+        progress=None if not args.quiet else False, max_targets=args.max_targets), "")
     if rep is not None:
         c = rep["candidates"]
         print(f"shape: {len(c)} certified design(s), best rms {c[0]['shape_error']['rms']:.4g}, max "

@@ -51,8 +51,9 @@ POLISH_POINTS = 32
 _CERT_POINTS = 8
 
 
-def read_curve(targets, closed: bool, where: str = "--targets") -> np.ndarray:
-    """The target curve ``(T, 2)`` from a CSV file/text, mapping or array (``x,y``), checked."""
+def read_curve(targets, closed: bool, where: str = "--targets", max_targets: int | None = None) -> np.ndarray:
+    """The target curve ``(T, 2)`` from a CSV file/text, mapping or array (``x,y``), checked (at most
+    ``max_targets`` points: the synthesis options' bound, ``--max-targets``)."""
     from .descriptors import check_curve
     from .targets import read_targets
 
@@ -61,6 +62,9 @@ def read_curve(targets, closed: bool, where: str = "--targets") -> np.ndarray:
         raise ModelError(f"{where}: an input column prescribes timing; shape synthesis matches the curve free in "
                          "timing (drop the column, or use --path for prescribed timing)")
     name = targets if isinstance(targets, str) and "\n" not in targets else where
+    if max_targets is not None and len(cols["x"]) > max_targets:
+        raise ModelError(f"{name}: {len(cols['x'])} points, more than --max-targets {max_targets}; resample the curve "
+                         "or raise --max-targets")
     return check_curve(np.stack([cols["x"], cols["y"]], axis=1), closed=closed, where=str(name))
 
 
@@ -197,7 +201,8 @@ def _same_design(a, b, frame, size, deg) -> bool:
 
 def synthesize_shape(mech, *, shape: str, targets, closed: bool = True, atlas=None, top: int = 5,
                      crank: bool = False, transmission=None, vary=None, seed: int = 0, progress=None,
-                     polish_points: int = POLISH_POINTS, starts: int | None = None, lm_iters: int = 40):
+                     polish_points: int = POLISH_POINTS, starts: int | None = None, lm_iters: int = 40,
+                     max_targets: int | None = None):
     """Linkages of ``mech`` whose point ``shape`` traces the curve ``targets`` (see the module docstring).
 
     Parameters
@@ -243,7 +248,7 @@ def synthesize_shape(mech, *, shape: str, targets, closed: bool = True, atlas=No
     t0, c0 = time.perf_counter(), time.process_time()
     if isinstance(top, bool) or not isinstance(top, (int, np.integer)) or top < 1:
         raise ModelError(f"--top {top!r}: the number of designs to report, at least 1")
-    xy = read_curve(targets, closed)
+    xy = read_curve(targets, closed, max_targets=max_targets)
     frame = frame_of(mech, shape)
     if atlas is None:
         from .atlasdefault import default_atlas

@@ -30,11 +30,12 @@ import enum
 import math
 import numbers
 import re
+import sys
 from fractions import Fraction
 from typing import Mapping
 
 from loopsolve.errors import ModelError
-from .unitlib import UnitInfo, lookup
+from .unitlib import UnitInfo, lookup, refusal
 
 __all__ = [
     "Kind",
@@ -430,10 +431,18 @@ def _reduce_angle(number: float, text: str | None, unit_turn: Fraction | None) -
 MAX_MAGNITUDE = 1e100
 
 
-def _finite(value: float, kind: Kind, text: str, where: str, length_unit: str) -> float:
+def _finite(value: float, kind: Kind, text: str, where: str, length_unit: str, given: float = 0.0) -> float:
+    """``value`` (converted from the number ``given`` with a unit's factor) checked: finite, within
+    ±MAX_MAGNITUDE, and not flushed from a normal float to zero or below the normal floats by the
+    conversion (a plain number in a display unit, whose factor is ordinary, is not checked for that:
+    a tiny angle is a tiny angle)."""
     if not math.isfinite(value):
         raise _kind_error(kind, text, where, length_unit,
                           "value overflows (not finite) after conversion to internal units")
+    if abs(given) >= sys.float_info.min and abs(value) < sys.float_info.min:
+        raise _kind_error(kind, text, where, length_unit,
+                          "value underflows (becomes 0 or subnormal) after conversion to internal units; "
+                          "use a smaller unit")
     if kind is not Kind.ANGLE and abs(value) > MAX_MAGNITUDE:
         raise _kind_error(kind, text, where, length_unit,
                           f"value {value:.3g} is beyond ±{MAX_MAGNITUDE:g} (the solver's squares and "
@@ -578,6 +587,9 @@ def parse_quantity(
             )
     info = lookup(unit)
     if info is None:
+        why = refusal(unit)
+        if why is not None:
+            raise _kind_error(kind, text, where, length_unit, f"unit {unit!r} is refused: {why}")
         hint = ""
         for guess in (unit.lower(), unit.strip().replace(" ", "")):
             if guess != unit and lookup(guess) is not None:
@@ -591,7 +603,7 @@ def parse_quantity(
     if kind is Kind.ANGLE and reduce:
         number = _reduce_angle(number, m.group("num"), _turn_in(info))
     if not kind.is_length:
-        return _finite(number * info.si_factor, kind, text, where, length_unit)
+        return _finite(number * info.si_factor, kind, text, where, length_unit, number)
     # a length kind: converted to the model's length unit
     if not is_physical_length(length_unit):
         raise UnitError(
@@ -601,7 +613,7 @@ def parse_quantity(
             text=text,
             kind=kind,
         )
-    return _finite(number * info.factor_to(lookup(length_unit)), kind, text, where, length_unit)
+    return _finite(number * info.factor_to(lookup(length_unit)), kind, text, where, length_unit, number)
 
 
 def _short(value: object, limit: int = 40) -> str:

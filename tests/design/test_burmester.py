@@ -49,11 +49,14 @@ POSES4 = [planted_pose(t)[0] for t in (20, 70, 120, 170)]
 POSES5 = [planted_pose(t)[0] for t in (20, 70, 120, 170, 220)]
 
 
-class TestCurves:
-    @pytest.fixture(scope="class")
-    def curves(self):
-        return ls.burmester_curves(POSES4)
+@pytest.fixture(scope="module")
+def curves():
+    """Computed once for the tests of :class:`TestCurves` (a module function: pytest retires class-scoped
+    fixtures defined as instance methods)."""
+    return ls.burmester_curves(POSES4)
 
+
+class TestCurves:
     def test_every_dyad_keeps_its_distance(self, curves):
         # the four-pose condition itself: the pin k (coupler frame) stays at one distance from m
         ok = np.isfinite(curves.center[:, 0])
@@ -156,11 +159,14 @@ def crosses(a, b, d, angles):
     return any(0 < (d * (x - a)) % 360 < span for x in angles)
 
 
-class TestFivePoses:
-    @pytest.fixture(scope="class")
-    def result(self):
-        return ls.burmester(POSES5)
+@pytest.fixture(scope="module")
+def result():
+    """Computed once for the tests of :class:`TestFivePoses` (a module function: pytest retires class-scoped
+    fixtures defined as instance methods)."""
+    return ls.burmester(POSES5)
 
+
+class TestFivePoses:
     def test_planted_linkage_recovered(self, result):
         centres = [np.array(d.center) for d in result.dyads]
         assert len(result.dyads) in (2, 4)

@@ -76,11 +76,14 @@ class TestConstants:
             freudenstein(np.log10, (1, 10), (45, 105), (135, 225), points=4)
 
 
-class TestLog10:
-    @pytest.fixture(scope="class")
-    def design(self):
-        return freudenstein(np.log10, (1, 10), (45, 105), (135, 225))
+@pytest.fixture(scope="module")
+def design():
+    """Computed once for the tests of :class:`TestLog10` (a module function: pytest retires class-scoped
+    fixtures defined as instance methods)."""
+    return freudenstein(np.log10, (1, 10), (45, 105), (135, 225))
 
+
+class TestLog10:
     def test_range_defect_with_located_limit(self, design):
         # the limit where coupler and output fold over each other: |B - O4| = r3 - r4
         # (|B - O4| stays within r1 -+ r2 = 50.1 .. 149.9 < r3 + r4), i.e.
