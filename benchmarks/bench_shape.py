@@ -11,7 +11,7 @@ Three parts, each with the defaults a user gets (the default four-bar atlas of
   - McGarva, J. R. (1994). Rapid search and selection of path generating mechanisms from a library.
     Mechanism and Machine Theory 29(2), 223–235 (closed, 35 points);
   - Ullah, I., Kota, S. (1997). Optimal synthesis of mechanisms for path generation using Fourier
-    descriptors and global search methods. ASME J. Mech. Des. 119(4), 504–510 (closed, 132 points);
+    descriptors and global search methods. ASME J. Mech. Des. 119(4), 504–510 (closed, 140 points);
   - Yu, H., Tang, D., Wang, Z. (2007). Study on a new computer path synthesis method of a four-bar
     linkage. Mechanism and Machine Theory 42(4), 383–392 (closed, 20 points);
   - Wu, J., Ge, Q. J., Gao, F., Guo, W. Z. (2011). On the extension of a Fourier descriptor based
