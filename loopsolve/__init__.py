@@ -107,6 +107,20 @@ def study(mech, vary, start, stop, step, **kwargs):
     return _study(mech, vary, start, stop, step, **kwargs)
 
 
+def build_atlas(mech, **kwargs):
+    """An atlas of coupler curves for shape synthesis: see :func:`loopsolve.design.atlas.build_atlas`."""
+    from .design.atlas import build_atlas as _build_atlas
+
+    return _build_atlas(mech, **kwargs)
+
+
+def open_atlas(path, mech=None):
+    """Open an atlas (checked): see :func:`loopsolve.design.atlas.open_atlas`."""
+    from .design.atlas import open_atlas as _open_atlas
+
+    return _open_atlas(path, mech)
+
+
 def synthesize(mech, **kwargs):
     """Dimensional synthesis (path, function, motion generation): see :func:`loopsolve.design.synthrun.synthesize`."""
     from .design.synthrun import synthesize as _synthesize
@@ -236,4 +250,6 @@ __all__ = [
     "study",
     "sweep",
     "synthesize",
+    "build_atlas",
+    "open_atlas",
 ]

@@ -33,6 +33,9 @@ FACADE = (
     ("dynamics.forceresults", "ForceSweep.plot_joint_forces", "output.forceplots"),
     ("dynamics.forceresults", "ForceSweep.plot_shaking", "output.forceplots"),
     ("design.synthrun", "SynthesisResult.plot", "output.plotting"),
+    ("design.shape", "ShapeResult.plot", "output.shapeview"),
+    ("design.shape", "ShapeResult.to_html", "output.shapeview"),
+    ("design.shape", "ShapeResult.view", "output.view"),
 )
 
 # Inside a layer, a module may import one that imports it back only inside a function; these are

@@ -28,6 +28,7 @@ from .edit import _edit_parser
 from .fileargs import check_files, file_argument, input_files
 from .forces import _force_parsers
 from .synthesis import _synthesis_parser
+from .atlas import _atlas_parsers
 
 __all__ = ["main", "build_parser"]
 
@@ -170,6 +171,9 @@ def build_parser() -> argparse.ArgumentParser:
     _sweep_args(p)
     p.add_argument("--vars", nargs="+", metavar="NAME", help="variables or point coordinates to plot "
                    "(default: the unknowns)")
+    file_argument(p, "--shape", role="input", what="--shape", metavar="R.json",
+                  help="the page of a shape synthesis' report (synthesize --shape ... --report R.json) made with "
+                  "MODEL: the target, the candidates, the chosen one moving")
     file_argument(p, "-o", "--output", role="output", fmt="page", required=True, help=".html file")
     p.set_defaults(func=cmd_view)
     p = sub.add_parser("study", help="sweep every design of a parameter grid or sample (xarray Dataset out)")
@@ -206,6 +210,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=cmd_study)
     _synthesis_parser(sub)
+    _atlas_parsers(sub)
     _force_parsers(sub)
     _edit_parser(sub)
     return parser
@@ -366,6 +371,10 @@ def cmd_view(args) -> int:
 
     check_output(args.output)
     _check_output(args.output)
+    if args.shape:
+        from .atlas import view_shape
+
+        return view_shape(args)
     _write(to_html(_sweep_for(args), args.vars), args.output)
     return EXIT_OK
 

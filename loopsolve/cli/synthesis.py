@@ -22,6 +22,18 @@ def _synthesis_parser(sub) -> None:
                       "(CSV input,output)")
     task.add_argument("--motion", metavar="POINT", help="motion generation: POINT and the --link angle "
                       "(CSV x,y,angle)")
+    task.add_argument("--shape", metavar="POINT", help="shape synthesis: POINT traces the curve of --targets (CSV "
+                      "x,y), free in position, orientation, scale and timing, from an atlas")
+    closure = p.add_mutually_exclusive_group()
+    closure.add_argument("--closed", action="store_true", help="with --shape: the curve is closed (default)")
+    closure.add_argument("--open", action="store_true", help="with --shape: the curve is an open stretch")
+    p.add_argument("--atlas", metavar="ATLAS", help="with --shape (and --path with free timing: its starts): "
+                   "the atlas, a directory ATLAS.zarr (default: the model's default atlas, built once into the cache "
+                   "on first use)")
+    p.add_argument("--top", type=int, default=5, metavar="K", help="with --shape: certified designs reported "
+                   "(default 5)")
+    p.add_argument("--no-atlas", action="store_true", help="with --path and free timing: no starts from the "
+                   "model's default atlas")
     p.add_argument("--link", metavar="VAR", help="with --motion: the angle variable of the guided link")
     file_argument(p, "--targets", role="input", what="--targets", required=True, metavar="T.csv",
                   help="targets (CSV with a header line; an input column prescribes the timing)")
@@ -64,6 +76,16 @@ def cmd_synthesize(args) -> int:
     from ..errors import ModelError
     from ..design.synthrun import synthesize
 
+    if args.shape is not None:
+        from .atlas import cmd_shape
+
+        return cmd_shape(args)
+    for flag, given in (("--closed", args.closed), ("--open", args.open), ("--top", args.top != 5)):
+        if given:
+            raise ModelError(f"{flag} is for shape synthesis (--shape POINT)")
+    if (args.atlas or args.no_atlas) and not (args.path and not args.inputs):
+        raise ModelError("--atlas/--no-atlas are for shape synthesis and for path synthesis with free timing")
+
     for out in (args.output, args.report):
         _check_output(out)
     input_range = _parse_range(args.input_range) if args.input_range else None
@@ -95,7 +117,8 @@ def cmd_synthesize(args) -> int:
         transmission=args.transmission, runs=args.runs, seed=args.seed, mode=args.mode,
         popsize=args.popsize, maxiter=args.maxiter, restarts=args.restarts, starts=args.starts, workers=args.workers,
         scheduler=args.scheduler, progress=None if not args.quiet else False,
-        input_range=input_range, max_cells=args.max_cells, max_targets=args.max_targets), "")
+        input_range=input_range, max_cells=args.max_cells, max_targets=args.max_targets,
+        atlas=False if args.no_atlas else args.atlas), "")
     if rep is not None:
         print(f"objective {rep['objective']:.6g} (mode {rep['mode']}, certified{_fit_phrase(rep)}); wrote "
               f"{args.report}" + (f" and {args.output}" if args.output else ""), file=sys.stderr)

@@ -63,6 +63,7 @@ def flags(defects) -> dict:
     d = set(defects)
     return {"assembles": "assembly" not in d, "one_circuit": not ({"circuit", "branch", "assembly"} & d),
             "order": "order" not in d}
+_FROM_INFO = object()  # certify(grashof_margin=...) not given: from mech.info()
 _TWO_PI = 2 * math.pi
 
 
@@ -146,7 +147,7 @@ def _grashof_margin(mech) -> float | None:
 
 
 def certify(mech, inputs, *, poses=None, crank: bool = False, transmission=None, point=None,
-            targets=None) -> dict:
+            targets=None, grashof_margin=_FROM_INFO) -> dict:
     """The certificate of design ``mech`` (a model with the design's parameter values).
 
     Parameters
@@ -159,6 +160,9 @@ def certify(mech, inputs, *, poses=None, crank: bool = False, transmission=None,
         whose ``point`` is nearest the target (``targets`` ``(T, 2)``) is taken at each input.
     crank, transmission
         Requirements (see the module docstring); ``transmission`` as ``(lo, hi)`` in degrees.
+    grashof_margin : float or None, optional
+        The design's Grashof margin when the caller has it (shape synthesis computes it from the
+        four-bar loops' lengths for many designs at once); by default from ``mech.info()``.
 
     Returns
     -------
@@ -178,10 +182,13 @@ def certify(mech, inputs, *, poses=None, crank: bool = False, transmission=None,
     """
     with warnings.catch_warnings():  # the tracker's stop notices are what the certificate reports
         warnings.simplefilter("ignore", LoopsolveWarning)
-        return _certify(mech, inputs, poses, crank, transmission, point, targets)
+        cert = _certify(mech, inputs, poses, crank, transmission, point, targets, grashof_margin is _FROM_INFO)
+    if grashof_margin is not _FROM_INFO:
+        cert["grashof_margin"] = grashof_margin
+    return cert
 
 
-def _certify(mech, inputs, poses, crank, transmission, point, targets):
+def _certify(mech, inputs, poses, crank, transmission, point, targets, margin=True):
     from ..kinematics.modes import _modes_at
 
     ck = mech.compile()
@@ -277,6 +284,6 @@ def _certify(mech, inputs, poses, crank, transmission, point, targets):
     return {**flags(defects),
             "crank": False if "crank" in defects else turns,
             "transmission": None if mu is None else [round(mu[0], 6), round(mu[1], 6)],
-            "grashof_margin": _grashof_margin(mech),
+            "grashof_margin": _grashof_margin(mech) if margin else None,
             "defects": sorted(defects, key=DEFECTS.index),
             "notes": notes}

@@ -41,13 +41,18 @@ _POLISH_H = math.radians(5.0)
 _FREE_STEP = math.radians(10.0)
 
 
-def _residuals_and_jacobian(problem, V, X, signs, hmax, start=None):
+def _residuals_and_jacobian(problem, V, X, signs, hmax, start=None, warm=False):
     """Residual vectors ``(D, M)``, Jacobians ``(D, M, k [+ T])``, the reached flags of designs ``V`` ``(D, k)``
-    and their positions at the first target ``(nv, D)``.
+    and their positions at the first target ``(nv, D)`` (``warm``: at every target, ``(nv, T, D)``).
 
     ``start``: positions at the first target of nearby designs (the last accepted step's), from
     which the first position is found by Newton (:meth:`Batch.reassemble`) instead of the
     multistart assembly of :meth:`Problem.trace`; the trace through the targets is the same.
+    ``warm`` (``start`` then ``(nv, T, D)``): the position at *every* target by Newton from the
+    nearby design's there, in its mode — one batch of T·D columns instead of a trace through the
+    targets; a design whose Newton fails at some target is traced as above. (The poses are of
+    the asked mode at every target but not checked to be one continuous motion: shape synthesis,
+    which uses this, certifies its designs with the tracker.)
     """
     b = problem.batch
     T = problem.T
@@ -56,11 +61,13 @@ def _residuals_and_jacobian(problem, V, X, signs, hmax, start=None):
     with np.errstate(all="ignore"):
         if start is None:
             Zt, reached = problem.trace(P, X, signs, hmax=hmax, singular_stop=False)
+        elif warm:
+            Zt, reached = _warm_poses(problem, start, P, X, signs, hmax)
         else:
             Z0, ok0 = b.reassemble(start, P, X[0], signs)
             Z0[:, ~ok0] = np.nan
             Zt, reached = b.follow(Z0, P, X, hmax=hmax, signs=signs, stop_on_singular=False)
-        first = Zt[:, 0].copy()
+        first = Zt[:, :T].copy() if warm else Zt[:, 0].copy()
         ok = reached >= T
         Zt = np.where(ok[None, None, :], Zt, np.nan)
         Zs = np.nan_to_num(Zt[:, :T])
@@ -96,18 +103,39 @@ def _residuals_and_jacobian(problem, V, X, signs, hmax, start=None):
     return r, Jp, ok, first
 
 
+def _warm_poses(problem, start, P, X, signs, hmax):
+    """Positions at every target by Newton from ``start`` ``(nv, T, D)`` (see :func:`_residuals_and_jacobian`)."""
+    b = problem.batch
+    T, D = X.shape
+    nv = start.shape[0]
+    Zs = start.reshape(nv, T * D)  # column t*D + d
+    PT = np.tile(P, (1, T))
+    S = np.tile(signs, (1, T))
+    Z, ok = b.reassemble(Zs, PT, X.reshape(-1), S)
+    ok = ok.reshape(T, D).all(axis=0)
+    Zt = np.where(ok[None, None, :], Z.reshape(nv, T, D), np.nan)
+    reached = np.where(ok, T, 0)
+    bad = np.flatnonzero(~ok)
+    if bad.size:  # traced from the first target's position, as without warm poses
+        Z0, ok0 = b.reassemble(start[:, 0, bad], P[:, bad], X[0, bad], signs[:, bad])
+        Z0[:, ~ok0] = np.nan
+        Zb, rb = b.follow(Z0, P[:, bad], X[:, bad], hmax=hmax, signs=signs[:, bad], stop_on_singular=False)
+        Zt[:, :, bad] = Zb
+        reached[bad] = rb
+    return Zt, reached
+
+
 #: the exact-fit stop of :func:`batch_lm`: once this many columns agree on the best objective (to a
 #: relative ``_AGREE_RTOL``, or ``_AGREE_ATOL`` times the floor for a zero optimum) and it is below the
 #: floor (an exact fit), the whole batch stops. On the five-point benchmark three columns agree on
 #: 7.4158e-7 after 14–37 iterations (six seeds) of the 60 the crawling columns would take.
 _AGREE = 3
-#: the columns at most that :func:`batch_lm` polishes again within the requirements (the best unconstrained ends
-#: that fail them); a constrained iteration traces every column over the motion once more
 _AGREE_RTOL = 1e-6
 _AGREE_ATOL = 1e-12
 
 
-def batch_lm(problem, V, signs, X=None, *, iters: int = 25, hmax: float = _POLISH_H, floor: float | None = None):
+def batch_lm(problem, V, signs, X=None, *, iters: int = 25, hmax: float = _POLISH_H, floor: float | None = None,
+             warm: bool = False):
     """Levenberg–Marquardt on every row of ``V`` ``(D, k)`` (model units) in its mode ``signs`` ``(nb, D)``.
 
     ``X``: the internal input values at the targets ``(T, D)`` (free timing: the starts of those
@@ -120,7 +148,10 @@ def batch_lm(problem, V, signs, X=None, *, iters: int = 25, hmax: float = _POLIS
     exact-fit basin bottom), every column stops and is returned as it stands. (A rule that dropped
     columns 1e4 times worse than the best after ten iterations was tried and removed: on a
     free-timing half circle the column that ends at f ≈ 1e-30 was above that early, and the run
-    ended at 2.4e-7.)
+    ended at 2.4e-7.) ``warm``: a trial design's positions at every target by Newton from the last
+    accepted ones (:func:`_residuals_and_jacobian`), checked every ``_VALIDATE`` iterations and at
+    the end by a trace through the targets (:func:`_validate`: a column that left the one motion
+    goes back to where it last passed and stops); shape synthesis uses it.
 
     Requirements (``crank``, ``transmission``; :mod:`loopsolve.design.synthreq`): the columns are
     first polished without them; the columns whose ends fail them and are better than every end
@@ -131,10 +162,10 @@ def batch_lm(problem, V, signs, X=None, *, iters: int = 25, hmax: float = _POLIS
     from . import synthreq
 
     if not synthreq.active(problem):
-        return _lm(problem, V, signs, X, iters, hmax, floor, False)
+        return _lm(problem, V, signs, X, iters, hmax, floor, False, warm)
     # the requirements (crank, transmission) cost a trace per iteration: first without them; the
     # columns that end failing them are polished again from their starts, every step kept within them
-    Vr, Xr, fr = _lm(problem, V, signs, X, iters, hmax, floor, False)
+    Vr, Xr, fr = _lm(problem, V, signs, X, iters, hmax, floor, False, warm)
     fin = np.isfinite(fr)
     ok = fin.copy()
     if ok.any():
@@ -147,13 +178,14 @@ def batch_lm(problem, V, signs, X=None, *, iters: int = 25, hmax: float = _POLIS
     if redo.size:
         Vs = np.asarray(V, dtype=float)[redo]
         Xs = None if X is None or not problem.free else np.asarray(X, dtype=float)[:, redo]
-        v2, x2, f2 = _lm(problem, Vs, np.asarray(signs, dtype=float)[:, redo], Xs, iters, hmax, floor, True)
+        v2, x2, f2 = _lm(problem, Vs, np.asarray(signs, dtype=float)[:, redo], Xs, iters, hmax, floor, True, warm)
         Vr[redo], Xr[:, redo], fr[redo] = v2, x2, f2
     return Vr, Xr, fr
 
 
-def _lm(problem, V, signs, X, iters, hmax, floor, need):
-    """The lockstep Levenberg–Marquardt of :func:`batch_lm`; ``need``: every step within the requirements."""
+def _lm(problem, V, signs, X, iters, hmax, floor, need, warm):
+    """The lockstep Levenberg–Marquardt of :func:`batch_lm`; ``need``: every step within the requirements;
+    ``warm``: warm poses at every target, validated by traces."""
     from . import synthreq
     from .synthesis import periodic
 
@@ -174,9 +206,12 @@ def _lm(problem, V, signs, X, iters, hmax, floor, need):
         return np.where(per, Vw, np.clip(Vt, lo, hi))
 
     V = project(V)
-    r, J, ok, Z0 = _residuals_and_jacobian(problem, V, X, signs, hmax)
+    r, J, ok, Z0 = _residuals_and_jacobian(problem, V, X, signs, hmax, warm=warm)
     if need and ok.any():  # a start that fails the requirements is not polished (its steps could not be judged)
         ok[ok] = synthreq.check(problem, b.params(V[ok]), signs[:, ok], X[:, ok])[0]
+    checked = None
+    if warm:  # the starts, traced through their targets: the first checked states
+        checked = {"V": V.copy(), "X": X.copy(), "f": np.where(ok, np.sum(r * r, axis=1), np.inf)}
     f = np.where(ok, np.sum(r * r, axis=1), np.inf)
     lam = np.full(D, 1e-3)
     active = ok.copy()
@@ -207,7 +242,7 @@ def _lm(problem, V, signs, X, iters, hmax, floor, need):
             step = step * np.minimum(1.0, _FREE_STEP / np.where(big > 0, big, 1.0))[:, None]
         Vn = project(V[a] + np.where(good[:, None], step[:, :k], 0.0))
         Xn = X[:, a] + (np.where(good[:, None], step[:, k:], 0.0).T if problem.free else 0.0)
-        rn, Jn, okn, Z0n = _residuals_and_jacobian(problem, Vn, Xn, signs[:, a], hmax, start=Z0[:, a])
+        rn, Jn, okn, Z0n = _residuals_and_jacobian(problem, Vn, Xn, signs[:, a], hmax, start=Z0[..., a], warm=warm)
         fn = np.where(okn & good, np.sum(rn * rn, axis=1), np.inf)
         acc = fn < f[a]
         if need and acc.any():  # a step must keep the design within the requirements (crank, transmission)
@@ -218,14 +253,47 @@ def _lm(problem, V, signs, X, iters, hmax, floor, need):
         # a column whose step no longer lowers f by a relative 1e-12 has converged
         small = acc & (f[a] - fn <= 1e-12 * f[a] + 1e-300)
         V[ia], r[ia], J[ia], f[ia] = Vn[acc], rn[acc], Jn[acc], fn[acc]
-        Z0[:, ia] = Z0n[:, acc]
+        Z0[..., ia] = Z0n[..., acc]
         if problem.free:
             X[:, ia] = Xn[:, acc]
         lam[ia] = np.maximum(lam[ia] / 3.0, 1e-9)
         lam[a[~acc]] *= 4.0
         active[a[small]] = False
         active[a[~acc & (lam[a] > 1e8)]] = False
+        if warm and ((it + 1) % _VALIDATE == 0 or it == iters - 1 or not active.any()):
+            checked = _validate(problem, V, X, signs, hmax, checked, active)
+    if warm:
+        checked = _validate(problem, V, X, signs, hmax, checked, active)
+        V, X, f = checked["V"], checked["X"], checked["f"]
     return V, X, f
+
+
+#: warm steps are checked every this many iterations: every target reached by one motion in the mode
+_VALIDATE = 8
+
+
+def _validate(problem, V, X, signs, hmax, checked, active):
+    """Warm poses are of the right mode at every target but may lie on another circuit (a design that drifted
+    into a rocker whose swing cannot reach every target in one motion). Trace every column through its targets;
+    one that passes becomes its new checked state, one that fails goes back to its last checked state and stops.
+    Returns the checked states ``{"V", "X", "f"}`` (copies)."""
+    D = V.shape[0]
+    P = problem.batch.params(V)
+    with np.errstate(all="ignore"):
+        Zt, reached = problem.trace(P, X, signs, hmax=hmax, singular_stop=False)
+    passed = reached >= problem.T
+    if checked is None:
+        checked = {"V": V.copy(), "X": X.copy(), "f": np.full(D, np.inf)}
+    r = np.nan_to_num(problem.residuals(np.nan_to_num(Zt[:, :problem.T]), P))
+    f_now = np.where(passed, np.sum(r * r, axis=(0, 1)), np.inf)
+    checked["V"][passed] = V[passed]
+    checked["X"][:, passed] = X[:, passed]
+    checked["f"][passed] = f_now[passed]
+    failed = ~passed
+    V[failed] = checked["V"][failed]
+    X[:, failed] = checked["X"][:, failed]
+    active[failed] = False
+    return {k: v.copy() for k, v in checked.items()}
 
 
 def distinct(V, f, lo, hi, *, k: int, rtol_f: float = 1e-6, dist: float = 0.01, periodic_mask=None, period=None):

@@ -232,6 +232,28 @@ def _repeats_exact_fit(p, cands, floor) -> bool:
     return fb <= floor and abs(fp - fb) <= 1e-6 * fb + 1e-12 * floor
 
 
+def _closing_turn(problem, p):
+    """A free-timing target list whose last target repeats the first (a closed curve written back to its start):
+    the optimum meets it a whole turn after the first, where the certificate's order (within one turn) fails by
+    a hair. Such a last input is set just short of the turn (2π·(1 − 1e-10)), its pose the first's."""
+    if not problem.free or problem.T < 3 or not math.isfinite(p.get("objective", math.inf)):
+        return p
+    t = problem.targets
+    if not np.allclose(t[0], t[-1], rtol=0, atol=1e-12 * (1 + float(np.max(np.abs(t))))):
+        return p
+    x = np.asarray(p["inputs"], dtype=float).copy()
+    turn = 2 * math.pi
+    if abs(x[-1] - x[0]) < turn * (1 - 1e-10) or p.get("Z") is None:
+        return p
+    x[-1] = x[0] + math.copysign(turn * (1 - 1e-10), x[-1] - x[0])
+    Z = p["Z"].copy()
+    Z[:, -1] = Z[:, 0]
+    Z[problem.batch.ix, -1] = x[-1]
+    P = problem.batch.params(np.asarray(p["values"])[None])
+    r = problem.residuals(Z[:, :, None], P)
+    return dict(p, inputs=x, Z=Z, objective=float(np.sum(r * r)), errors=np.sqrt(np.sum(r * r, axis=0))[:, 0])
+
+
 def one_run(problem, seed, opts):
     """One run: ``(best candidate dict or None, rejected list, seconds, statistics)``."""
     import dataclasses
@@ -268,6 +290,12 @@ def one_run(problem, seed, opts):
         if len(fm):
             dm = (np.sign(Xm[-1] - Xm[0]) if problem.free else np.ones(len(fm))).astype(int)
             starts.append((Vm, Sm, Xm, np.where(dm == 0, 1, dm)))
+    if opts.get("atlas") is not False and problem.task == "path" and problem.free:
+        from .pathatlas import atlas_starts  # the targets as a curve: its nearest atlas designs, placed on it
+
+        got = atlas_starts(problem, atlas=opts.get("atlas"))
+        if got is not None:
+            starts.append(got)
     if starts:
         from .synthlm import batch_lm, distinct
         from .synthesis import periodic
@@ -292,6 +320,7 @@ def one_run(problem, seed, opts):
         if cands and f[i] > _POLISH_MARGIN * max(min(c["objective"] for c in cands), floor):
             break
         p = polish(problem, V[i], signs=S[:, i], inputs=X[:, i] if problem.free else None)
+        p = _closing_turn(problem, p)
         if math.isfinite(p.get("objective", math.inf)):
             p["direction"] = int(di[i]) if problem.free else (1 if problem.inputs[-1] >= problem.inputs[0]
                                                              else -1)
@@ -337,7 +366,8 @@ def synthesize(mech, *, path=None, function=None, motion=None, link=None, target
                de_starts: int = 10, lm_iters: int = 60,
                workers: int | None = None, scheduler: str | None = None, client=None,
                progress: bool | None = None, method: str = "general", input_range=None, desired=None,
-               max_cells: int | None = None, max_targets: int | None = None):
+               max_cells: int | None = None, max_targets: int | None = None,
+               shape=None, closed: bool = True, atlas=None, top: int = 5):
     """Find parameter values that make ``mech`` do a job; only certified designs are returned.
 
     Parameters
@@ -404,9 +434,17 @@ def synthesize(mech, *, path=None, function=None, motion=None, link=None, target
         Function generation: the wanted output y(x) (model units, vectorized) as the reference
         of ``structural_error`` instead of the PCHIP through the targets.
 
+    shape, closed, atlas, top
+        Shape synthesis: the point ``shape`` traces the curve ``targets`` (``closed`` or an open
+        stretch), free in position, orientation, scale and timing, from ``atlas`` (default: the
+        model's default atlas); the ``top`` best certified designs: see
+        :func:`loopsolve.design.shape.synthesize_shape` (``vary`` bounds or fixes parameters there).
+        Path generation with free timing also takes starts from ``atlas`` (default: the model's
+        default atlas when it has one; ``False``: none), see :mod:`loopsolve.design.pathatlas`.
+
     Returns
     -------
-    SynthesisResult (ClassicSynthesis for the classical methods)
+    SynthesisResult (ClassicSynthesis for the classical methods, ShapeResult for ``shape``)
 
     Raises
     ------
@@ -436,6 +474,15 @@ def synthesize(mech, *, path=None, function=None, motion=None, link=None, target
     check_options(runs=runs, seed=seed, popsize=popsize, maxiter=maxiter, tol=tol, restarts=restarts, starts=starts,
                   de_starts=de_starts, lm_iters=lm_iters, polish_candidates=polish_candidates, strategy=strategy,
                   workers=workers, scheduler=scheduler, max_cells=max_cells, max_targets=max_targets)
+    if shape is not None:
+        from .shape import synthesize_shape
+
+        for k, v in (("path", path), ("function", function), ("motion", motion), ("inputs", inputs)):
+            if v is not None:
+                raise ModelError(f"{k}= is not used with shape= (shape synthesis is free in timing)")
+        return synthesize_shape(mech, shape=shape, targets=targets, closed=closed, atlas=atlas, top=top, crank=crank,
+                                transmission=transmission, vary=vary, seed=seed, progress=progress,
+                                max_targets=max_targets)
     if method != "general":
         return _classic(mech, method, path=path, function=function, motion=motion, link=link, targets=targets,
                         input_range=input_range, desired=desired, max_targets=max_targets, vary=vary, inputs=inputs,
@@ -446,7 +493,8 @@ def synthesize(mech, *, path=None, function=None, motion=None, link=None, target
                      vary=vary, crank=crank, transmission=transmission, mode=mode, max_targets=max_targets)
     opts = {"popsize": popsize, "maxiter": maxiter, "tol": tol, "polish": polish_candidates, "restarts": restarts,
             "strategy": strategy, "starts": 40 * len(problem.names) if starts is None else starts,
-            "de_starts": de_starts, "lm_iters": lm_iters, "chunk": multistart_chunk(problem)}
+            "de_starts": de_starts, "lm_iters": lm_iters, "chunk": multistart_chunk(problem),
+            "atlas": atlas if atlas is None or atlas is False else str(getattr(atlas, "path", atlas))}
     check_work(problem, runs=runs, popsize=popsize, maxiter=maxiter, restarts=restarts, starts=opts["starts"],
                de_starts=de_starts, lm_iters=lm_iters, max_cells=max_cells)
     seeds = [seed + r for r in range(runs)]

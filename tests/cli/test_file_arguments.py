@@ -106,7 +106,9 @@ def files(tmp_path):
         model.write_bytes((MODELS / src).read_bytes())
         targets = tmp_path / "targets.csv"
         targets.write_text(TARGETS, encoding="utf-8")
-        return {"model": model, "--targets": targets}
+        report = tmp_path / "report.json"  # view --shape R.json: the report of a shape synthesis
+        report.write_text("{}", encoding="utf-8")
+        return {"model": model, "--targets": targets, "--shape": report}
     return make
 
 
@@ -115,6 +117,8 @@ def test_every_output_option_refuses_what_would_lose_data(capsys, tmp_path, file
                                                           other_flag):
     paths = files(command)
     argv = [a.format(m=paths["model"], t=paths["--targets"]) for a in BASE[command]]
+    if in_flag and in_flag.startswith("--") and in_flag not in argv:  # an optional input the base line leaves out
+        argv += [in_flag, str(paths[in_flag])]
     action = next(a for a in _outputs(command) if _flag(a) == out_flag)
     if how == "onto":
         target = paths[in_flag]
