@@ -24,7 +24,8 @@ def info(mech: Mechanism, *, input=None) -> dict:
 
     ``mobility`` is the Gruebler–Kutzbach count for a kinematic-diagram model (whose
     ``topology`` gives links, joints and the formula), else joint variables minus twice the
-    loops; ``mobility_rank`` is the second opinion: joint variables minus the rank of Φ_q at
+    loops, minus one for each higher pair (``pairs``: constraints, gear pairs, cams, slots,
+    rolling contacts, each with its ``name`` and ``equation``); ``mobility_rank`` is the second opinion: joint variables minus the rank of Φ_q at
     the solved start pose (``None`` when it does not assemble). Four-bar loops (found in the
     link–joint graph of a diagram, also inside six-bars, or as four constant-length vectors of
     a vector loop) name their ``ground``, ``input`` (the side that drives the loop: the
@@ -49,7 +50,7 @@ def info(mech: Mechanism, *, input=None) -> dict:
         "name": mech.name,
         "source": mech.source,
         "units": {"length": u.length, "angle": u.angle},
-        "mobility": len(mech.variables) - 2 * len(mech.loops),
+        "mobility": len(mech.variables) - mech.n_equations,
         "mobility_rank": None,
         "inputs": list(ck.inputs),
         "unknowns": list(ck.unknowns),
@@ -57,6 +58,7 @@ def info(mech: Mechanism, *, input=None) -> dict:
                        "input": v.name in ck.inputs} for v in mech.variables],
         "parameters": {p.name: (conv(p.value) if p.kind is Kind.ANGLE else p.value) for p in mech.parameters},
         "loops": [{"name": lp.name, "equation": lp.text} for lp in mech.loops],
+        "pairs": ([{"name": e.key, "equation": e.text} for e in mech.pairs.rows] if mech.pairs is not None else []),
         "blocks": [[ck.unknowns[j] for j in b.unknowns] for b in ck.blocks],
         "points": [p.name for p in mech.points],
         "modes": dict(mech.mode_aliases),
@@ -70,7 +72,7 @@ def info(mech: Mechanism, *, input=None) -> dict:
     z0 = _start_pose(ck)
     if top is not None:
         mob = top.mobility()
-        data["mobility"] = mob.gruebler
+        data["mobility"] = mob.gruebler - (mech.pairs.n_rows if mech.pairs is not None else 0)
         data["topology"] = {"links": mob.n_links, "joints": len(top.joints), "j1": mob.j1, "j2": mob.j2,
                             "gruebler": mob.gruebler, "formula": mob.formula(),
                             "independent_loops": mob.loops,
@@ -569,6 +571,8 @@ def format_info(data: dict) -> str:
              f"  input(s): {', '.join(data['inputs'])}",
              f"  unknowns: {', '.join(data['unknowns'])}",
              "  loops: " + "; ".join(f"{lp['name']}: {lp['equation']}" for lp in data["loops"]),
+             *(["  higher pairs: " + "; ".join(f"{e['name']}: {e['equation']}" for e in data["pairs"])]
+               if data.get("pairs") else []),
              "  solve order (blocks): " + " -> ".join("(" + ", ".join(b) + ")" for b in data["blocks"])]
     if data.get("points"):
         lines.append(f"  points: {', '.join(data['points'])}")

@@ -130,6 +130,14 @@ def _single_roots(ck, z, block) -> list[tuple[float]] | None:
         return float(ck.phi(zz)[e])
 
     rng = np.random.default_rng(11)
+    if ck.kinds[iz] is Kind.ANGLE and not ck.periodic[iz]:
+        # an angle tied by a gear pair, rolling contact or constraint: linear in it (one root) or unknown
+        f0 = f(0.0)
+        D = f(1.0) - f0
+        tests = rng.uniform(-2 * math.pi, 2 * math.pi, 3)
+        if D == 0 or any(abs(f(t) - (D * t + f0)) > tol for t in tests):
+            return None
+        return [(-f0 / D,)]
     if ck.kinds[iz] is Kind.ANGLE:
         f0, fp, fh = f(0.0), f(math.pi), f(math.pi / 2)
         R = (f0 + fp) / 2
@@ -291,12 +299,13 @@ def _multistart_roots(ck, z, block, n_starts: int = 48) -> list[np.ndarray]:
         starts.append(st)
     found: list[np.ndarray] = []
     w = np.where(angle, 1.0, 1.0 / ck.scale)
+    turn = angle & ck.periodic[zi]  # an angle tied by a gear or rolling contact is not reduced by turns
     for st in starts:
         res = _newton_block(ck, z, block, st)
         if res.status is not NewtonStatus.CONVERGED or not np.all(np.isfinite(res.x)):
             continue
-        x = np.where(angle, (res.x + math.pi) % TWO_PI - math.pi, res.x)
-        if any(np.max(np.abs(np.where(angle, (x - f + math.pi) % TWO_PI - math.pi, x - f) * w)) < 1e-7 for f in found):
+        x = np.where(turn, (res.x + math.pi) % TWO_PI - math.pi, res.x)
+        if any(np.max(np.abs(np.where(turn, (x - f + math.pi) % TWO_PI - math.pi, x - f) * w)) < 1e-7 for f in found):
             continue
         found.append(x)
     return found
@@ -375,7 +384,8 @@ def _solutions(ck, z0, one_root: list[bool]) -> list[np.ndarray]:
             for r in roots:
                 zz = z.copy()
                 for k, i in enumerate(zi):
-                    zz[i] = _wrap_near(float(r[k]), float(z0[i])) if ck.kinds[int(i)] is Kind.ANGLE else float(r[k])
+                    zz[i] = (_wrap_near(float(r[k]), float(z0[i])) if ck.kinds[int(i)] is Kind.ANGLE
+                             and ck.periodic[int(i)] else float(r[k]))
                 res = _newton_block(ck, zz, b, zz[zi], settings=Newton(max_iter=8))
                 if res.status is NewtonStatus.CONVERGED and np.all(np.abs(res.x - zz[zi]) < 1e-6 * (1 + ck.scale)):
                     zz[zi] = res.x

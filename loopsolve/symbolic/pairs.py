@@ -1,0 +1,81 @@
+"""The equations of the higher pairs in sympy: one row of Φ for each constraint, gear pair, cam, slot
+and rolling contact (:mod:`loopsolve.model.pairs`).
+
+:func:`pair_rows` is called by :func:`loopsolve.symbolic.derivation.derive` after the loops' rows,
+so the higher pairs are differentiated (Φ_q, b₁–b₃), compiled and solved with the loops: one Φ,
+one Jacobian, one tracker. The rows are:
+
+* a constraint ``lhs = rhs``: ``lhs − rhs`` (model units, as written);
+* a gear pair: ``(θ_m − θ_c) + s·ρ·(θ_g − θ_c) − phase`` in radians (``ρ`` the ratio
+  N_g/N_m or r_g/r_m, ``s`` = +1 external, −1 internal); a rack ``x − R·(θ_g − θ_c) − phase``
+  (model length unit);
+* a cam: ``s − S(θ)`` (translating; model length unit) or ``ψ − ψ₀ − σ·Ψ(θ)`` (oscillating;
+  radians), ``S``/``Ψ`` the law, periodic in the cam angle;
+* a pin in a slot: the distance of the point from the slot's line (or arc), model length unit;
+* rolling: the difference of the arc lengths rolled on the two bodies, model length unit.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass
+
+import sympy as sp
+
+__all__ = ["PairSymbols", "pair_rows"]
+
+
+@dataclass(frozen=True)
+class PairSymbols:
+    """What the rows are built from: ``conv`` turns a model expression (model units) into sympy,
+    ``var`` maps a variable name to its symbol (internal units: radians, model length), ``k`` is the
+    model's angle unit in radians, ``vector_xy``/``vector_polar`` the loops' vectors, ``point`` the
+    position of a declared point."""
+
+    conv: Callable
+    var: Mapping[str, sp.Symbol]
+    k: sp.Expr
+    vector_xy: Mapping[str, sp.Matrix]
+    vector_polar: Mapping[str, tuple]
+    point: Callable
+    mech: object
+
+
+def pair_rows(ps: PairSymbols) -> list[tuple[str, sp.Expr]]:
+    """``[(row name, expression), ...]`` of every higher pair of ``ps.mech``, in row order."""
+    pairs = ps.mech.pairs
+    if pairs is None:
+        return []
+    rows = []
+    for c in pairs.constraints:
+        e = ps.conv(c.lhs) - ps.conv(c.rhs)
+        if _angle_valued(ps.mech, (c.lhs, c.rhs)):
+            e = sp.expand(e * ps.k)  # in radians, as the textbooks write r5 θ5 = r2 θ2
+        rows.append((c.key, e))
+    return rows
+
+
+def _angle_valued(mech, nodes) -> bool:
+    """Whether every variable of a constraint outside sin/cos/tan is an angle (the equation is then
+    written in radians, whatever the model's angle unit)."""
+    from ..model import expr as _expr
+    from ..model.units import Kind
+
+    kinds = {v.name: v.kind for v in mech.variables}
+    found = []
+
+    def go(n, in_trig=False):
+        if isinstance(n, _expr.Name) and n.id in kinds and not in_trig:
+            found.append(kinds[n.id])
+        elif isinstance(n, _expr.Unary):
+            go(n.operand, in_trig)
+        elif isinstance(n, _expr.Binary):
+            go(n.left, in_trig)
+            go(n.right, in_trig)
+        elif isinstance(n, _expr.Call):
+            for a in n.args:
+                go(a, in_trig or n.func in ("sin", "cos", "tan"))
+
+    for node in nodes:
+        go(node)
+    return bool(found) and all(k is Kind.ANGLE for k in found)
