@@ -311,10 +311,46 @@ def _multistart_roots(ck, z, block, n_starts: int = 48) -> list[np.ndarray]:
     return found
 
 
+def _linear_roots(ck, z, block) -> list[np.ndarray] | None:
+    """The one root of a block linear in its unknowns (gear trains, rolling, linear constraints), else None.
+
+    Φ(u) = A u + c is probed at the unit vectors and checked at random points, as the dyad forms are."""
+    cols = block.unknowns
+    zi = ck.unknown_idx[np.array(cols)]
+    if any(ck.periodic[int(i)] for i in zi):
+        return None  # an angle of the loops enters through its sine and cosine
+    eqs = np.array(block.eqs)
+    zz = np.array(z, dtype=float)
+    s = float(ck.scale)
+
+    def f(u):
+        zz[zi] = u
+        return ck.phi(zz)[eqs]
+
+    unit = np.array([1.0 if ck.kinds[int(i)] is Kind.ANGLE else s for i in zi])
+    c = f(np.zeros(len(zi)))
+    A = np.column_stack([(f(np.eye(len(zi))[j] * unit[j]) - c) / unit[j] for j in range(len(zi))])
+    rng = np.random.default_rng(3)
+    tol = 1e-9 * (s + 1.0)
+    for _ in range(3):
+        u = rng.uniform(-2, 2, len(zi)) * unit
+        if not np.all(np.abs(f(u) - (A @ u + c)) <= tol * (1.0 + np.max(np.abs(u / unit)))):
+            return None
+    try:
+        if np.linalg.cond(A) > 1e12:
+            return None
+        return [np.linalg.solve(A, -c)]
+    except np.linalg.LinAlgError:
+        return None
+
+
 def _block_roots(ck, z, block) -> list[np.ndarray]:
     roots = _dyad_roots(ck, z, block)
     if roots is not None:
         return [np.array(r, dtype=float) for r in roots]
+    roots = _linear_roots(ck, z, block)
+    if roots is not None:
+        return roots
     return _multistart_roots(ck, z, block)
 
 

@@ -547,4 +547,8 @@ def solve(mech: Mechanism, at=None, *, speed=None, accel=None, jerk=None, input:
             zf[kern.ix] = x
             solve_rates(ck, zf, (1.0, 0.0, 0.0), display_input=disp)  # raises with the refined positions
         raise
+    if mech.pairs is not None and mech.pairs.gears:
+        from .pairchecks import check_gears
+
+        check_gears(ck, z[:, None], [disp])
     return State(ck, z, z1, z2, z3, pts, sig, residual, n_iter, cond)

@@ -148,9 +148,7 @@ def parse(ctx) -> tuple[Constraint, ...]:
     names = set(ctx.parameters) | set(ctx.variables) | (set(declared) if isinstance(declared, Mapping) else set())
     for name, text in table.items():
         key = f"constraints.{name}"
-        from .spec import _check_name  # lazy: spec imports the higher-pair modules
-
-        if not _check_name(name, key, ctx.problems):
+        if not ctx.check_name(name, key):
             continue
         if not isinstance(text, str):
             ctx.problems.add(key, f"expected an equation such as \"theta5 - theta2 = 0\", got {text!r}")

@@ -81,7 +81,7 @@ class PairContext:
 
     ``problems.add(key, message)`` collects problems; ``parse_expr(value, key)`` parses an
     expression (``None`` on failure, the problem recorded); ``check_literals(node, ctx, key, text)``
-    checks the units of its literals. ``parameters``/``variables`` map names to the parsed
+    checks the units of its literals; ``check_name(name, key)`` an entry's name. ``parameters``/``variables`` map names to the parsed
     declarations (values and guesses in internal units), ``vectors`` names to parsed vectors,
     ``points`` names to parsed points; ``bodies`` the body names (``()`` without ``[bodies]``),
     ``links`` every link name the model declares (bodies, vectors' ``link`` keys, diagram links).
@@ -90,6 +90,7 @@ class PairContext:
     problems: Any
     parse_expr: Callable
     check_literals: Callable
+    check_name: Callable
     parameters: Mapping[str, Any]
     variables: Mapping[str, Any]
     vectors: Mapping[str, Any]
@@ -118,9 +119,7 @@ class PairContext:
     def entry(self, section: str, name: Any, value: Any, allowed: set, example: str) -> Mapping | None:
         """One entry of a section, checked to be a table of known keys with a valid name."""
         key = f"{section}.{name}"
-        from .spec import _check_name  # lazy: spec imports this module
-
-        if not _check_name(name, key, self.problems):
+        if not self.check_name(name, key):
             return None
         if not isinstance(value, Mapping):
             self.problems.add(key, f"expected a table like {example}, got {_short(value)}")
@@ -192,7 +191,12 @@ class PairContext:
             self.problems.add(key, f"{_short(value)} names {bad[0]!r}, {what}: this value is a number, a quantity "
                               f"or an expression of parameters ({', '.join(self.parameters) or 'none declared'})")
             return None
-        self.check_literals(node, _ANGLE if kind is Kind.ANGLE else _LENGTH, key, _short(value))
+        if kind is Kind.DIMENSIONLESS:
+            if any(isinstance(n, _expr.Num) and n.unit is not None for n in _expr.walk(node)):
+                self.problems.add(key, f"{_short(value)}: a plain number here, without a unit")
+                return None
+        else:
+            self.check_literals(node, _ANGLE if kind is Kind.ANGLE else _LENGTH, key, _short(value))
         v = self.value(node, kind)
         if v is None:
             self.problems.add(key, f"{_short(value)} cannot be evaluated to a finite number")
@@ -312,9 +316,9 @@ def declared_links(spec: Mapping[str, Any], dynamics) -> frozenset:
 
 def _element_modules() -> tuple:
     """The modules of the elements that add equations (constraints first)."""
-    from . import constraints
+    from . import constraints, gears
 
-    return (constraints,)
+    return (constraints, gears)
 
 
 # ------------------------------------------------------------------------- the door
@@ -322,6 +326,6 @@ def parse_pairs(ctx: PairContext) -> HigherPairs | None:
     """Parse every higher-pair section of ``ctx.spec`` (``None`` when the model has none)."""
     if not any(s in ctx.spec for s in SECTIONS):
         return None
-    from . import constraints
+    from . import constraints, gears
 
-    return HigherPairs(constraints=constraints.parse(ctx))
+    return HigherPairs(constraints=constraints.parse(ctx), gears=gears.parse(ctx))

@@ -658,6 +658,7 @@ def build_mechanism(spec: Mapping[str, Any], *, source: str | None = None) -> Me
     pairs = _pairs.parse_pairs(_pairs.PairContext(
         problems=problems, parse_expr=lambda v, k: _parse_expr(v, k, problems, moving),
         check_literals=lambda n, c, k, t: _check_literals(n, c, k, problems, angle_unit, length_unit, t),
+        check_name=lambda n, k: _check_name(n, k, problems),
         parameters={p.name: p for p in parameters}, variables={v.name: v for v in variables},
         vectors={v.name: v for v in vectors}, points={p.name: p for p in points},
         bodies=tuple(b.name for b in dynamics.bodies) if dynamics else (),

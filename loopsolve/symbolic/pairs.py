@@ -52,7 +52,42 @@ def pair_rows(ps: PairSymbols) -> list[tuple[str, sp.Expr]]:
         if _angle_valued(ps.mech, (c.lhs, c.rhs)):
             e = sp.expand(e * ps.k)  # in radians, as the textbooks write r5 θ5 = r2 θ2
         rows.append((c.key, e))
+    for g in pairs.gears:
+        rows.append((g.key, gear_row(ps, g)))
     return rows
+
+
+def gear_ratio(ps: PairSymbols, g) -> sp.Expr:
+    """N_gear/N_mate (or r_gear/r_mate) of a gear pair; the pinion's pitch radius of a rack."""
+    if g.rack:
+        if g.radii is not None:
+            return ps.conv(g.radii[0])
+        return ps.conv(g.module) * ps.conv(g.teeth[0]) / 2
+    if g.teeth is not None:
+        return ps.conv(g.teeth[0]) / ps.conv(g.teeth[1])
+    return ps.conv(g.radii[0]) / ps.conv(g.radii[1])
+
+
+def gear_row(ps: PairSymbols, g) -> sp.Expr:
+    """Willis' formula of a gear pair as a residual: radians (model length for a rack)."""
+    def ang(name, ref=None):
+        if not name:
+            return sp.Integer(0)
+        return ps.var[name] if ref is None else ps.var[name] - sp.Float(ref)
+
+    rho = gear_ratio(ps, g)
+    if g.phase is None:  # the guesses mesh: each angle measured from its guess
+        rg, rm, rc = g.ref
+        tg, tm, tc = ang(g.gear, rg if g.gear else None), ang(g.mate, rm if g.mate else None), \
+            ang(g.carrier, rc if g.carrier else None)
+        phase = 0
+    else:
+        tg, tm, tc = ang(g.gear), ang(g.mate), ang(g.carrier)
+        phase = ps.conv(g.phase) * (1 if g.rack else ps.k)
+    if g.rack:
+        return tm - rho * (tg - tc) - phase
+    s = -1 if g.internal else 1
+    return (tm - tc) + s * rho * (tg - tc) - phase
 
 
 def _angle_valued(mech, nodes) -> bool:
