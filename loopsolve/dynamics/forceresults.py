@@ -77,7 +77,8 @@ class ForceSweep:
 
     Attributes: ``sweep`` (the kinematic :class:`~loopsolve.kinematics.results.Sweep`), ``drive`` (N·m or N),
     ``joint_forces`` {``F_<joint>``: (N, 2)}, ``guide_reactions`` {``<body>_guide``: (N, 3): force x,
-    y and couple}, ``shaking_force`` (N, 2), ``shaking_moment``, ``kinetic_energy``,
+    y and couple}, ``contact_forces`` {``F_<pair>``: (N, 3): the force along the gear's line of
+    action (cam: along the normal; slot: the normal reaction), x and y on the pair's first body}, ``shaking_force`` (N, 2), ``shaking_moment``, ``kinetic_energy``,
     ``potential_energy``, ``power_residual`` (W) — arrays over the rows, or for a result at one
     input (``ls.forces(mech, 30)``: ``scalar`` is True) scalars and ``(2,)`` vectors, as
     :class:`~loopsolve.kinematics.results.State` gives; ``units()`` names every unit; ``singular`` (bool: the Newton–Euler system is
@@ -85,7 +86,7 @@ class ForceSweep:
     system per row: large near a dead centre, where a warning is issued), ``events``.
     """
 
-    __slots__ = ("sweep", "drive", "drive_name", "joint_forces", "guide_reactions", "shaking_force",
+    __slots__ = ("sweep", "drive", "drive_name", "joint_forces", "guide_reactions", "contact_forces", "shaking_force",
                  "shaking_moment", "kinetic_energy", "potential_energy", "power_residual", "singular",
                  "condition", "events", "scalar", "_arrays", "_cache")
 
@@ -104,6 +105,7 @@ class ForceSweep:
         arrays["condition"] = _ro(data.get("kappa", np.ones(len(arrays["drive"]))))
         arrays["joint_forces"] = {k: _ro(v) for k, v in data["pins"].items()}
         arrays["guide_reactions"] = {k: _ro(v) for k, v in data["guides"].items()}
+        arrays["contact_forces"] = {k: _ro(v) for k, v in data.get("contacts", {}).items()}
         put(self, "_arrays", arrays)
         for name, a in arrays.items():  # one input: scalars (and (2,) vectors), as State gives
             if isinstance(a, dict):
@@ -158,6 +160,8 @@ class ForceSweep:
                 out[f"{name}_x"], out[f"{name}_y"] = f[:, 0], f[:, 1]
             for name, f in a["guide_reactions"].items():
                 out[f"F_{name}_x"], out[f"F_{name}_y"], out[f"M_{name}"] = f[:, 0], f[:, 1], f[:, 2]
+            for name, f in a["contact_forces"].items():  # higher pairs: along the line of action / normal, x, y
+                out[name], out[f"{name}_x"], out[f"{name}_y"] = f[:, 0], f[:, 1], f[:, 2]
             out["shaking_force_x"], out["shaking_force_y"] = a["shaking_force"][:, 0], a["shaking_force"][:, 1]
             out["shaking_moment"] = a["shaking_moment"]
             out["kinetic_energy"], out["potential_energy"] = a["kinetic_energy"], a["potential_energy"]
@@ -191,7 +195,8 @@ class ForceSweep:
     def units(self) -> dict[str, str]:
         """Unit of every column, and of the attributes (``drive``, ``joint_forces``, ...): SI."""
         drive = "N*m" if self.drive_name == "input_torque" else "N"
-        attrs = {"drive": drive, "joint_forces": "N", "guide_reactions": "N, N, N*m", "shaking_force": "N",
+        attrs = {"drive": drive, "joint_forces": "N", "guide_reactions": "N, N, N*m", "contact_forces": "N",
+                 "shaking_force": "N",
                  "shaking_moment": "N*m", "kinetic_energy": "J", "potential_energy": "J", "power_residual": "W",
                  "condition": "1"}
         return {**column_units(self.sweep.compiled), **force_units(self.drive_name, self.force_columns), **attrs}

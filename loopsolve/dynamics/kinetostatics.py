@@ -45,7 +45,9 @@ class Layout:
     """Unknowns of the Newton–Euler system: pins, guide reactions and the driver.
 
     ``pins``: (column name, joint index in ``dm.point_names``, body index, other body index or −1);
-    ``guides``: (column name, body index, other index or −1, guide index); ``driver``: body index.
+    ``guides``: (column name, body index, other index or −1, guide index); ``driver``: body index;
+    ``contacts``: the higher pairs' contact unknowns (:class:`loopsolve.dynamics.contacts.Contact`),
+    after the driver's column.
     """
 
     pins: tuple
@@ -53,6 +55,7 @@ class Layout:
     driver: int
     n_unknowns: int
     n_equations: int
+    contacts: tuple = ()
 
 
 def layout(dm: DynamicsModel) -> Layout:
@@ -77,16 +80,20 @@ def layout(dm: DynamicsModel) -> Layout:
         if b.guide is not None:
             other = -1 if b.guide_body == FRAME else names.index(b.guide_body)
             guides.append((f"{b.name}_guide", i, other, dm.guide_vectors.index(b.guide)))
-    n_u = 2 * len(pins) + 2 * len(guides) + 1
+    from .contacts import contacts
+
+    pairs = contacts(dm)
+    n_u = 2 * len(pins) + 2 * len(guides) + 1 + sum(c.n for c in pairs)
     n_e = 3 * len(dm.bodies)
     if n_u != n_e:
         mech = dm.ck.mechanism
         raise ModelError(
             f"{mech.source or mech.name}: bodies: the joint forces cannot be found by statics: "
-            f"{len(dm.bodies)} bodies give {n_e} equations of motion but the pins, guides and the driver "
-            f"have {n_u} unknown force components (each pin 2, each guide 2, the driver 1); declare every "
-            "moving link as a body, with the joints it carries")
-    return Layout(tuple(pins), tuple(guides), names.index(dm.input_body), n_u, n_e)
+            f"{len(dm.bodies)} bodies give {n_e} equations of motion but the pins, guides"
+            f"{', contacts' if pairs else ''} and the driver have {n_u} unknown force components (each pin 2, each "
+            f"guide 2, the driver 1{', each gear pair, cam or slot 1, each rolling contact 2' if pairs else ''}); "
+            "declare every moving link as a body, with the joints it carries")
+    return Layout(tuple(pins), tuple(guides), names.index(dm.input_body), n_u, n_e, pairs)
 
 
 def _external(dm: DynamicsModel, e: dict, n: int):
@@ -297,53 +304,30 @@ def inverse_dynamics(dm: DynamicsModel, z, xd, xdd, *, rates=None, check: bool =
         phi = e["phi"][dm.guide_vectors.index(dm.input_guide)]
         ex, ey = np.cos(phi), np.sin(phi)
         entries += [(3 * drv, col, ex), (3 * drv + 1, col, ey)]
+    geo = [_contact_geometry(dm, c, z, z1, e) for c in lay.contacts]
+    sigma = [np.ones(n) for _ in lay.contacts]  # the loaded flank of each gear pair (sign of W), found below
     rhs = np.zeros((n, lay.n_equations))
     for b in range(nb):
         rhs[:, 3 * b] = m[b] * aG[b, 0] - Fext[b, 0]
         rhs[:, 3 * b + 1] = m[b] * aG[b, 1] - Fext[b, 1]
         rhs[:, 3 * b + 2] = inertia[b] * e["al"][b] - Mext[b]
 
-    ne = lay.n_equations
-    u = np.empty((n, lay.n_unknowns))
-    residual = np.empty((n, ne))
-    ratio = np.empty(n)
-    kappa = np.full(n, np.inf)
-    nonfinite = np.zeros(n, dtype=bool)
-    eye = np.eye(ne)
-    for lo in range(0, n, _CHUNK):  # chunks that stay in cache
-        hi = min(n, lo + _CHUNK)
-        Mt = np.zeros((ne, lay.n_unknowns, hi - lo))  # (rows, columns, points)
-        for r, c, v in entries:
-            Mt[r, c] += v[lo:hi] if isinstance(v, np.ndarray) else v
-        b_ = rhs[lo:hi]
-        finite = np.all(np.isfinite(Mt), axis=(0, 1)) & np.all(np.isfinite(b_), axis=1)
-        if not finite.all():
-            Mt[:, :, ~finite] = eye[:, :, None]
-            nonfinite[lo:hi] = ~finite
-        # the condition of the matrix scaled to rows and columns of largest entry 1 (units do not count):
-        # ‖S‖₁ and a lower estimate of ‖S⁻¹‖₁ from one more right-hand side, solved with the same elimination
-        absM = np.abs(Mt)
-        rmax = absM.max(axis=1)
-        rmax[rmax == 0] = 1.0
-        absM /= rmax[:, None, :]
-        cmax = absM.max(axis=0)
-        cmax[cmax == 0] = 1.0
-        norm_s = (absM.sum(axis=0) / cmax).max(axis=0)
-        rhs2 = np.stack([np.where(finite[:, None], b_, 0.0).T, rmax * _PROBE[:ne, None]], axis=1)
-        uc2, had = _solve_stacked(Mt, rhs2)
-        uc = uc2[:, 0]
-        with np.errstate(invalid="ignore", over="ignore"):
-            inv_s = np.sum(np.abs(uc2[:, 1] * cmax), axis=0) / np.sum(np.abs(_PROBE[:ne]))
-            kappa[lo:hi] = np.where(finite & np.isfinite(inv_s), norm_s * inv_s, np.inf)
-        had[~finite] = 0.0
-        bad = ~(had > SINGULAR_RATIO)
-        uc[:, bad] = np.nan
-        u[lo:hi] = uc.T
-        res = -b_.copy()
-        for r, c, v in entries:  # A u − b from the sparse entries
-            res[:, r] += (v[lo:hi] if isinstance(v, np.ndarray) else v) * uc[c]
-        residual[lo:hi] = res
-        ratio[lo:hi] = had
+    def all_entries():
+        return entries + _contact_entries(lay, geo, sigma, G, col + 1)
+
+    u, residual, ratio, kappa, nonfinite = _solve_system(all_entries(), rhs, lay, n)
+    for _ in range(3):  # a gear's radial force pushes the gears apart whichever flank is loaded
+        flipped = False
+        c0 = col + 1
+        for i, c in enumerate(lay.contacts):
+            if c.kind in ("gear", "rack"):
+                s_new = np.where(np.isfinite(u[:, c0]), np.where(u[:, c0] < 0, -1.0, 1.0), sigma[i])
+                flipped |= bool(np.any(s_new != sigma[i]))
+                sigma[i] = s_new
+            c0 += c.n
+        if not flipped:
+            break
+        u, residual, ratio, kappa, nonfinite = _solve_system(all_entries(), rhs, lay, n)
     singular = ~(ratio > SINGULAR_RATIO)
     residual = residual.reshape(n, nb, 3)
     cond = ratio
@@ -398,6 +382,7 @@ def inverse_dynamics(dm: DynamicsModel, z, xd, xdd, *, rates=None, check: bool =
         sm -= _cross(G[drv, 0], G[drv, 1], f[:, 0], f[:, 1])
         p_drive = drive * xd * lf
         spurious[f"the driver on {_body(dm, drv)}"] = f[:, 0] * vG[drv, 0] + f[:, 1] * vG[drv, 1] - p_drive
+    contact_forces = _contact_results(lay, geo, sigma, u, col + 1, rigid_v, spurious, sf, sm)
     vPs = e["vP"] * lf
     slot = 0
     for ld in dm.dynamics.loads:
@@ -414,9 +399,110 @@ def inverse_dynamics(dm: DynamicsModel, z, xd, xdd, *, rates=None, check: bool =
     scale = np.abs(p_drive) + np.abs(dke) + np.abs(dpot) + np.abs(p_loads)
     fscale = (np.sum(np.abs(m[:, None, None] * aG), axis=(0, 1)) + np.sum(np.abs(Fext), axis=(0, 1))
               + np.abs(u).sum(axis=1))
-    out.update(drive=drive, pins=pins, guides=guides, shaking_force=sf, shaking_moment=sm,
+    out.update(drive=drive, pins=pins, guides=guides, contacts=contact_forces, shaking_force=sf, shaking_moment=sm,
                kinetic_energy=ke, potential_energy=pot, power_residual=p_drive - (dke + dpot - p_loads),
                power_scale=scale, residual=residual, force_scale=fscale, d1=d1, d2=d2, spurious=spurious)
+    return out
+
+
+def _solve_system(entries, rhs, lay, n):
+    """Solve the Newton–Euler system given by its sparse ``entries`` (row, column, value or array) at
+    every point, in chunks; returns ``u``, the residuals, the Hadamard ratios, the condition numbers
+    and the rows where something was not finite."""
+    ne = lay.n_equations
+    u = np.empty((n, lay.n_unknowns))
+    residual = np.empty((n, ne))
+    ratio = np.empty(n)
+    kappa = np.full(n, np.inf)
+    nonfinite = np.zeros(n, dtype=bool)
+    eye = np.eye(ne)
+    for lo in range(0, n, _CHUNK):  # chunks that stay in cache
+        hi = min(n, lo + _CHUNK)
+        Mt = np.zeros((ne, lay.n_unknowns, hi - lo))  # (rows, columns, points)
+        for r, c, v in entries:
+            Mt[r, c] += v[lo:hi] if isinstance(v, np.ndarray) else v
+        b_ = rhs[lo:hi]
+        finite = np.all(np.isfinite(Mt), axis=(0, 1)) & np.all(np.isfinite(b_), axis=1)
+        if not finite.all():
+            Mt[:, :, ~finite] = eye[:, :, None]
+            nonfinite[lo:hi] = ~finite
+        # the condition of the matrix scaled to rows and columns of largest entry 1 (units do not count):
+        # ‖S‖₁ and a lower estimate of ‖S⁻¹‖₁ from one more right-hand side, solved with the same elimination
+        absM = np.abs(Mt)
+        rmax = absM.max(axis=1)
+        rmax[rmax == 0] = 1.0
+        absM /= rmax[:, None, :]
+        cmax = absM.max(axis=0)
+        cmax[cmax == 0] = 1.0
+        norm_s = (absM.sum(axis=0) / cmax).max(axis=0)
+        rhs2 = np.stack([np.where(finite[:, None], b_, 0.0).T, rmax * _PROBE[:ne, None]], axis=1)
+        uc2, had = _solve_stacked(Mt, rhs2)
+        uc = uc2[:, 0]
+        with np.errstate(invalid="ignore", over="ignore"):
+            inv_s = np.sum(np.abs(uc2[:, 1] * cmax), axis=0) / np.sum(np.abs(_PROBE[:ne]))
+            kappa[lo:hi] = np.where(finite & np.isfinite(inv_s), norm_s * inv_s, np.inf)
+        had[~finite] = 0.0
+        bad = ~(had > SINGULAR_RATIO)
+        uc[:, bad] = np.nan
+        u[lo:hi] = uc.T
+        res = -b_.copy()
+        for r, c, v in entries:  # A u − b from the sparse entries
+            res[:, r] += (v[lo:hi] if isinstance(v, np.ndarray) else v) * uc[c]
+        residual[lo:hi] = res
+        ratio[lo:hi] = had
+    return u, residual, ratio, kappa, nonfinite
+
+
+def _contact_results(lay, geo, sigma, u, col0, rigid_v, spurious, sf, sm) -> dict:
+    """``{F_<name>: (N, 3)}``: the contact force along its line (line of action, normal) and its x, y
+    components on the pair's first body; the shaking force and moment and the spurious power updated."""
+    out = {}
+    col = col0
+    for c, g, sg in zip(lay.contacts, geo, sigma):
+        P = g["P"]
+        if c.kind in ("gear", "rack"):
+            W = u[:, col]
+            f = W[:, None] * g["t"] + (np.abs(W) * g["tan"])[:, None] * g["r"]
+            along = np.abs(W) * np.sqrt(1.0 + g["tan"] ** 2)  # |W| / cos φ
+        else:
+            comps = [u[:, col + k, None] * d for k, d in enumerate(g["dirs"])]
+            f = sum(comps)
+            along = u[:, col]  # the normal force (signed: negative pulls)
+        col += c.n
+        out[c.name] = np.column_stack([along, f])
+        va, vb = rigid_v(c.a, P[:, 0], P[:, 1]), rigid_v(c.b, P[:, 0], P[:, 1])
+        spurious[f"the contact {c.key}"] = f[:, 0] * (va[0] - vb[0]) + f[:, 1] * (va[1] - vb[1])
+        for body, sgn in ((c.a, 1.0), (c.b, -1.0)):  # the frame's side: what the mechanism exerts on it
+            if body < 0:
+                sf += sgn * f
+                sm += sgn * _cross(P[:, 0], P[:, 1], f[:, 0], f[:, 1])
+    return out
+
+
+def _contact_geometry(dm, c, z, z1, e):
+    from .contacts import contact_geometry
+
+    return contact_geometry(dm, c, z, z1, e)
+
+
+def _contact_entries(lay, geo, sigma, G, col0):
+    """The Newton–Euler entries of the contact unknowns: force on body ``a`` at the contact, minus it on ``b``."""
+    out = []
+    col = col0
+    for c, g, sg in zip(lay.contacts, geo, sigma):
+        if c.kind in ("gear", "rack"):
+            dirs = [g["t"] + (sg * g["tan"])[:, None] * g["r"]]
+        else:
+            dirs = g["dirs"]
+        P = g["P"]
+        for d in dirs:
+            for body, sgn in ((c.a, 1.0), (c.b, -1.0)):
+                if body < 0:
+                    continue
+                dx, dy = P[:, 0] - G[body, 0], P[:, 1] - G[body, 1]
+                out += [(3 * body, col, sgn * d[:, 0]), (3 * body + 1, col, sgn * d[:, 1]),
+                        (3 * body + 2, col, sgn * _cross(dx, dy, d[:, 0], d[:, 1]))]
+            col += 1
     return out
 
 

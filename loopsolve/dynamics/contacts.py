@@ -1,0 +1,164 @@
+"""Contact forces of the higher pairs in the Newton–Euler system: gear teeth, cam and follower, pin in
+slot, rolling contact.
+
+Each higher pair joining two bodies (or a body and the frame) adds unknowns to the force analysis
+(:mod:`loopsolve.dynamics.kinetostatics`), acting at its contact point, equal and opposite on the two:
+
+* a gear pair: the tooth force at the pitch point, along the line of action. Its tangential part
+  ``W`` (the unknown, along the common tangent) transmits the torque; the radial part
+  ``|W| tan φ`` (φ the pressure angle) pushes the gears apart, towards each gear's centre. The force
+  along the line of action is ``|W| / cos φ``. The sign of ``W`` (which flank is loaded) is found
+  by solving twice;
+* a cam: the contact force along the common normal (no friction: the normal force only);
+* a pin in a slot: the reaction normal to the slot;
+* a rolling contact: the normal force and the tangential (no-slip) force at the contact point.
+
+The contact points and directions come from the solved kinematics (:mod:`loopsolve.kinematics.pairchecks`).
+A contact does no work on the pair: its two bodies' material points at the contact have the same
+velocity along its direction, which the power balance checks.
+
+``F_<name>`` is reported on the body of the pair's first member (the ``gear``; the follower of a cam;
+the point's body in a slot; the wheel) from the other, with ``F_<name>_x``, ``F_<name>_y``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import ModelError
+from ..model import expr as _expr
+from ..model.bodies import FRAME
+from ..model.gears import ratio_values
+
+__all__ = ["Contact", "contacts", "contact_geometry", "member_body"]
+
+
+@dataclass(frozen=True)
+class Contact:
+    """One higher pair in the force analysis: ``n`` unknowns acting on body ``a`` from body ``b`` (−1: frame)."""
+
+    name: str
+    key: str
+    kind: str
+    a: int
+    b: int
+    n: int
+    elem: object
+
+
+def _where(dm) -> str:
+    mech = dm.ck.mechanism
+    return str(mech.source or mech.name)
+
+
+def member_body(dm, var: str, key: str, what: str) -> int:
+    """The body turning with the angle ``var`` (−1 for ``""``, the frame); a ModelError naming ``key`` if none."""
+    if not var:
+        return -1
+    for i, b in enumerate(dm.bodies):
+        if b.angle is not None and (b.angle_text == var or (isinstance(b.angle, _expr.Name) and b.angle.id == var)):
+            return i
+    raise ModelError(f"{_where(dm)}: {key}: no body turns with {var!r} ({what}): the contact force acts on it; "
+                     f"declare it in [bodies] with angle = \"{var}\"")
+
+
+def slider_body(dm, var: str, key: str, what: str) -> int:
+    """The body sliding on a guide whose length is the variable ``var`` (a rack, a translating follower)."""
+    mech = dm.ck.mechanism
+    for i, b in enumerate(dm.bodies):
+        if b.guide is None:
+            continue
+        v = mech.vector(b.guide)
+        if v.length is not None and var in _expr.names(v.length):
+            return i
+    raise ModelError(f"{_where(dm)}: {key}: no body slides along a guide of length {var!r} ({what}): the contact "
+                     "force acts on it; declare it in [bodies] with guide = \"<the vector of length "
+                     f"{var}>\"")
+
+
+def _body_of(dm, name: str, key: str) -> int:
+    if name in (FRAME, "ground"):
+        return -1
+    for i, b in enumerate(dm.bodies):
+        if b.name == name:
+            return i
+    raise ModelError(f"{_where(dm)}: {key}: {name!r} is not a body; the bodies are "
+                     f"{', '.join(b.name for b in dm.bodies)}")
+
+
+def contacts(dm) -> tuple[Contact, ...]:
+    """The contact unknowns of every higher pair of ``dm``'s mechanism (structure only)."""
+    mech = dm.ck.mechanism
+    pairs = mech.pairs
+    if pairs is None:
+        return ()
+    out = []
+    for g in pairs.gears:
+        a = member_body(dm, g.gear, g.key, "the gear")
+        if g.rack:
+            b = slider_body(dm, g.mate, g.key, "the rack")
+        else:
+            b = member_body(dm, g.mate, g.key, "the mate")
+        out.append(Contact(f"F_{g.name}", g.key, "rack" if g.rack else "gear", a, b, 1, g))
+    return tuple(out)
+
+
+# ------------------------------------------------------------------------------ geometry per row
+def contact_geometry(dm, c: Contact, Z, Z1, e: dict) -> dict:
+    """Where and along what the contact ``c`` acts at rows ``Z`` (``(N, nv)``), SI positions.
+
+    Returns ``P`` ``(N, 2)`` (metres) and, for a gear pair, ``t`` (the common tangent), ``r`` (the
+    direction of the separating force on body ``a``: towards its centre, away from it for a ring) and
+    ``tan`` (tan φ); for
+    the other contacts ``dirs``, one ``(N, 2)`` unit direction per unknown.
+    """
+    if c.kind in ("gear", "rack"):
+        return _gear_geometry(dm, c, Z, Z1, e)
+    raise ModelError(f"{_where(dm)}: {c.key}: contact forces of a {c.kind} are not available")
+
+
+def _values(dm):
+    from ..kinematics.pairchecks import _values as values
+
+    return values(dm.ck)
+
+
+def _gear_geometry(dm, c, Z, Z1, e):
+    from ..kinematics.pairchecks import gear_centres, unit_rates
+
+    g = c.elem
+    ck = dm.ck
+    lf = dm.length_factor
+    cg, cm = gear_centres(ck, Z.T, unit_rates(ck, Z.T), g)
+    if cg is None or (not g.rack and cm is None):
+        raise ModelError(f"{_where(dm)}: {g.key}: the gears' centres are unknown (a gear's link has no bar in the "
+                         "loops): name them with centers = [\"<point>\", \"<point>\"] for the force analysis")
+    rg, rm, ratio = ratio_values(g, _values(dm))
+    tan = np.tan(g.pressure_angle)
+    if g.rack:
+        gi = [b.guide for b in dm.bodies][c.b]
+        phi = e["phi"][dm.guide_vectors.index(gi)]
+        u = np.stack([np.cos(phi), np.sin(phi)], axis=1)
+        n = np.stack([u[:, 1], -u[:, 0]], axis=1)  # from the pinion's centre to the pitch line
+        P = cg + rg * n
+        return {"P": P * lf, "t": u, "r": -n, "tan": tan}
+    d = cm - cg
+    dist = np.linalg.norm(d, axis=1)
+    uu = d / np.where(dist > 0, dist, 1.0)[:, None]
+    if rg is None:  # teeth only: the pitch radii split the centre distance in the ratio of the teeth
+        rg = dist * ratio / (abs(ratio - 1.0) if g.internal else (ratio + 1.0))
+        rm = rg / ratio
+    if g.internal and np.all(np.asarray(rg) < np.asarray(rm)):  # the gear is the pinion inside the mate (ring)
+        P = cm - rm * uu
+    else:  # external pair, or the gear is the ring: the pitch point on the gear's circle towards the mate
+        P = cg + rg * uu
+    rvec = cg - P
+    rn = np.linalg.norm(rvec, axis=1)
+    r = rvec / np.where(rn > 0, rn, 1.0)[:, None]
+    pinion_is_a = not g.internal or np.all(np.asarray(rg) < np.asarray(rm))
+    if not pinion_is_a:  # the ring: the separating force pushes it away from its centre
+        r = -r
+    t = np.stack([-uu[:, 1], uu[:, 0]], axis=1)
+    return {"P": P * lf, "t": t, "r": r, "tan": tan}
