@@ -24,6 +24,7 @@ from pathlib import Path
 from ..errors import LoopsolveError
 from .common import (EXIT_OK, EXIT_SOLVE, EXIT_USAGE, _INPUTS, _check_output, _inputs_of, _load, _one_line,
                      _output, _Parser, _rate_args, _render, _write)
+from .cams import _cam_parser
 from .forces import _force_parsers
 from .synthesis import _synthesis_parser
 
@@ -201,6 +202,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=cmd_study)
     _synthesis_parser(sub)
     _force_parsers(sub)
+    _cam_parser(sub)
     return parser
 
 

@@ -57,8 +57,9 @@ def member_body(dm, var: str, key: str, what: str) -> int:
     """The body turning with the angle ``var`` (−1 for ``""``, the frame); a ModelError naming ``key`` if none."""
     if not var:
         return -1
+    variables = {v.name for v in dm.ck.mechanism.variables}
     for i, b in enumerate(dm.bodies):
-        if b.angle is not None and (b.angle_text == var or (isinstance(b.angle, _expr.Name) and b.angle.id == var)):
+        if b.angle is not None and _expr.names(b.angle) & variables == {var}:
             return i
     raise ModelError(f"{_where(dm)}: {key}: no body turns with {var!r} ({what}): the contact force acts on it; "
                      f"declare it in [bodies] with angle = \"{var}\"")
@@ -102,6 +103,12 @@ def contacts(dm) -> tuple[Contact, ...]:
         else:
             b = member_body(dm, g.mate, g.key, "the mate")
         out.append(Contact(f"F_{g.name}", g.key, "rack" if g.rack else "gear", a, b, 1, g))
+    for c in pairs.cams:
+        if c.kind == "translating":
+            a = slider_body(dm, c.follower, c.key, "the follower")
+        else:
+            a = member_body(dm, c.follower, c.key, "the follower")
+        out.append(Contact(f"F_{c.name}", c.key, "cam", a, member_body(dm, c.cam, c.key, "the cam"), 1, c))
     return tuple(out)
 
 
@@ -116,6 +123,8 @@ def contact_geometry(dm, c: Contact, Z, Z1, e: dict) -> dict:
     """
     if c.kind in ("gear", "rack"):
         return _gear_geometry(dm, c, Z, Z1, e)
+    if c.kind == "cam":
+        return _cam_geometry(dm, c, Z)
     raise ModelError(f"{_where(dm)}: {c.key}: contact forces of a {c.kind} are not available")
 
 
@@ -123,6 +132,28 @@ def _values(dm):
     from ..kinematics.pairchecks import _values as values
 
     return values(dm.ck)
+
+
+def _cam_geometry(dm, c, Z):
+    """The contact point and the normal (pushing the follower away from the cam) in the mechanism's frame."""
+    from ..model.camgeometry import analyse
+    from ..model.cams import numbers
+
+    cam = c.elem
+    ck = dm.ck
+    cn = numbers(cam, _values(dm))
+    th = Z[:, ck.index(cam.cam)]
+    data = analyse(cn, th)
+    a = cn.frame_angle
+    rot = np.array([[np.cos(a), -np.sin(a)], [np.sin(a), np.cos(a)]])
+    X = data["contact"] @ rot.T
+    n = data["normal"] @ rot.T
+    if cam.center is not None:
+        j = ck.points.index(cam.center)
+        P = ck.point_values_v(0, Z.T)
+        P = P[j].T if P.ndim == 3 else np.broadcast_to(P[j], (len(th), 2))
+        X = X + P
+    return {"P": X * dm.length_factor, "dirs": [n]}
 
 
 def _gear_geometry(dm, c, Z, Z1, e):

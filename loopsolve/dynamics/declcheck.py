@@ -243,6 +243,9 @@ def check_power_balance(dm, data: dict, inputs_display, *, spurious: dict | None
     """
     res = np.asarray(data["power_residual"], dtype=float)
     scale = np.asarray(data["power_scale"], dtype=float)
+    big = scale[np.isfinite(scale)]
+    if big.size:  # a row where nothing moves (a cam's dwell) has powers of round-off: judge it on the motion's scale
+        scale = np.maximum(scale, 1e-6 * float(big.max()))
     kappa = np.asarray(data.get("kappa", np.ones_like(res)), dtype=float)
     with np.errstate(invalid="ignore"):
         tol = np.maximum(POWER_RTOL, 1e3 * _EPS * np.where(np.isfinite(kappa), kappa, np.inf)) * scale

@@ -235,15 +235,6 @@ def _moves_on_carrier(ck, Z, Z1, carrier, centre, ok_rows):
 
 
 def _values(ck):
-    mech = ck.mechanism
-    env = {p.name: (p.value, p.kind) for p in mech.parameters}
-    k = math.pi / 180.0 if mech.units.angle == "deg" else 1.0
+    from ..model.pairs import evaluator
 
-    def values(node, kind):
-        from ..model import expr as _expr
-        from ..model.pairs import _lengths_converted
-
-        e = {n: (v / k if kd is Kind.ANGLE else v) for n, (v, kd) in env.items()}
-        return _expr.evaluate(_lengths_converted(node, mech.units.length), e, angle_unit_factor=k)
-
-    return values
+    return evaluator(ck.mechanism)

@@ -29,7 +29,7 @@ from . import expr as _expr
 from .units import Kind, UnitError, parse_quantity, unit_kind
 
 __all__ = ["SECTIONS", "ROW_SECTIONS", "HigherPairs", "PairContext", "parse_pairs", "infer_kinds",
-           "pair_variables"]
+           "pair_variables", "evaluator", "declared_rows", "declared_row_keys", "declared_links"]
 
 #: the model-file sections of higher pairs
 SECTIONS = ("constraints", "gears", "cams", "slots", "rolling", "friction")
@@ -227,6 +227,20 @@ class PairContext:
             return None
 
 
+def evaluator(mech) -> Callable:
+    """``values(node, kind)``: a parsed expression of ``mech``'s parameters in internal units (radians for
+    ``Kind.ANGLE``, else as written in the model's units: lengths in its length unit)."""
+    k = math.pi / 180.0 if mech.units.angle == "deg" else 1.0
+    env = {p.name: (p.value / k if p.kind is Kind.ANGLE else p.value) for p in mech.parameters}
+    length_unit = mech.units.length
+
+    def values(node, kind=Kind.DIMENSIONLESS):
+        v = _expr.evaluate(_lengths_converted(node, length_unit), env, angle_unit_factor=k)
+        return v * k if kind is Kind.ANGLE else v
+
+    return values
+
+
 def _lengths_converted(node: _expr.Node, length_unit: str) -> _expr.Node:
     """``node`` with every length literal (``25mm``) converted to a plain number in the model's unit."""
     if isinstance(node, _expr.Num):
@@ -316,9 +330,9 @@ def declared_links(spec: Mapping[str, Any], dynamics) -> frozenset:
 
 def _element_modules() -> tuple:
     """The modules of the elements that add equations (constraints first)."""
-    from . import constraints, gears
+    from . import cams, constraints, gears
 
-    return (constraints, gears)
+    return (constraints, gears, cams)
 
 
 # ------------------------------------------------------------------------- the door
@@ -326,6 +340,6 @@ def parse_pairs(ctx: PairContext) -> HigherPairs | None:
     """Parse every higher-pair section of ``ctx.spec`` (``None`` when the model has none)."""
     if not any(s in ctx.spec for s in SECTIONS):
         return None
-    from . import constraints, gears
+    from . import cams, constraints, gears
 
-    return HigherPairs(constraints=constraints.parse(ctx), gears=gears.parse(ctx))
+    return HigherPairs(constraints=constraints.parse(ctx), gears=gears.parse(ctx), cams=cams.parse(ctx))

@@ -612,6 +612,10 @@ def compile_mechanism(mech: Mechanism, input: str | Sequence[str] | None = None,
     (('theta3', 'theta4'), 1)
     """
     inputs = mech.resolve_inputs(input)
+    if mech.pairs is not None and mech.pairs.cams:
+        from ..model.cams import check_cams
+
+        check_cams(mech)  # an undercut profile is a wrong declaration (loopsolve cam reports it in full)
     module = _cached_module(mech, inputs, cache)
     variables = tuple(module.VARIABLES)
     kinds = tuple(Kind[k] for k in module.KINDS)

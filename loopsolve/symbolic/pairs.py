@@ -22,7 +22,7 @@ from dataclasses import dataclass
 
 import sympy as sp
 
-__all__ = ["PairSymbols", "pair_rows"]
+__all__ = ["PairSymbols", "pair_rows", "TurnAngle", "cam_law", "gear_row", "gear_ratio"]
 
 
 @dataclass(frozen=True)
@@ -54,7 +54,63 @@ def pair_rows(ps: PairSymbols) -> list[tuple[str, sp.Expr]]:
         rows.append((c.key, e))
     for g in pairs.gears:
         rows.append((g.key, gear_row(ps, g)))
+    for c in pairs.cams:
+        rows.append((c.key, ps.var[c.follower] - cam_law(ps, c)))
     return rows
+
+
+class TurnAngle(sp.Function):
+    """An angle reduced to one turn, [0, 2π): the argument of a cam law. Its derivative is 1 (the
+    reduction jumps only by whole turns), so the law differentiates as a function of the cam angle."""
+
+    nargs = 1
+
+    def fdiff(self, argindex=1):
+        return sp.Integer(1)
+
+    def _pythoncode(self, printer):
+        return "((%s) %% (2*math.pi))" % printer._print(self.args[0])
+
+    def _numpycode(self, printer):
+        return "numpy.mod(%s, 2*numpy.pi)" % printer._print(self.args[0])
+
+    def _latex(self, printer):
+        return r"\left(%s\right)_{\bmod 2\pi}" % printer._print(self.args[0])
+
+
+class _SympyOps:
+    sin = staticmethod(sp.sin)
+    cos = staticmethod(sp.cos)
+    pi = sp.pi
+
+
+def cam_law(ps: PairSymbols, c) -> sp.Expr:
+    """The cam's law as a function of its angle: a Piecewise over the segments of one turn (the follower's
+    displacement: model length unit, or radians for an oscillating follower)."""
+    from ..model.camlaws import pieces
+
+    to_rad = lambda node: ps.conv(node) * ps.k  # noqa: E731  (angles of the model file in radians)
+    lift = (lambda node: ps.conv(node)) if c.kind == "translating" else to_rad
+    start = to_rad(c.start) if c.start is not None else sp.Integer(0)
+    w = TurnAngle(ps.var[c.cam] - start) + start
+    branches = []
+    lo, level = start, sp.Integer(0)
+    for seg in c.segments:
+        end = to_rad(seg.end)
+        if seg.rise is None:
+            value = level
+            h = 0
+        else:
+            h = seg.sign * lift(seg.rise)
+            u = (w - lo) / (end - lo)
+            parts = pieces(seg.curve, u, _SympyOps)
+            S = parts[0][1][0] if len(parts) == 1 else sp.Piecewise(
+                *[(vals[0], u < bound) for bound, vals in parts[:-1]], (parts[-1][1][0], True))
+            value = level + h * S
+        branches.append((value, w < end))
+        lo, level = end, level + h
+    branches[-1] = (branches[-1][0], True)
+    return sp.Piecewise(*branches)
 
 
 def gear_ratio(ps: PairSymbols, g) -> sp.Expr:
