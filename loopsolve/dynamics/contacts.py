@@ -109,6 +109,15 @@ def contacts(dm) -> tuple[Contact, ...]:
         else:
             a = member_body(dm, c.follower, c.key, "the follower")
         out.append(Contact(f"F_{c.name}", c.key, "cam", a, member_body(dm, c.cam, c.key, "the cam"), 1, c))
+    for sl in pairs.slots:
+        pin = [i for i, b in enumerate(dm.bodies) if sl.point in b.joints]
+        if len(pin) != 1:
+            raise ModelError(f"{_where(dm)}: {sl.key}: list the slot's pin {sl.point!r} in the joints of the one body "
+                             f"that carries it (now {'none' if not pin else ', '.join(dm.bodies[i].name for i in pin)})")
+        out.append(Contact(f"F_{sl.name}", sl.key, "slot", pin[0], _body_of(dm, sl.link, f"{sl.key}.link"), 1, sl))
+    for r in pairs.rolling:
+        base = member_body(dm, r.on, r.key, "the base") if r.circle else -1
+        out.append(Contact(f"F_{r.name}", r.key, "rolling", member_body(dm, r.angle, r.key, "the wheel"), base, 2, r))
     return tuple(out)
 
 
@@ -125,6 +134,10 @@ def contact_geometry(dm, c: Contact, Z, Z1, e: dict) -> dict:
         return _gear_geometry(dm, c, Z, Z1, e)
     if c.kind == "cam":
         return _cam_geometry(dm, c, Z)
+    if c.kind == "slot":
+        return _slot_geometry(dm, c, Z)
+    if c.kind == "rolling":
+        return _rolling_geometry(dm, c, Z)
     raise ModelError(f"{_where(dm)}: {c.key}: contact forces of a {c.kind} are not available")
 
 
@@ -154,6 +167,59 @@ def _cam_geometry(dm, c, Z):
         P = P[j].T if P.ndim == 3 else np.broadcast_to(P[j], (len(th), 2))
         X = X + P
     return {"P": X * dm.length_factor, "dirs": [n]}
+
+
+def _points(ck, Z, name):
+    j = ck.points.index(name)
+    P = ck.point_values_v(0, Z.T)
+    return np.asarray(P[j].T if P.ndim == 3 else np.broadcast_to(P[j], (Z.shape[0], 2)), dtype=float)
+
+
+def _slot_geometry(dm, c, Z):
+    """The reaction acts at the pin, normal to the slot (to its line, or along the arc's radius)."""
+    sl = c.elem
+    ck = dm.ck
+    P = _points(ck, Z, sl.point)
+    if sl.line is not None:
+        lv = ck.vector_values_v(0, Z.T)
+        k = ck.vectors.index(sl.line)
+        L, a = (lv[k, 0], lv[k, 1]) if lv.ndim == 3 else (np.full(len(Z), lv[k, 0]), np.full(len(Z), lv[k, 1]))
+        sgn = np.where(np.asarray(L) < 0, -1.0, 1.0)
+        n = np.stack([-np.sin(a) * sgn, np.cos(a) * sgn], axis=1)
+    else:
+        d = P - _points(ck, Z, sl.center)
+        n = d / np.linalg.norm(d, axis=1)[:, None]
+    return {"P": P * dm.length_factor, "dirs": [n]}
+
+
+def _rolling_geometry(dm, c, Z):
+    """The contact point (the wheel's instant centre relative to the base) with the normal from the base
+    into the wheel and the tangent."""
+    from ..kinematics.pairchecks import _instant_centre, _Motion, unit_rates
+
+    r = c.elem
+    ck = dm.ck
+    motion = _Motion(ck, Z.T, unit_rates(ck, Z.T))
+    P = _instant_centre(motion, r.angle, r.on if r.circle else "")
+    if P is None:
+        raise ModelError(f"{_where(dm)}: {r.key}: the contact point is unknown (the wheel {r.angle!r} has no bar in "
+                         "the loops or points): add a point on its rim for the force analysis")
+    if r.circle:
+        psi = Z[:, ck.index(r.arm)]
+        n = r.sign * np.stack([np.cos(psi), np.sin(psi)], axis=1)
+    else:
+        mech = ck.mechanism
+        travel = next((v.name for v in mech.vectors if v.length is not None and r.on in _expr.names(v.length)), None)
+        if travel is None:
+            raise ModelError(f"{_where(dm)}: {r.key}: no vector has the length {r.on!r}, so the line the wheel rolls "
+                             "on is unknown for the force analysis: carry the wheel's centre along a vector of that "
+                             "length")
+        lv = ck.vector_values_v(0, Z.T)
+        k = ck.vectors.index(travel)
+        a = lv[k, 1] if lv.ndim == 3 else np.full(len(Z), lv[k, 1])
+        n = r.sign * np.stack([-np.sin(a), np.cos(a)], axis=1)
+    t = np.stack([-n[:, 1], n[:, 0]], axis=1)
+    return {"P": P * dm.length_factor, "dirs": [n, t]}
 
 
 def _gear_geometry(dm, c, Z, Z1, e):

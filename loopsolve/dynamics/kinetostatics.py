@@ -64,9 +64,11 @@ def layout(dm: DynamicsModel) -> Layout:
 
     names = [b.name for b in dm.bodies]
     pins = []
+    mech = dm.ck.mechanism
+    slotted = {sl.point for sl in mech.pairs.slots} if mech.pairs is not None else set()
     for j, pname in enumerate(dm.point_names):
         carriers = [i for i, b in enumerate(dm.bodies) if pname in b.joints]
-        if not carriers:
+        if not carriers or pname in slotted:  # a pin in a slot: the slot's normal reaction (a contact)
             continue
         if len(carriers) == 1:
             pins.append((f"F_{pname}", j, carriers[0], -1))

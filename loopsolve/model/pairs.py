@@ -101,6 +101,7 @@ class PairContext:
     length_unit: str
     dynamics: Any = None
     spec: Mapping[str, Any] = field(default_factory=dict)
+    loops: tuple = ()
 
     # ---------------------------------------------------------------- shared helpers
     @property
@@ -309,6 +310,26 @@ def declared_row_keys(spec: Mapping[str, Any]) -> list[str]:
     return out
 
 
+def slot_vectors(spec: Mapping[str, Any], points: Mapping[str, Any]) -> set[str]:
+    """The vectors the slots of a raw spec put in Φ: those of their pins, lines and centres."""
+    out = set()
+    table = spec.get("slots")
+    if not isinstance(table, Mapping):
+        return out
+    for d in table.values():
+        if not isinstance(d, Mapping):
+            continue
+        names = [d.get("point"), d.get("through")]
+        if isinstance(d.get("arc"), Mapping):
+            names.append(d["arc"].get("center"))
+        for n in names:
+            if isinstance(n, str) and n in points:
+                out |= {v for _, v in points[n].terms}
+        if isinstance(d.get("line"), str):
+            out.add(d["line"])
+    return out
+
+
 def declared_rows(spec: Mapping[str, Any]) -> int:
     """How many equations the higher pairs of a raw spec add to Φ (one per entry)."""
     return len(declared_row_keys(spec))
@@ -330,9 +351,9 @@ def declared_links(spec: Mapping[str, Any], dynamics) -> frozenset:
 
 def _element_modules() -> tuple:
     """The modules of the elements that add equations (constraints first)."""
-    from . import cams, constraints, gears
+    from . import cams, constraints, contacts, gears
 
-    return (constraints, gears, cams)
+    return (constraints, gears, cams, contacts)
 
 
 # ------------------------------------------------------------------------- the door
@@ -340,6 +361,7 @@ def parse_pairs(ctx: PairContext) -> HigherPairs | None:
     """Parse every higher-pair section of ``ctx.spec`` (``None`` when the model has none)."""
     if not any(s in ctx.spec for s in SECTIONS):
         return None
-    from . import cams, constraints, gears
+    from . import cams, constraints, contacts, gears
 
-    return HigherPairs(constraints=constraints.parse(ctx), gears=gears.parse(ctx), cams=cams.parse(ctx))
+    return HigherPairs(constraints=constraints.parse(ctx), gears=gears.parse(ctx), cams=cams.parse(ctx),
+                       slots=contacts.parse_slots(ctx), rolling=contacts.parse_rolling(ctx))

@@ -612,7 +612,7 @@ def build_mechanism(spec: Mapping[str, Any], *, source: str | None = None) -> Me
             points.append(pt)
 
     _check_links(vectors, loops if len(loops) == len(loops_spec) else None, parameters, variables, problems,
-                 set(pair_names))
+                 set(pair_names), _pairs.slot_vectors(spec, {p.name: p for p in points}))
 
     # ---- counts: from the declared names, so they are reported with every other problem
     declared_inputs = [n for n, d in var_spec.items() if isinstance(d, Mapping) and d.get("input") is True]
@@ -663,7 +663,7 @@ def build_mechanism(spec: Mapping[str, Any], *, source: str | None = None) -> Me
         vectors={v.name: v for v in vectors}, points={p.name: p for p in points},
         bodies=tuple(b.name for b in dynamics.bodies) if dynamics else (),
         links=_pairs.declared_links(spec, dynamics), angle_unit=angle_unit, length_unit=length_unit,
-        dynamics=dynamics, spec=spec))
+        dynamics=dynamics, spec=spec, loops=tuple(loops)))
     problems.raise_if_any()
     return Mechanism(
         name=name.strip(),
@@ -710,7 +710,8 @@ def link_length_problem(v, value: float) -> str:
             "direction add 180 to the angle)")
 
 
-def _check_links(vectors, loops, parameters, variables, problems: _Problems, in_pairs=frozenset()) -> None:
+def _check_links(vectors, loops, parameters, variables, problems: _Problems, in_pairs=frozenset(),
+                 pair_vectors=frozenset()) -> None:
     """Links of nonzero positive length, and every variable in some loop.
 
     A vector whose angle varies but whose length is a constant is a link: a length of zero leaves
@@ -729,7 +730,7 @@ def _check_links(vectors, loops, parameters, variables, problems: _Problems, in_
             problems.add(f"vectors.{v.name}.length", link_length_problem(v, value))
     if loops is None:  # a loop could not be read: its vectors are unknown
         return
-    in_loops = {n for lp in loops for _, n in lp.terms}
+    in_loops = {n for lp in loops for _, n in lp.terms} | set(pair_vectors)  # a slot's pin and line are in Φ too
     for var in variables:
         users = [v.name for v in vectors if var.name in _vector_names(v)]
         if users and not any(u in in_loops for u in users) and var.name not in in_pairs:

@@ -56,8 +56,48 @@ def pair_rows(ps: PairSymbols) -> list[tuple[str, sp.Expr]]:
         rows.append((g.key, gear_row(ps, g)))
     for c in pairs.cams:
         rows.append((c.key, ps.var[c.follower] - cam_law(ps, c)))
+    for sl in pairs.slots:
+        rows.append((sl.key, slot_row(ps, sl)))
+    for r in pairs.rolling:
+        rows.append((r.key, rolling_row(ps, r)))
     return rows
 
+
+def slot_row(ps: PairSymbols, sl) -> sp.Expr:
+    """The pin's distance from the slot's line (signed, model length unit) or from its arc."""
+    P = ps.point(sl.point)
+    if sl.line is not None:
+        A = (ps.point(sl.through) if sl.through
+             else sum((sign * ps.vector_xy[v] for sign, v in sl.tail), sp.zeros(2, 1)))
+        length, angle = ps.vector_polar[sl.line]
+        if angle is None:
+            xy = ps.vector_xy[sl.line]
+            e = xy / sp.sqrt(xy[0] ** 2 + xy[1] ** 2)
+        else:
+            e = sp.Matrix([sp.cos(angle), sp.sin(angle)])
+        d = P - A
+        return d[0] * e[1] - d[1] * e[0]
+    C = ps.point(sl.center)
+    R = ps.conv(sl.radius)
+    d = P - C
+    return (d[0] ** 2 + d[1] ** 2 - R**2) / (2 * R)
+
+
+def rolling_row(ps: PairSymbols, r) -> sp.Expr:
+    """Equal arc lengths rolled on the two bodies (model length unit)."""
+    def ang(name, ref):
+        if not name:
+            return sp.Integer(0)
+        return ps.var[name] - (sp.Float(ref) if r.phase is None else 0)
+
+    rad = ps.conv(r.radius)
+    ref = r.ref if r.phase is None else (0.0, 0.0, 0.0)
+    phase = ps.conv(r.phase) if r.phase is not None else 0
+    tw = ang(r.angle, ref[0])
+    if not r.circle:  # x − x₀ = −sign · r (θ − θ₀)
+        return ang(r.on, ref[1]) + r.sign * rad * tw - phase
+    tb, tp = ang(r.on, ref[1]), ang(r.arm, ref[2])
+    return rad * (tw - tp) - r.sign * ps.conv(r.base) * (tp - tb) - phase
 
 class TurnAngle(sp.Function):
     """An angle reduced to one turn, [0, 2π): the argument of a cam law. Its derivative is 1 (the
