@@ -330,13 +330,6 @@ def inverse_dynamics(dm: DynamicsModel, z, xd, xdd, *, rates=None, check: bool =
         if not flipped:
             break
         u, residual, ratio, kappa, nonfinite = _solve_system(all_entries(), rhs, lay, n)
-    singular = ~(ratio > SINGULAR_RATIO)
-    residual = residual.reshape(n, nb, 3)
-    cond = ratio
-
-    kappa[singular] = np.inf
-    out: dict = {"singular": singular, "nonfinite": nonfinite, "cond": cond, "kappa": kappa, "z1": z1, "z2": z2,
-                 "layout": lay}
     om = e["om"]
 
     def rigid_v(body, px, py):
@@ -344,6 +337,22 @@ def inverse_dynamics(dm: DynamicsModel, z, xd, xdd, *, rates=None, check: bool =
         if body < 0:
             return np.zeros(n), np.zeros(n)
         return vG[body, 0] - om[body] * (py - G[body, 1]), vG[body, 1] + om[body] * (px - G[body, 0])
+
+    mech = dm.ck.mechanism
+    fterms, locked = [], np.zeros(n, dtype=bool)
+    if mech.pairs is not None and mech.pairs.friction:  # Coulomb friction: the exact solution, or self-locking
+        from .friction import friction_terms, solve_with_friction
+
+        fterms = friction_terms(dm, lay, e, G, vG, om, geo, rigid_v)
+        u, locked = solve_with_friction(all_entries(), rhs, lay, n, fterms, u)
+        residual = _friction_residual(all_entries(), rhs, lay, n, fterms, u)
+    singular = ~(ratio > SINGULAR_RATIO)
+    residual = residual.reshape(n, nb, 3)
+    cond = ratio
+
+    kappa[singular] = np.inf
+    out: dict = {"singular": singular, "nonfinite": nonfinite, "cond": cond, "kappa": kappa, "z1": z1, "z2": z2,
+                 "layout": lay, "self_locking": locked}
 
     spurious: dict = {}
     pins, guides = {}, {}
@@ -396,13 +405,20 @@ def inverse_dynamics(dm: DynamicsModel, z, xd, xdd, *, rates=None, check: bool =
             vb = rigid_v(b, P[j, 0], P[j, 1])
             spurious[f"the load {ld.name!r} (loads[{ld.index}], at {ld.at!r} on {ld.body!r})"] = (
                 vals[0] * (vb[0] - vPs[j, 0]) + vals[1] * (vb[1] - vPs[j, 1]))
+    lost = {}
+    if fterms:
+        from .friction import lost_power
+
+        lost = lost_power(fterms, u)
+    p_lost = sum(lost.values()) if lost else np.zeros(n)
     ke = 0.5 * np.sum(m[:, None] * np.sum(vG**2, axis=1) + inertia[:, None] * e["om"] ** 2, axis=0)
     dke = np.sum(m[:, None] * np.sum(vG * aG, axis=1) + inertia[:, None] * e["om"] * e["al"], axis=0)
-    scale = np.abs(p_drive) + np.abs(dke) + np.abs(dpot) + np.abs(p_loads)
+    scale = np.abs(p_drive) + np.abs(dke) + np.abs(dpot) + np.abs(p_loads) + np.abs(p_lost)
     fscale = (np.sum(np.abs(m[:, None, None] * aG), axis=(0, 1)) + np.sum(np.abs(Fext), axis=(0, 1))
               + np.abs(u).sum(axis=1))
     out.update(drive=drive, pins=pins, guides=guides, contacts=contact_forces, shaking_force=sf, shaking_moment=sm,
-               kinetic_energy=ke, potential_energy=pot, power_residual=p_drive - (dke + dpot - p_loads),
+               kinetic_energy=ke, potential_energy=pot, power_lost=lost,
+               power_residual=p_drive - (dke + dpot - p_loads + p_lost),
                power_scale=scale, residual=residual, force_scale=fscale, d1=d1, d2=d2, spurious=spurious)
     return out
 
@@ -453,6 +469,18 @@ def _solve_system(entries, rhs, lay, n):
         residual[lo:hi] = res
         ratio[lo:hi] = had
     return u, residual, ratio, kappa, nonfinite
+
+
+def _friction_residual(entries, rhs, lay, n, terms, u):
+    """The Newton–Euler residuals ``A u + friction − b`` of the solution with friction."""
+    from .friction import _magnitude
+
+    res = -rhs.copy()
+    for r, c, v in entries:
+        res[:, r] += v * u[:, c]
+    for t in terms:
+        res += (t.c * _magnitude(u, t.cols))[:, None] * t.g
+    return res
 
 
 def _contact_results(lay, geo, sigma, u, col0, rigid_v, spurious, sf, sm) -> dict:

@@ -361,7 +361,9 @@ def parse_pairs(ctx: PairContext) -> HigherPairs | None:
     """Parse every higher-pair section of ``ctx.spec`` (``None`` when the model has none)."""
     if not any(s in ctx.spec for s in SECTIONS):
         return None
-    from . import cams, constraints, contacts, gears
+    from . import cams, constraints, contacts, friction, gears
 
-    return HigherPairs(constraints=constraints.parse(ctx), gears=gears.parse(ctx), cams=cams.parse(ctx),
-                       slots=contacts.parse_slots(ctx), rolling=contacts.parse_rolling(ctx))
+    pairs = HigherPairs(constraints=constraints.parse(ctx), gears=gears.parse(ctx), cams=cams.parse(ctx),
+                        slots=contacts.parse_slots(ctx), rolling=contacts.parse_rolling(ctx))
+    return HigherPairs(pairs.constraints, pairs.gears, pairs.cams, pairs.slots, pairs.rolling,
+                       friction.parse(ctx, pairs))
