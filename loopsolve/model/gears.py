@@ -28,7 +28,7 @@ from dataclasses import dataclass
 from . import expr as _expr
 from .units import Kind
 
-__all__ = ["GearPair", "parse", "kind_hints", "names_used"]
+__all__ = ["GearPair", "parse", "kind_hints", "names_used", "teeth_parameters", "ratio_values"]
 
 _KEYS = {"gear", "mate", "rack", "carrier", "teeth", "radii", "radius", "module", "internal", "phase",
          "pressure_angle", "centers"}
@@ -304,3 +304,16 @@ def ratio_values(pair: GearPair, values) -> tuple[float | None, float | None, fl
         m = values(pair.module, Kind.LENGTH)
         return m * ng / 2, m * nm / 2, ng / nm
     return None, None, ng / nm
+
+
+def teeth_parameters(mech) -> set[str]:
+    """The parameters that are tooth numbers of a gear pair (whole numbers: studies and synthesis vary them
+    over the integers)."""
+    out = set()
+    if mech.pairs is None:
+        return out
+    for g in mech.pairs.gears:
+        for t in g.teeth or ():
+            if isinstance(t, _expr.Name):
+                out.add(t.id)
+    return out

@@ -249,7 +249,8 @@ def dumps(mech_or_spec: Mechanism | Mapping[str, Any]) -> str:
     """The vector-loop model file (TOML text) of a mechanism or a model ``dict``.
 
     ``loads(dumps(m))`` gives a mechanism with the same derivation as ``m``, and the same
-    ``gravity``, ``[bodies]`` and ``[[loads]]`` (so the same force analysis).
+    ``gravity``, ``[bodies]`` and ``[[loads]]`` (so the same force analysis), and the same higher
+    pairs (``[constraints]``, ``[gears]``, ``[cams.NAME]``, ``[slots]``, ``[rolling]``, ``[friction]``).
     """
     spec = mech_or_spec.spec if isinstance(mech_or_spec, Mechanism) else mech_or_spec
     out = []
@@ -281,5 +282,16 @@ def dumps(mech_or_spec: Mechanism | Mapping[str, Any]) -> str:
         out.append("")
         out.append("[[loads]]")
         for k, v in load.items():
+            out.append(f"{_fmt_key(k)} = {_fmt_value(v)}")
+    for section in ("constraints", "gears", "slots", "rolling", "friction"):  # the higher pairs
+        if spec.get(section):
+            out.append("")
+            out.append(f"[{section}]")
+            for k, v in spec[section].items():
+                out.append(f"{_fmt_key(k)} = {_fmt_value(v)}")
+    for name, cam in (spec.get("cams") or {}).items():
+        out.append("")
+        out.append(f"[cams.{_fmt_key(name)}]")
+        for k, v in cam.items():
             out.append(f"{_fmt_key(k)} = {_fmt_value(v)}")
     return "\n".join(out) + "\n"
