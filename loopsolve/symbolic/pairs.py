@@ -114,8 +114,9 @@ class TurnAngle(sp.Function):
     def _numpycode(self, printer):
         return "numpy.mod(%s, 2*numpy.pi)" % printer._print(self.args[0])
 
-    def _latex(self, printer):
-        return r"\left(%s\right)_{\bmod 2\pi}" % printer._print(self.args[0])
+    def _latex(self, printer, exp=None):
+        tex = r"\left(%s\right)_{\bmod 2\pi}" % printer._print(self.args[0])
+        return tex if exp is None else r"%s^{%s}" % (tex, exp)
 
 
 class _SympyOps:
