@@ -112,8 +112,9 @@ def contacts(dm) -> tuple[Contact, ...]:
     for sl in pairs.slots:
         pin = [i for i, b in enumerate(dm.bodies) if sl.point in b.joints]
         if len(pin) != 1:
+            now = ", ".join(dm.bodies[i].name for i in pin) or "none"
             raise ModelError(f"{_where(dm)}: {sl.key}: list the slot's pin {sl.point!r} in the joints of the one body "
-                             f"that carries it (now {'none' if not pin else ', '.join(dm.bodies[i].name for i in pin)})")
+                             f"that carries it (now {now})")
         out.append(Contact(f"F_{sl.name}", sl.key, "slot", pin[0], _body_of(dm, sl.link, f"{sl.key}.link"), 1, sl))
     for r in pairs.rolling:
         base = member_body(dm, r.on, r.key, "the base") if r.circle else -1

@@ -181,7 +181,8 @@ def _parse_cam(ctx, name, key, d) -> Cam | None:
     if kind == "oscillating":
         for k in ("pivot", "arm") if contact != "flat" else ("pivot",):
             if k not in d:
-                p.add(key, f"an oscillating follower needs `{k}` ({'the distance from the cam centre to its pivot' if k == 'pivot' else 'the length of its arm'})")
+                what = "the distance from the cam centre to its pivot" if k == "pivot" else "the length of its arm"
+                p.add(key, f"an oscillating follower needs `{k}` ({what})")
                 return None
         pivot = ctx.quantity(d["pivot"], f"{key}.pivot", Kind.LENGTH, positive=True, allow_zero=False)
         arm = ctx.quantity(d["arm"], f"{key}.arm", Kind.LENGTH, positive=True, allow_zero=False) if "arm" in d else None
@@ -189,7 +190,8 @@ def _parse_cam(ctx, name, key, d) -> Cam | None:
         sd = _choice(ctx, d, key, "side", ("left", "right"), "left")
         side = 1 if sd == "left" else -1
         if offset is not None:
-            p.add(f"{key}.offset", "an oscillating follower has no offset (place its pivot with `pivot`, `pivot_angle`)")
+            p.add(f"{key}.offset", "an oscillating follower has no offset (place its pivot with `pivot`, "
+                  "`pivot_angle`)")
             return None
     else:
         for k in ("pivot", "arm", "pivot_angle", "side"):
@@ -305,7 +307,8 @@ def _check_numbers(ctx, c: Cam) -> bool:
         lo = end
     if abs(law.ends[-1] - (law.start + 2 * math.pi)) > 1e-9:
         p.add(f"{c.key}.law", f"the segments end at {shown(law.ends[-1]):g} {unit}, not one turn after the start "
-              f"({shown(law.start + 2 * math.pi):g}): a law covers 360 degrees (the last `to` is the start plus a turn)")
+              f"({shown(law.start + 2 * math.pi):g}): a law covers 360 degrees (the last `to` is the start plus "
+              "a turn)")
         return False
     scale = max(1.0, max(abs(h) for h in law.rises))
     for jn in joins(law):

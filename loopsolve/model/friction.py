@@ -84,9 +84,9 @@ def parse(ctx, pairs) -> tuple[Friction, ...]:
             kind, target = "cam", name
         if kind is None:
             known = sorted(pins) + sorted(guides) + sorted(slots) + sorted(c for c in cams)
-            p.add(key, f"{name!r} is not a joint of the bodies: friction acts at a pin ({', '.join(sorted(pins)) or 'none'}), "
-                  f"a body's guide ({', '.join(sorted(guides)) or 'none'}), a slot or a cam"
-                  + ("" if known else " (none declared)"))
+            p.add(key, f"{name!r} is not a joint of the bodies: friction acts at a pin "
+                  f"({', '.join(sorted(pins)) or 'none'}), a body's guide ({', '.join(sorted(guides)) or 'none'}), "
+                  "a slot or a cam" + ("" if known else " (none declared)"))
             continue
         if "radius" in d:
             p.add(f"{key}.radius", f"a journal radius belongs to a revolute joint, not to a {kind}")

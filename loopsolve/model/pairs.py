@@ -81,7 +81,8 @@ class PairContext:
 
     ``problems.add(key, message)`` collects problems; ``parse_expr(value, key)`` parses an
     expression (``None`` on failure, the problem recorded); ``check_literals(node, ctx, key, text)``
-    checks the units of its literals; ``check_name(name, key)`` an entry's name. ``parameters``/``variables`` map names to the parsed
+    checks the units of its literals; ``check_name(name, key)`` an entry's name.
+    ``parameters``/``variables`` map names to the parsed
     declarations (values and guesses in internal units), ``vectors`` names to parsed vectors,
     ``points`` names to parsed points; ``bodies`` the body names (``()`` without ``[bodies]``),
     ``links`` every link name the model declares (bodies, vectors' ``link`` keys, diagram links).
@@ -180,7 +181,8 @@ class PairContext:
         """A number, quantity (``"25mm"``), parameter or expression of parameters of ``kind`` (angle or
         length), parsed; its value is checked (``positive``) with the parameters' values."""
         if isinstance(value, bool) or not isinstance(value, (int, float, str)):
-            self.problems.add(key, f"expected a number, a quantity such as \"25mm\" or a parameter, got {_short(value)}")
+            self.problems.add(key, f"expected a number, a quantity such as \"25mm\" or a parameter, got "
+                              f"{_short(value)}")
             return None
         node = self.parse_expr(value, key)
         if node is None:

@@ -124,7 +124,8 @@ def format_cam(report: dict, fmt: str = "table", *, svaj: bool = False) -> str:
     u = report["units"]
     ex = report["extremes"]
     lines = [f"cam {report['cam']}: {report['follower']['kind']} {report['follower']['contact']} follower",
-             f"  pressure angle: {_fmt(ex['pressure_angle'][0])} to {_fmt(ex['pressure_angle'][1])} {u['pressure_angle']}",
+             f"  pressure angle: {_fmt(ex['pressure_angle'][0])} to {_fmt(ex['pressure_angle'][1])} "
+             f"{u['pressure_angle']}",
              f"  radius of curvature: {_fmt(ex['curvature_radius'][0])} to {_fmt(ex['curvature_radius'][1])} "
              f"{u['curvature_radius']} (smallest convex {_fmt(report['min_convex_curvature_radius'])})",
              f"  undercut: {'yes' if report['undercut'] else 'no'}"]
