@@ -8,7 +8,7 @@ module level. ``tests/test_import_layers.py`` checks that nothing else reaches u
 list names only imports that exist.
 """
 
-LAYERS = ("errors", "model", "symbolic", "kinematics", "dynamics", "design", "output", "cli")
+LAYERS = ("errors", "model", "symbolic", "kinematics", "dynamics", "design", "output", "editor", "cli")
 
 # (module, method, the subpackage.module it reaches up to)
 FACADE = (

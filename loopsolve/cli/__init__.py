@@ -22,9 +22,11 @@ import warnings
 from pathlib import Path
 
 from ..errors import LoopsolveError
-from .common import (EXIT_OK, EXIT_SOLVE, EXIT_USAGE, _INPUTS, _check_output, _inputs_of, _load, _one_line,
-                     _output, _Parser, _rate_args, _render, _write)
 from .cams import _cam_parser
+from .common import (EXIT_OK, EXIT_SOLVE, EXIT_USAGE, _INPUTS, _check_output, _load, _one_line, _output, _Parser,
+                     _rate_args, _render, _text_output, _write)
+from .edit import _edit_parser
+from .fileargs import check_files, file_argument, input_files
 from .forces import _force_parsers
 from .synthesis import _synthesis_parser
 
@@ -72,16 +74,16 @@ def build_parser() -> argparse.ArgumentParser:
     sub.required = True
 
     p = sub.add_parser("solve", help="positions, velocities, accelerations and jerks at one input value")
-    p.add_argument("model", help="model file (TOML)")
+    file_argument(p, "model", role="input", help="model file (TOML)")
     p.add_argument("--at", help="input value in the model's unit (degrees by default) or with a unit: 90, 1.2rad, "
                    "30mm (default: the input's guess)")
     _rate_args(p)
     p.add_argument("--format", choices=("table", "csv", "json"), default="table")
-    p.add_argument("-o", "--output", help="write to this file instead of standard output")
+    _text_output(p)
     p.set_defaults(func=cmd_solve)
 
     p = sub.add_parser("sweep", help="sweep the input, tracking the assembly mode")
-    p.add_argument("model", help="model file (TOML)")
+    file_argument(p, "model", role="input", help="model file (TOML)")
     p.add_argument("--from", dest="start", required=True, help="first input value (the first row)")
     p.add_argument("--to", dest="stop", required=True, help="end of the range: rows at --from + k*step up to "
                    "--to (a row only when on that grid); limits anywhere up to --to are reported")
@@ -98,31 +100,33 @@ def build_parser() -> argparse.ArgumentParser:
                    help="who takes the tracer's regular steps: python, or numba (the compiled fast lane, needs "
                    "the fast extra; auto: numba when installed); default $LOOPSOLVE_ENGINE, else python")
     p.add_argument("--format", choices=("table", "csv", "json"), default="table")
-    p.add_argument("-o", "--output", help="write to this file instead of standard output")
+    _text_output(p)
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=cmd_sweep)
 
     p = sub.add_parser("info", help="structure: variables, loops, mobility, solve order, Grashof class")
-    p.add_argument("model", help="model file (TOML)")
+    file_argument(p, "model", role="input", help="model file (TOML)")
     p.add_argument("--input", metavar="NAME", help="drive this variable instead of the declared input")
     p.add_argument("--format", choices=("table", "json"), default="table")
     p.set_defaults(func=cmd_info)
 
     p = sub.add_parser("vectors", help="write a model (e.g. a kinematic diagram) as a vector-loop model file")
-    p.add_argument("model", help="model file (TOML)")
-    p.add_argument("-o", "--output", help="write to this file instead of standard output")
+    file_argument(p, "model", role="input", help="model file (TOML)")
+    file_argument(p, "-o", "--output", role="output", fmt="toml", help="write to this file (.toml) instead of "
+                  "standard output")
     p.set_defaults(func=cmd_vectors)
 
     p = sub.add_parser("modes", help="every real assembly mode at one input value")
-    p.add_argument("model", help="model file (TOML)")
+    file_argument(p, "model", role="input", help="model file (TOML)")
     p.add_argument("--at", help="input value (default: the input's guess)")
     p.add_argument("--input", metavar="NAME", help="drive this variable instead of the declared input")
     p.add_argument("--format", choices=("table", "json"), default="table")
     p.set_defaults(func=cmd_modes)
 
     p = sub.add_parser("latex", help="the symbolic derivation as a LaTeX document (or PDF)")
-    p.add_argument("model", help="model file (TOML)")
-    p.add_argument("-o", "--output", help="output file (.tex, or .pdf with --pdf); default: standard output")
+    file_argument(p, "model", role="input", help="model file (TOML)")
+    file_argument(p, "-o", "--output", role="output", fmt="latex", help="output file (.tex, or .pdf with --pdf); "
+                  "default: standard output")
     p.add_argument("--pdf", action="store_true", help="compile to PDF with pdflatex/latexmk")
     p.add_argument("--snippet", action="store_true", help="equations only, to paste into a document")
     p.add_argument("--at", help="also tabulate the numeric solution at this input value")
@@ -130,15 +134,16 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=cmd_latex)
 
     p = sub.add_parser("plot", help="positions, velocities and accelerations against the input")
-    p.add_argument("model", help="model file (TOML)")
+    file_argument(p, "model", role="input", help="model file (TOML)")
     _sweep_args(p)
     p.add_argument("--vars", nargs="+", metavar="NAME", help="variables or point coordinates to plot "
                    "(default: the unknowns)")
-    p.add_argument("-o", "--output", required=True, help="image file: .png, .svg or .pdf")
+    file_argument(p, "-o", "--output", role="output", fmt="figure", required=True,
+                  help="image file: .png, .svg or .pdf")
     p.set_defaults(func=cmd_plot)
 
     p = sub.add_parser("draw", help="the kinematic diagram at one input value")
-    p.add_argument("model", help="model file (TOML)")
+    file_argument(p, "model", role="input", help="model file (TOML)")
     p.add_argument("--at", help="input value (default: the input's guess)")
     p.add_argument("--input", metavar="NAME", help="drive this variable instead of the declared input")
     p.add_argument("--mode", metavar="SIGNATURE", help="assembly mode")
@@ -148,28 +153,28 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--curve", action="append", metavar="POINT", help="CAD drawing: draw this point's path over a "
                    "sweep (repeat for more; default: the tracer points such as a coupler point)")
     p.add_argument("--no-curves", action="store_true", help="CAD drawing: no point paths")
-    p.add_argument("-o", "--output", required=True, help="image file: .png, .svg or .pdf; CAD drawing: .dxf "
-                   "(needs ezdxf: pip install 'loopsolve[cad]'), or .svg with --cad")
+    file_argument(p, "-o", "--output", role="output", fmt="draw", required=True, help="image file: .png, .svg or "
+                  ".pdf; CAD drawing: .dxf (needs ezdxf: pip install 'loopsolve[cad]'), or .svg with --cad")
     p.set_defaults(func=cmd_draw)
 
     p = sub.add_parser("animate", help="the linkage moving over a sweep (GIF, or MP4 with ffmpeg)")
-    p.add_argument("model", help="model file (TOML)")
+    file_argument(p, "model", role="input", help="model file (TOML)")
     _sweep_args(p)
     p.add_argument("--fps", type=float, default=20.0, help="frames per second (default 20)")
     p.add_argument("--max-frames", type=int, default=3600, metavar="N",
                    help="refuse animations of more than N frames, before rendering (default 3600)")
-    p.add_argument("-o", "--output", required=True, help=".gif or .mp4 file")
+    file_argument(p, "-o", "--output", role="output", fmt="animation", required=True, help=".gif or .mp4 file")
     p.set_defaults(func=cmd_animate)
 
     p = sub.add_parser("view", help="an interactive page (one offline HTML file): the linkage moving over a sweep")
-    p.add_argument("model", help="model file (TOML)")
+    file_argument(p, "model", role="input", help="model file (TOML)")
     _sweep_args(p)
     p.add_argument("--vars", nargs="+", metavar="NAME", help="variables or point coordinates to plot "
                    "(default: the unknowns)")
-    p.add_argument("-o", "--output", required=True, help=".html file")
+    file_argument(p, "-o", "--output", role="output", fmt="page", required=True, help=".html file")
     p.set_defaults(func=cmd_view)
     p = sub.add_parser("study", help="sweep every design of a parameter grid or sample (xarray Dataset out)")
-    p.add_argument("model", help="model file (TOML)")
+    file_argument(p, "model", role="input", help="model file (TOML)")
     p.add_argument("--vary", action="append", required=True, metavar="NAME=SPEC",
                    help="a varied parameter: NAME=START:STOP:COUNT (grid), NAME=V1,V2,... (list) or "
                    "NAME=LOW:HIGH (box, with --samples/--lhs); repeat for more parameters")
@@ -197,11 +202,13 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--workers", type=int, metavar="N", help="run on a local Dask cluster of N worker processes "
                    "(at most the CPUs of this machine)")
     p.add_argument("--scheduler", metavar="ADDRESS", help="run on the Dask cluster at ADDRESS (tcp://host:port)")
-    p.add_argument("-o", "--output", required=True, help=".nc (netCDF), .zarr or .csv (long format)")
+    file_argument(p, "-o", "--output", role="output", fmt="study", required=True,
+                  help=".nc (netCDF), .zarr or .csv (long format)")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=cmd_study)
     _synthesis_parser(sub)
     _force_parsers(sub)
+    _edit_parser(sub)
     _cam_parser(sub)
     return parser
 
@@ -419,8 +426,9 @@ def main(argv: list[str] | None = None) -> int:
     exhausted = ""
     with warnings.catch_warnings():
         warnings.showwarning = _show_warning
-        _INPUTS[:] = _inputs_of(args)
         try:
+            _INPUTS[:] = input_files(parser, args)
+            check_files(parser, args)  # outputs onto inputs, onto each other, wrong extensions: before any work
             return args.func(args)
         except LoopsolveError as exc:
             if debug:

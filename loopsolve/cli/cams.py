@@ -3,17 +3,19 @@
 from __future__ import annotations
 
 from .common import EXIT_OK, _check_output, _load, _output, _write
+from .fileargs import file_argument
 
 
 def _cam_parser(sub) -> None:
     p = sub.add_parser("cam", help="a cam's SVAJ, pressure angle and radius of curvature over one turn, and its "
                        "profile (DXF, SVG or CSV)")
-    p.add_argument("model", help="model file (TOML) with [cams.NAME]")
+    file_argument(p, "model", role="input", help="model file (TOML) with [cams.NAME]")
     p.add_argument("name", help="the cam (the NAME of [cams.NAME])")
     p.add_argument("--svaj", action="store_true", help="list every row (s, v, a, j, pressure angle, radius of "
                    "curvature) in the table, not only the summary")
     p.add_argument("--step", type=float, help="angle between rows in the model's angle unit (default 1 degree)")
-    p.add_argument("-o", "--output", help="write the profile to this file: .dxf, .svg or .csv")
+    file_argument(p, "-o", "--output", role="output", fmt="cam", help="write the profile to this file: .dxf, .svg "
+                  "or .csv")
     p.add_argument("--format", choices=("table", "json"), default="table")
     p.set_defaults(func=cmd_cam)
 
@@ -27,8 +29,6 @@ def cmd_cam(args) -> int:
     if args.output:
         _check_output(args.output)
         fmt = Path(args.output).suffix.lower().lstrip(".")
-        if fmt not in ("dxf", "svg", "csv"):
-            raise ModelError(f"-o {args.output}: a cam profile is written as .dxf, .svg or .csv")
         if fmt == "dxf":
             from ..output.cad import check_cad_output
 

@@ -12,6 +12,8 @@ import os
 import sys
 from collections.abc import Iterable
 
+from .fileargs import file_argument
+
 
 EXIT_OK, EXIT_USAGE, EXIT_SOLVE = 0, 2, 3
 
@@ -40,14 +42,10 @@ def _one_line(text: str) -> str:
 
 
 
-def _inputs_of(args) -> list[str]:
-    out = []
-    for attr in ("model", "models", "input_file", "inputs_files"):
-        v = getattr(args, attr, None)
-        for item in (v if isinstance(v, (list, tuple)) else [v]):
-            if isinstance(item, (str, os.PathLike)) and os.fspath(item) not in ("", "-"):
-                out.append(os.fspath(item))
-    return out
+def _text_output(p: argparse.ArgumentParser) -> None:
+    """``-o/--output`` of a command whose ``--format`` is table, csv or json (the extension follows it)."""
+    file_argument(p, "-o", "--output", role="output", fmt="text", help="write to this file instead of standard "
+                  "output (.txt for a table, .csv or .json as --format)")
 
 
 

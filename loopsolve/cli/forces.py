@@ -8,14 +8,15 @@ from __future__ import annotations
 import math
 import sys
 
-from .common import EXIT_OK, _check_output, _load, _one_line, _output, _rate_args, _write
+from .common import EXIT_OK, _check_output, _load, _one_line, _output, _rate_args, _text_output, _write
+from .fileargs import file_argument
 
 
 def _force_parsers(sub) -> None:
     """``loopsolve forces`` and ``loopsolve simulate`` (see :mod:`loopsolve.dynamics.kinetostatics`, :mod:`loopsolve.simulate`)."""
     p = sub.add_parser("forces", help="driving torque, joint forces, shaking force and energies (at one input "
                        "or along a sweep)")
-    p.add_argument("model", help="model file (TOML) with [bodies]")
+    file_argument(p, "model", role="input", help="model file (TOML) with [bodies]")
     p.add_argument("--at", help="one input value (or use --from/--to/--step for a sweep)")
     p.add_argument("--from", dest="start", help="first input value of a sweep")
     p.add_argument("--to", dest="stop", help="last input value of a sweep")
@@ -25,14 +26,14 @@ def _force_parsers(sub) -> None:
     p.add_argument("--flywheel", metavar="CS", type=float, help="size a flywheel for this coefficient of speed "
                    "fluctuation (e.g. 0.02) over a cycle at constant speed: the --from/--to range (360 or 720 "
                    "degrees), else one turn from --at (default 0)")
-    p.add_argument("--plot", metavar="FILE", help="also write the driving torque (and joint-force and "
+    file_argument(p, "--plot", role="output", fmt="figure", metavar="FILE", help="also write the driving torque (and joint-force and "
                    "shaking-force polar plots for a sweep) to this image file (.png/.svg/.pdf)")
     p.add_argument("--format", choices=("table", "csv", "json"), default="table")
-    p.add_argument("-o", "--output", help="write to this file instead of standard output")
+    _text_output(p)
     p.set_defaults(func=cmd_forces)
 
     p = sub.add_parser("simulate", help="integrate the equation of motion (forward dynamics)")
-    p.add_argument("model", help="model file (TOML) with [bodies]")
+    file_argument(p, "model", role="input", help="model file (TOML) with [bodies]")
     p.add_argument("--duration", required=True, type=float, help="simulated time (s)")
     p.add_argument("--step", type=float, default=0.01, help="output time step (s, default 0.01)")
     p.add_argument("--torque", default="0", help="driving torque (N*m) or force (N): a number or an expression "
@@ -44,7 +45,7 @@ def _force_parsers(sub) -> None:
     p.add_argument("--input", metavar="NAME", help="drive this variable instead of the declared input")
     p.add_argument("--mode", metavar="SIGNATURE", help="assembly mode")
     p.add_argument("--format", choices=("table", "csv", "json"), default="table")
-    p.add_argument("-o", "--output", help="write to this file instead of standard output")
+    _text_output(p)
     p.set_defaults(func=cmd_simulate)
 
 

@@ -9,12 +9,13 @@ import math
 import sys
 
 from .common import EXIT_OK, _check_output, _load, _write
+from .fileargs import file_argument
 
 
 def _synthesis_parser(sub) -> None:
     p = sub.add_parser("synthesize", help="find parameter values for a path, a function or a motion "
                        "(certified designs only)")
-    p.add_argument("model", help="model file (TOML)")
+    file_argument(p, "model", role="input", help="model file (TOML)")
     task = p.add_mutually_exclusive_group(required=True)
     task.add_argument("--path", metavar="POINT", help="path generation: POINT through the targets (CSV x,y)")
     task.add_argument("--function", metavar="OUT", help="function generation: unknown OUT of the input "
@@ -22,8 +23,8 @@ def _synthesis_parser(sub) -> None:
     task.add_argument("--motion", metavar="POINT", help="motion generation: POINT and the --link angle "
                       "(CSV x,y,angle)")
     p.add_argument("--link", metavar="VAR", help="with --motion: the angle variable of the guided link")
-    p.add_argument("--targets", required=True, metavar="T.csv", help="targets (CSV with a header line; an "
-                   "input column prescribes the timing)")
+    file_argument(p, "--targets", role="input", what="--targets", required=True, metavar="T.csv",
+                  help="targets (CSV with a header line; an input column prescribes the timing)")
     p.add_argument("--inputs", metavar="X1,X2,...", help="prescribed input value of every target (model units)")
     p.add_argument("--vary", action="append", metavar="NAME=LOW:HIGH",
                    help="a design variable and its bounds (model units); repeat for more (general method)")
@@ -43,10 +44,16 @@ def _synthesis_parser(sub) -> None:
     p.add_argument("--restarts", type=int, default=1, help="DE searches per assembly mode in a run (default 1)")
     p.add_argument("--starts", type=int, metavar="N", help="multistart: the N best of 30·N sampled designs are "
                    "polished in lockstep with the DE's (default 40 per varied parameter; 0: none)")
-    p.add_argument("--workers", type=int, metavar="N", help="run the runs on a local Dask cluster of N processes")
+    p.add_argument("--workers", type=int, metavar="N", help="run the runs on a local Dask cluster of N processes "
+                   "(at most the CPUs of this machine)")
     p.add_argument("--scheduler", metavar="ADDRESS", help="run the runs on the Dask cluster at ADDRESS")
-    p.add_argument("-o", "--output", metavar="design.toml", help="write the best design as a model file")
-    p.add_argument("--report", metavar="R.json", help="write the report (JSON)")
+    file_argument(p, "-o", "--output", role="output", fmt="toml", metavar="design.toml",
+                  help="write the best design as a model file (.toml)")
+    file_argument(p, "--report", role="output", fmt="json", metavar="R.json", help="write the report (.json)")
+    p.add_argument("--max-cells", type=int, default=100_000_000, metavar="N", help="refuse, before any work, a "
+                   "synthesis that may trace more positions (runs x design evaluations x trace steps; default "
+                   "100000000, about an hour)")
+    p.add_argument("--max-targets", type=int, default=1000, metavar="N", help="refuse more targets (default 1000)")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=cmd_synthesize)
 
@@ -87,7 +94,7 @@ def cmd_synthesize(args) -> int:
         transmission=args.transmission, runs=args.runs, seed=args.seed, mode=args.mode,
         popsize=args.popsize, maxiter=args.maxiter, restarts=args.restarts, starts=args.starts, workers=args.workers,
         scheduler=args.scheduler, progress=None if not args.quiet else False,
-        input_range=input_range), "")
+        input_range=input_range, max_cells=args.max_cells, max_targets=args.max_targets), "")
     if rep is not None:
         print(f"objective {rep['objective']:.6g} (mode {rep['mode']}, certified); wrote {args.report}"
               + (f" and {args.output}" if args.output else ""), file=sys.stderr)
@@ -142,12 +149,16 @@ def _classic_synthesize(args, input_range) -> int:
     for flag, given in (("--path", args.path), ("--vary", args.vary), ("--inputs", args.inputs),
                         ("--crank", args.crank), ("--transmission", args.transmission),
                         ("--workers", args.workers), ("--scheduler", args.scheduler)):
-        if given:
+        if given is not None and given is not False:
             raise ModelError(f"{flag} is not used by --method {args.method} (it is for the general method)")
     mech = _load(args.model)
     rep = _synthesis_output(args, lambda: synthesize(mech, method=args.method, targets=args.targets,
                                                      function=args.function, motion=args.motion, link=args.link,
-                                                     input_range=input_range), args.method)
+                                                     input_range=input_range, runs=args.runs, seed=args.seed,
+                                                     popsize=args.popsize, maxiter=args.maxiter,
+                                                     restarts=args.restarts, starts=args.starts,
+                                                     max_cells=args.max_cells, max_targets=args.max_targets),
+                            args.method)
     if rep is not None:
         print(f"{args.method}: objective {rep['objective']:.6g} (certified); wrote {args.report}"
               + (f" and {args.output}" if args.output else ""), file=sys.stderr)

@@ -58,7 +58,31 @@ def parse_poses(poses) -> np.ndarray:
         raise ModelError(f"poses: expected rows of three numbers x, y, angle (degrees), got shape {arr.shape}")
     if not np.isfinite(arr).all():
         raise ModelError("poses: every x, y, angle must be a finite number")
+    _refuse_repeated(arr)
     return arr
+
+
+def _refuse_repeated(arr) -> None:
+    """Two equal poses (the angle modulo a turn; positions to 1e-9 of the poses' span) make Burmester's
+    compatibility equations identically zero: refused, naming them (1-based, in the given order)."""
+    n = len(arr)
+    if n < 2:
+        return
+    if n <= 500:  # every pair, to a tolerance
+        span = float(np.max(np.linalg.norm(arr[:, None, :2] - arr[None, :, :2], axis=-1)))
+        dp = np.hypot(arr[:, None, 0] - arr[None, :, 0], arr[:, None, 1] - arr[None, :, 1])
+        da = np.abs(np.remainder(arr[:, None, 2] - arr[None, :, 2] + 180.0, 360.0) - 180.0)
+        hit = np.argwhere(np.triu((dp <= 1e-9 * span) & (da <= 1e-9), 1))
+    else:  # many poses: exact repeats, by sorting
+        key = np.column_stack([arr[:, :2], np.mod(arr[:, 2], 360.0)])
+        order = np.lexsort(key.T[::-1])
+        same = np.flatnonzero(np.all(np.diff(key[order], axis=0) == 0, axis=1))
+        hit = np.sort(np.column_stack([order[same], order[same + 1]]), axis=1) if same.size else np.zeros((0, 2))
+    if len(hit):
+        i, j = (int(v) for v in min(map(tuple, hit)))
+        raise ModelError(f"poses {i + 1} and {j + 1} are the same pose (x, y, angle = "
+                         f"{', '.join(f'{v:g}' for v in arr[i])}): Burmester's equations are then identically zero; "
+                         "give distinct poses")
 
 
 class _Frame:

@@ -12,8 +12,6 @@ synthesis contract (task, objective, parameters, mode, direction, targets, certi
 
 from __future__ import annotations
 
-import csv
-import io
 import math
 from dataclasses import dataclass
 from pathlib import Path
@@ -21,6 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import ModelError, SolveError
+from .targets import csv_records, read_text_file
 
 __all__ = ["read_table", "ClassicSynthesis", "classic_synthesize", "METHODS"]
 
@@ -52,15 +51,10 @@ def read_table(source, columns: tuple[str, ...], *, what: str = "targets") -> np
         return arr
     if isinstance(source, Path) or (isinstance(source, str) and "\n" not in source and "," not in source):
         where = str(source)
-        from ..model.files import read_regular
-
-        try:
-            text = read_regular(source, 50_000_000, what=f"{what} file").decode("utf-8-sig")
-        except (OSError, ValueError) as exc:  # UnicodeDecodeError is a ValueError
-            raise ModelError(f"{where}: cannot read the {what} file ({exc})") from None
+        text = read_text_file(source, what=what)
     else:
         where, text = f"<{what}>", str(source)
-    rows = [(i + 1, r) for i, r in enumerate(csv.reader(io.StringIO(text))) if r and any(c.strip() for c in r)]
+    rows = [(i, r) for i, r in csv_records(text, where) if r and any(c.strip() for c in r)]
     rows = [(i, r) for i, r in rows if not r[0].lstrip().startswith("#")]
     if not rows:
         raise ModelError(f"{where}: empty {what} file; expected a header line {','.join(columns)} and rows")
@@ -88,6 +82,10 @@ def read_table(source, columns: tuple[str, ...], *, what: str = "targets") -> np
     if not out:
         raise ModelError(f"{where}: no {what} rows after the header")
     return np.array(out, dtype=float)
+
+
+def _where(source) -> str:
+    return str(source) if isinstance(source, (str, Path)) and "\n" not in str(source) else "targets"
 
 
 def _check_fourbar(mech, method: str) -> None:
@@ -178,7 +176,7 @@ def _parameters(mech) -> dict:
 
 def classic_synthesize(mech, *, method: str, targets, function: str | None = None, motion: str | None = None,
                        link: str | None = None, fit: str | None = None, input_range=None,
-                       desired=None, polish: bool = True) -> ClassicSynthesis:
+                       desired=None, polish: bool = True, max_targets: int | None = None) -> ClassicSynthesis:
     """Run Freudenstein (``function=``) or Burmester (``motion=``, ``link=``) on a four-bar model.
 
     Raises
@@ -194,7 +192,8 @@ def classic_synthesize(mech, *, method: str, targets, function: str | None = Non
         reaches as much of the input range; the report's ``polish`` says what happened.
 
         Not a four-bar, an unknown ``function``/``link`` variable or ``motion`` point, a malformed
-        targets file, too few (or too many) targets for the method.
+        targets file, too few (or too many: more than ``max_targets``, default 1000, for
+        Freudenstein) targets for the method, two targets at one input angle, a repeated pose.
     SolveError
         No candidate is free of defects (the report is on ``.report`` of the error's ``args``).
 
@@ -218,6 +217,9 @@ def classic_synthesize(mech, *, method: str, targets, function: str | None = Non
             raise ModelError(f"--function {function!r}: not an unknown of the model (unknowns: "
                              f"{', '.join(n for n in names if n not in mech.inputs)})")
         rows = read_table(targets, ("input", "output"))
+        from .synthlimits import MAX_TARGETS, check_target_count
+
+        check_target_count(len(rows), _where(targets), MAX_TARGETS if max_targets is None else max_targets)
         if len(rows) < 3:
             raise ModelError(f"too few targets for Freudenstein: {len(rows)} (three are met exactly, more by least "
                              "squares)")

@@ -475,6 +475,7 @@ def freudenstein_points(inputs, outputs, *, fit: str = "exact", ground: float = 
                          "for more")
     if not np.isfinite(a).all() or not np.isfinite(b).all():
         raise ModelError("every target angle must be a finite number")
+    _refuse_repeated_inputs(a)
     t2p, t4p = np.radians(a), np.radians(b)
     K = freudenstein_constants(t2p, t4p)
     sign = _root_sign(K, t2p[0], t4p[0])
@@ -501,6 +502,20 @@ def freudenstein_points(inputs, outputs, *, fit: str = "exact", ground: float = 
     return _analyse(mech, K, lengths, (0.0, 0.0), fit, prec, in_rng,
                     (float(b[0]), float(b[-1])), cls, sign,
                     lambda t: np.degrees(fourbar_output(K, np.radians(t), sign)[0]), None, 1.0)
+
+
+def _refuse_repeated_inputs(a) -> None:
+    """Two targets at one input angle (also a turn apart: the same crank position) ask for one
+    output twice, or for two outputs at once: refused, naming them (1-based)."""
+    w = np.mod(a, 360.0)
+    order = np.argsort(w, kind="stable")
+    gaps = np.diff(w[order])
+    same = np.flatnonzero(np.abs(gaps) <= 1e-9)
+    if same.size:
+        i, j = sorted((int(order[same[0]]), int(order[same[0] + 1])))
+        turn = "" if a[i] == a[j] else " (a whole number of turns apart: the same crank position)"
+        raise ModelError(f"targets {i + 1} and {j + 1} are at the same input angle ({a[i]:g}° and {a[j]:g}°){turn}; "
+                         "every target needs its own input")
 
 
 def _signed_angles(lengths, t2f, t3, t4f):

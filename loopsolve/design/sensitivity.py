@@ -19,9 +19,6 @@ structure hash; sympy never runs in a loop.
 
 from __future__ import annotations
 
-import importlib.util
-import os
-import tempfile
 import threading
 from types import ModuleType
 
@@ -71,15 +68,13 @@ def generate_phi_p_source(kin) -> str:
                                        what="dPhi/dp (row-major: equation, parameter)", count="N_EQ")
 
 
-def _load(source: str | None, key: str, path) -> ModuleType:
+def _load(source: str, key: str, path) -> ModuleType:
+    """Execute generated ``source`` (never user text) in a fresh module; ``path`` is where it came from."""
     name = f"loopsolve_study_{key}"
-    if source is None:
-        spec = importlib.util.spec_from_file_location(name, path)
-        module = importlib.util.module_from_spec(spec)
-        spec.loader.exec_module(module)  # written by generate_phi_p_source, never user text
-        return module
     module = ModuleType(name)
-    exec(compile(source, f"<loopsolve study kernel {key}>", "exec"), module.__dict__)  # generated code only
+    origin = str(path) if path is not None else f"<loopsolve study kernel {key}>"
+    module.__file__ = origin
+    exec(compile(source, origin, "exec"), module.__dict__)  # generated code only
     return module
 
 
@@ -134,33 +129,51 @@ def fused_module(ck) -> ModuleType:
 
 
 def _generated(ck, tag: str, generate, fname: str) -> ModuleType:
+    """The generated module ``tag`` of ``ck``: from the memo, the disk cache or sympy.
+
+    The disk entry (``<tag>_<key>.py`` in :func:`~loopsolve.symbolic.compiled.cache_dir`) follows the
+    compiled models' rules (:func:`loopsolve.symbolic.compiled._read_entry`): a private directory, a
+    regular file of the user's whose content matches the key and hash in its first line, written
+    atomically. An entry that is truncated, corrupt, unreadable or fails to run is a miss: derived
+    again and rewritten; a foreign entry is never run (one warning; compiled in memory).
+    """
+    from ..symbolic.compiled import (_check_dir, _ensure_dir, _read_entry, _Stale, _Untrusted, _warn_untrusted,
+                                     _write_entry)
+
     key = structure_key(ck.mechanism, ck.inputs) + f"_{tag}{_FORMAT}"
     with _LOCK:
         if key in _MEMO:
             return _MEMO[key]
     directory = cache_dir()
     path = directory / f"{tag}_{key}.py" if directory else None
-    module = None
-    if path is not None and path.exists():
+    module, writable = None, path is not None
+    if path is not None:
         try:
-            module = _load(None, key, path)
-            if getattr(module, "NPARAM", None) != len(ck.mechanism.parameters) or not callable(
-                    getattr(module, fname, None)):
-                module = None
-        except Exception:  # corrupt cache file: regenerate
+            if directory.exists():
+                _check_dir(directory)
+            source = _read_entry(path, key)
+            if source is not None:
+                module = _load(source, key, path)
+                if getattr(module, "NPARAM", None) != len(ck.mechanism.parameters) or not callable(
+                        getattr(module, fname, None)):
+                    module = None
+        except _Stale:
+            module = None
+        except _Untrusted as exc:
+            _warn_untrusted(str(exc))
+            module, writable = None, False
+        except (Exception, SystemExit):  # an entry of ours that fails to run: derived again, rewritten
             module = None
     if module is None:
         from ..symbolic.derivation import derive
 
         source = generate(derive(ck.mechanism, input=ck.inputs))
-        if path is not None:
+        if writable:
             try:
-                path.parent.mkdir(parents=True, exist_ok=True)
-                fd, tmp = tempfile.mkstemp(dir=path.parent, suffix=".tmp")
-                with os.fdopen(fd, "w") as f:
-                    f.write(source)
-                os.replace(tmp, path)
-            except OSError:
+                _ensure_dir(directory)
+                _check_dir(directory)
+                _write_entry(path, source, key)
+            except (OSError, _Untrusted):
                 pass
         module = _load(source, key, None)
     with _LOCK:

@@ -273,6 +273,8 @@ def study(mech, vary, start, stop, step, *, samples: int | None = None, lhs: int
     if chunk_size < 1:
         raise ModelError(f"chunk_size={chunk_size!r}: must be at least 1")
     _check_cluster(workers, scheduler)
+    if seed is not None and (isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0):
+        raise ModelError(f"--seed {seed!r}: the seed of --samples/--lhs must be a whole number, at least 0")
     if samples is not None and lhs is not None:
         raise ModelError("give either --samples or --lhs, not both")
     N = design_count(vary, samples=samples, lhs=lhs)  # counted, not made

@@ -66,6 +66,7 @@ the objective in internal units (lengths², radians for angles) as the contract 
 from __future__ import annotations
 
 import math
+import os
 import time
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
@@ -181,10 +182,15 @@ def _signature(signs) -> str:
 
 def define(mech, *, path: str | None = None, function: str | None = None, motion: str | None = None,
            link: str | None = None, targets=None, inputs=None, vary: Mapping | None = None, crank: bool = False,
-           transmission=None, mode: str | None = "any") -> Problem:
-    """Check and build a :class:`Problem` (see :func:`synthesize` for the arguments)."""
+           transmission=None, mode: str | None = "any", max_targets: int | None = None) -> Problem:
+    """Check and build a :class:`Problem` (see :func:`synthesize` for the arguments).
+
+    The targets are checked by :mod:`loopsolve.design.synthlimits` (at most ``max_targets``, default
+    1000; none at the same prescribed input; no repeat in a row with free timing; an angle input's
+    values within one turn)."""
     from ..kinematics.solve import input_value
     from .synthbatch import Batch
+    from .synthlimits import MAX_TARGETS, check_target_count, check_targets
 
     tasks = [(k, v) for k, v in (("path", path), ("function", function), ("motion", motion)) if v is not None]
     if len(tasks) != 1:
@@ -213,6 +219,8 @@ def define(mech, *, path: str | None = None, function: str | None = None, motion
     T = len(next(iter(cols.values())))
     if T < 2:
         raise ModelError(f"--targets: {T} target(s); synthesis needs at least 2 (give more rows)")
+    where = os.fspath(targets) if isinstance(targets, (str, os.PathLike)) and "\n" not in str(targets) else "targets"
+    check_target_count(T, where, MAX_TARGETS if max_targets is None else max_targets)
     if not vary:
         raise ModelError("give at least one varied parameter: --vary NAME=LOW:HIGH")
     pnames = [p.name for p in mech.parameters]
@@ -244,8 +252,6 @@ def define(mech, *, path: str | None = None, function: str | None = None, motion
     elif "input" in cols:
         xs = np.array([input_value(ck, float(v), reduce=False) for v in cols["input"]])
         shown = [float(v) for v in cols["input"]]
-    if xs is not None and np.any(np.diff(xs) == 0):
-        raise ModelError("--inputs: two targets at the same input value")
     ang = mech.units.angle == "deg"
     if task == "path":
         tg = np.stack([cols["x"], cols["y"]], axis=1)
@@ -256,6 +262,7 @@ def define(mech, *, path: str | None = None, function: str | None = None, motion
         tg = out[:, None]
     else:
         tg = np.stack([cols["x"], cols["y"], np.radians(cols["angle"]) if ang else cols["angle"]], axis=1)
+    check_targets(ck, task, tg, xs, shown, where, "--inputs" if inputs is not None else f"--targets {where} (input column)")
     if xs is None and ck.kinds[ck.index(ck.inputs[0])] is not Kind.ANGLE:
         raise ModelError(f"{name}: free timing needs an angle input ({ck.inputs[0]} is a length): give the input "
                          "value of every target (--inputs or an input column)")

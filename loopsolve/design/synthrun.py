@@ -262,7 +262,8 @@ def one_run(problem, seed, opts):
         from .synthlm import multistart
 
         n = opts["starts"] * _SAMPLE_RATIO
-        Vm, Sm, Xm, fm = multistart(problem, n, opts["starts"], int(rng.integers(2**31)))
+        Vm, Sm, Xm, fm = multistart(problem, n, opts["starts"], int(rng.integers(2**31)),
+                                    chunk=opts.get("chunk", 4000))
         nev += n
         if len(fm):
             dm = (np.sign(Xm[-1] - Xm[0]) if problem.free else np.ones(len(fm))).astype(int)
@@ -335,7 +336,8 @@ def synthesize(mech, *, path=None, function=None, motion=None, link=None, target
                strategy: str = "best1bin", polish_candidates: int = 6, starts: int | None = None,
                de_starts: int = 10, lm_iters: int = 60,
                workers: int | None = None, scheduler: str | None = None, client=None,
-               progress: bool | None = None, method: str = "general", input_range=None, desired=None):
+               progress: bool | None = None, method: str = "general", input_range=None, desired=None,
+               max_cells: int | None = None, max_targets: int | None = None):
     """Find parameter values that make ``mech`` do a job; only certified designs are returned.
 
     Parameters
@@ -381,6 +383,13 @@ def synthesize(mech, *, path=None, function=None, motion=None, link=None, target
         Spread the runs over a Dask cluster (as :func:`loopsolve.study` does).
     progress : bool, optional
         Runs completed on stderr (tqdm); default: on a terminal.
+    max_cells, max_targets : int, optional
+        Bounds checked before any work (:mod:`loopsolve.design.synthlimits`): the positions the
+        synthesis may trace (runs × design evaluations × trace steps, default 10⁸, about an hour)
+        and the number of targets (default 1000). Every option is checked too (whole numbers in
+        range; ``workers`` within the machine's CPUs; at most 256 lockstep DE searches a run) and
+        the targets (none at the same prescribed input; with free timing no repeat in a row; an
+        angle input's values within one turn).
     method : {"general", "freudenstein", "burmester"}
         ``general`` (this engine); the classical four-bar methods (``function=`` for
         Freudenstein, ``motion=``/``link=`` with five poses for Burmester) go to
@@ -402,7 +411,8 @@ def synthesize(mech, *, path=None, function=None, motion=None, link=None, target
     Raises
     ------
     ModelError
-        Bad targets, bounds, names (exit 2 on the command line).
+        Bad targets, bounds, names, options out of range, work or memory beyond the bounds (exit
+        2 on the command line).
     SynthesisError
         No run found a certified design (its ``report`` lists the rejected candidates).
 
@@ -419,14 +429,19 @@ def synthesize(mech, *, path=None, function=None, motion=None, link=None, target
     >>> {k: round(v, 3) for k, v in res.report["parameters"].items()}, res.report["certificate"]["defects"]
     ({'r2': 1.0, 'rcx': 1.5}, [])
     """
+    from .synthlimits import MAX_CELLS, MAX_TARGETS, check_options, check_work, multistart_chunk
+
+    max_cells = MAX_CELLS if max_cells is None else max_cells
+    max_targets = MAX_TARGETS if max_targets is None else max_targets
+    check_options(runs=runs, seed=seed, popsize=popsize, maxiter=maxiter, tol=tol, restarts=restarts, starts=starts,
+                  de_starts=de_starts, lm_iters=lm_iters, polish_candidates=polish_candidates, strategy=strategy,
+                  workers=workers, scheduler=scheduler, max_cells=max_cells, max_targets=max_targets)
     if method != "general":
         return _classic(mech, method, path=path, function=function, motion=motion, link=link, targets=targets,
-                        input_range=input_range, desired=desired, vary=vary, inputs=inputs, crank=crank,
-                        transmission=transmission)
+                        input_range=input_range, desired=desired, max_targets=max_targets, vary=vary, inputs=inputs,
+                        crank=crank, transmission=transmission)
     if mode == "guesses":
         mode = None
-    if runs < 1:
-        raise ModelError(f"--runs {runs}: must be at least 1")
     from ..model.gears import teeth_parameters
 
     if vary and set(vary) & teeth_parameters(mech):  # whole tooth numbers: every combination in the bounds
@@ -435,12 +450,15 @@ def synthesize(mech, *, path=None, function=None, motion=None, link=None, target
             transmission=transmission, runs=runs, seed=seed, mode=mode, popsize=popsize, maxiter=maxiter, tol=tol,
             restarts=restarts, strategy=strategy, polish_candidates=polish_candidates, starts=starts,
             de_starts=de_starts, lm_iters=lm_iters, workers=workers, scheduler=scheduler, client=client,
-            progress=progress, input_range=input_range, desired=desired))
+            progress=progress, input_range=input_range, desired=desired, max_cells=max_cells,
+            max_targets=max_targets))
     problem = define(mech, path=path, function=function, motion=motion, link=link, targets=targets, inputs=inputs,
-                     vary=vary, crank=crank, transmission=transmission, mode=mode)
+                     vary=vary, crank=crank, transmission=transmission, mode=mode, max_targets=max_targets)
     opts = {"popsize": popsize, "maxiter": maxiter, "tol": tol, "polish": polish_candidates, "restarts": restarts,
             "strategy": strategy, "starts": 40 * len(problem.names) if starts is None else starts,
-            "de_starts": de_starts, "lm_iters": lm_iters}
+            "de_starts": de_starts, "lm_iters": lm_iters, "chunk": multistart_chunk(problem)}
+    check_work(problem, runs=runs, popsize=popsize, maxiter=maxiter, restarts=restarts, starts=opts["starts"],
+               de_starts=de_starts, lm_iters=lm_iters, max_cells=max_cells)
     seeds = [seed + r for r in range(runs)]
     if progress is None:
         progress = sys.stderr.isatty()
@@ -455,7 +473,8 @@ def synthesize(mech, *, path=None, function=None, motion=None, link=None, target
     if workers or scheduler or client is not None:
         outs = _dask_runs(problem, mech, dict(path=path, function=function, motion=motion, link=link,
                                               targets=problem_targets(problem, targets), inputs=inputs, vary=vary,
-                                              crank=crank, transmission=transmission, mode=mode),
+                                              crank=crank, transmission=transmission, mode=mode,
+                                              max_targets=max_targets),
                           seeds, opts, workers, scheduler, client, bar)
     else:
         outs = []
@@ -510,7 +529,8 @@ def _over_teeth(mech, vary, teeth, kwargs):
     return best
 
 
-def _classic(mech, method, *, path, function, motion, link, targets, input_range, desired, **general_only):
+def _classic(mech, method, *, path, function, motion, link, targets, input_range, desired, max_targets,
+             **general_only):
     from .classicsynth import METHODS, classic_synthesize
 
     if method not in METHODS:
@@ -525,7 +545,7 @@ def _classic(mech, method, *, path, function, motion, link, targets, input_range
 
     try:
         res = classic_synthesize(mech, method=method, targets=targets, function=function, motion=motion, link=link,
-                                 input_range=input_range, desired=desired)
+                                 input_range=input_range, desired=desired, max_targets=max_targets)
     except SynthesisError:
         raise
     except SolveError as exc:  # no usable candidate: the same error as the general method's, with the report

@@ -18,7 +18,7 @@ import numpy as np
 
 from ..errors import ModelError
 
-__all__ = ["read_targets"]
+__all__ = ["read_targets", "read_text_file", "csv_records"]
 
 _TASK_COLUMNS = {"path": ("x", "y"), "function": ("input", "output"), "motion": ("x", "y", "angle")}
 
@@ -40,12 +40,7 @@ def read_targets(targets, task: str = "path", *, source: str | None = None) -> d
     where = source or "targets"
     if isinstance(targets, (str, os.PathLike)) and not (isinstance(targets, str) and "\n" in targets):
         where = os.fspath(targets)
-        try:
-            with open(targets, newline="", encoding="utf-8") as f:
-                text = f.read(10_000_000)
-        except OSError as exc:
-            raise ModelError(f"{where}: cannot read the targets file: {exc.strerror or exc}") from None
-        rows = _csv_rows(text, where)
+        rows = _csv_rows(read_text_file(targets, what="targets"), where)
     elif isinstance(targets, str):
         rows = _csv_rows(targets, where)
     elif isinstance(targets, Mapping):
@@ -77,8 +72,55 @@ def read_targets(targets, task: str = "path", *, source: str | None = None) -> d
     return _check_columns(cols, need, where)
 
 
+#: the largest targets or poses file read (bytes)
+MAX_FILE_SIZE = 50_000_000
+
+
+def read_text_file(path, *, what: str = "targets") -> str:
+    """The text of a CSV file of targets or poses: a regular file of at most :data:`MAX_FILE_SIZE`
+    bytes, UTF-8 with or without a byte-order mark (as spreadsheet programs write). Errors are
+    :class:`ModelError` naming the file."""
+    from ..model.files import read_regular
+
+    where = os.fspath(path)
+    try:
+        data = read_regular(path, MAX_FILE_SIZE, what=f"{what} file")
+    except OSError as exc:
+        raise ModelError(f"{where}: cannot read the {what} file: {exc.strerror or exc}") from None
+    except ValueError as exc:
+        raise ModelError(f"cannot read the {what} file: {exc}") from None
+    try:
+        return data.decode("utf-8-sig")
+    except UnicodeDecodeError as exc:
+        line = data[:exc.start].count(b"\n") + 1
+        raise ModelError(f"{where}: line {line}: not UTF-8 text (byte {data[exc.start]:#04x}); save the {what} "
+                         "file as UTF-8 CSV") from None
+
+
+def csv_records(text: str, where: str):
+    """``(line, fields)`` of every CSV record of ``text`` (a leading byte-order mark dropped); a field
+    longer than the csv module's limit (131,072 characters) or a malformed record is a
+    :class:`ModelError` naming ``where`` and the line."""
+    if text.startswith("\ufeff"):
+        text = text[1:]
+    reader = csv.reader(io.StringIO(text))
+    out = []
+    while True:
+        try:
+            r = next(reader)
+        except StopIteration:
+            return out
+        except csv.Error as exc:
+            line = reader.line_num
+            if "field larger than field limit" in str(exc):
+                raise ModelError(f"{where}: line {line}: a field of more than {csv.field_size_limit():,} characters; "
+                                 "every field is one number") from None
+            raise ModelError(f"{where}: line {line}: not a CSV record ({exc})") from None
+        out.append((reader.line_num, r))
+
+
 def _csv_rows(text: str, where: str):
-    lines = [(i + 1, r) for i, r in enumerate(csv.reader(io.StringIO(text)))
+    lines = [(i, r) for i, r in csv_records(text, where)
              if r and any(c.strip() for c in r) and not r[0].lstrip().startswith("#")]
     if not lines:
         raise ModelError(f"{where}: no header line (expected a CSV with a header such as x,y)")

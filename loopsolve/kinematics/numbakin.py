@@ -7,6 +7,10 @@ lane's step loop (:mod:`loopsolve.kinematics.fastlane`) and compiles the module 
 ``nb_<hash>.py`` (the hash of its text), and numba keeps the machine code next to it in
 ``__pycache__``, so a model compiled once is loaded in later processes without the JIT.
 
+Unreadable entries: a truncated, corrupt or unreadable numba index or data file is a cache miss
+(:class:`_MissOnError`): the function is compiled again and its entry rewritten, never an error;
+a generated ``nb_<hash>.py`` whose content does not match its header is rewritten likewise.
+
 Security: numba's cache holds pickled data and machine code, so the same rules as the
 generated modules (:func:`loopsolve.symbolic.compiled._check_dir`, ``_read_entry``) apply: the cache
 directory and its ``__pycache__`` must belong to the user and be writable by nobody else,
@@ -167,6 +171,56 @@ def _check_pycache(directory: Path, stem: str) -> None:
         _check_owner_mode(st, f"the numba cache entry {entry.path}")
 
 
+class _MissOnError:
+    """numba's disk cache of one function, where an entry that cannot be read is a miss, never a failure.
+
+    numba unpickles the function's index (``.nbi``) and data (``.nbc``) in ``__pycache__`` when it
+    first compiles the function; a truncated, corrupt or unreadable file raised out of the first
+    call (``UnpicklingError`` on every sweep of the model until the cache was cleared). Here any
+    exception of a load is a miss: the index is replaced by an empty one (the data files it named
+    are overwritten by the next save), numba compiles, and the save writes a good entry. A save
+    that fails (a corrupt index read back) starts the index afresh once more; if that fails too
+    the machine code is simply not cached.
+    """
+
+    def __init__(self, inner):
+        self._inner = inner
+
+    def __getattr__(self, name):
+        return getattr(self._inner, name)
+
+    def load_overload(self, sig, target_context):
+        try:
+            return self._inner.load_overload(sig, target_context)
+        except Exception:  # noqa: BLE001 — whatever an unreadable entry raises, it is a miss
+            self._reset()
+            return None
+
+    def save_overload(self, sig, data):
+        try:
+            self._inner.save_overload(sig, data)
+        except Exception:  # noqa: BLE001
+            self._reset()
+            try:
+                self._inner.save_overload(sig, data)
+            except Exception:  # noqa: BLE001 — not cached: the compiled function still runs
+                pass
+
+    def _reset(self) -> None:
+        try:
+            self._inner.flush()  # an empty index, written atomically
+        except Exception:  # noqa: BLE001
+            pass
+
+
+def _miss_on_error(dispatcher):
+    """``dispatcher`` with its disk cache wrapped by :class:`_MissOnError` (when it has one)."""
+    cache = getattr(dispatcher, "_cache", None)
+    if cache is not None and type(cache).__name__ != "NullCache" and not isinstance(cache, _MissOnError):
+        dispatcher._cache = _MissOnError(cache)
+    return dispatcher
+
+
 def _numba_module(ck) -> ModuleType:
     """The compiled numba module of ``ck`` (from the in-process memo, numba's disk cache or the JIT)."""
     hit = _BY_MODULE.get(id(ck.module))
@@ -218,9 +272,9 @@ def _numba_module(ck) -> ModuleType:
 
     inlined = _MODEL_FUNCTIONS + _HELPERS + tuple(fn.__name__ for fn in TEMPLATE_INLINE)
     for name in inlined:
-        setattr(module, name, inline(getattr(module, name)))
+        setattr(module, name, _miss_on_error(inline(getattr(module, name))))
     for name in tuple(fn.__name__ for fn in TEMPLATE_FUNCTIONS if fn.__name__ not in inlined):
-        setattr(module, name, jit(getattr(module, name)))
+        setattr(module, name, _miss_on_error(jit(getattr(module, name))))
     with _LOCK:
         _MEMO[key] = module
         _BY_MODULE[id(ck.module)] = (ck.module, module)

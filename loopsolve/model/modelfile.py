@@ -245,53 +245,84 @@ def _fmt_value(v: Any) -> str:
     raise ModelError(f"cannot write {v!r} to a model file")
 
 
-def dumps(mech_or_spec: Mechanism | Mapping[str, Any]) -> str:
-    """The vector-loop model file (TOML text) of a mechanism or a model ``dict``.
+_TOP_SCALARS = ("name", "description", "units", "gravity")
+_VECTOR_SECTIONS = ("parameters", "variables", "vectors")
+_LATE_SECTIONS = ("points", "modes", "bodies")
+_DIAGRAM_SECTIONS = ("parameters", "joints", "links", "input", "modes", "bodies")
 
+
+def _is_table_array(v: Any) -> bool:
+    return isinstance(v, (list, tuple)) and bool(v) and all(isinstance(x, Mapping) for x in v)
+
+
+def _section(out: list[str], name: str, table: Mapping[str, Any]) -> None:
+    out.append("")
+    out.append(f"[{_fmt_key(name)}]")
+    for k, v in table.items():
+        out.append(f"{_fmt_key(k)} = {_fmt_value(v)}")
+
+
+def _table_array(out: list[str], name: str, items) -> None:
+    for item in items:
+        out.append("")
+        out.append(f"[[{_fmt_key(name)}]]")
+        for k, v in (item.items() if isinstance(item, Mapping) else {"equation": item}.items()):
+            out.append(f"{_fmt_key(k)} = {_fmt_value(v)}")
+
+
+def dumps(mech_or_spec: Mechanism | Mapping[str, Any]) -> str:
+    """The model file (TOML text) of a mechanism or a model ``dict``.
+
+    A mechanism, or a vector-loop ``dict``, is written in the vector-loop layout:
     ``loads(dumps(m))`` gives a mechanism with the same derivation as ``m``, and the same
-    ``gravity``, ``[bodies]`` and ``[[loads]]`` (so the same force analysis), and the same higher
-    pairs (``[constraints]``, ``[gears]``, ``[cams.NAME]``, ``[slots]``, ``[rolling]``, ``[friction]``).
+    ``gravity``, ``[bodies]`` and ``[[loads]]`` (so the same force analysis) and higher pairs
+    (``[gears]``, ``[cams.NAME]``, ...: written as any other key). A ``dict`` in the
+    kinematic-diagram layout (``[joints]`` and ``[links]``, no ``[vectors]``) is written in that
+    layout. Either way a ``dict`` read from a model file comes back key for key and value for
+    value (``tomllib.loads(dumps(d)) == d``): keys loopsolve does not know are written too.
+
+    Examples
+    --------
+    >>> import tomllib
+    >>> d = tomllib.loads((ls.models_dir() / "thesis_crank_rocker_diagram.toml").read_text())
+    >>> tomllib.loads(ls.dumps(d)) == d
+    True
+    >>> print(ls.dumps(d).split("[links]")[0].splitlines()[-2])
+    O4 = { at = [60, 0] }
     """
     spec = mech_or_spec.spec if isinstance(mech_or_spec, Mechanism) else mech_or_spec
+    diagram = (not isinstance(mech_or_spec, Mechanism) and ("joints" in spec or "links" in spec)
+               and "vectors" not in spec and "loops" not in spec)
     out = []
-    for key in ("name", "description"):
+    for key in _TOP_SCALARS:
         if key in spec:
             out.append(f"{key} = {_fmt_value(spec[key])}")
-    if "units" in spec:
-        out.append(f"units = {_fmt_value(spec['units'])}")
-    if "gravity" in spec:
-        out.append(f"gravity = {_fmt_value(spec['gravity'])}")
-    for section in ("parameters", "variables", "vectors"):
-        if spec.get(section):
-            out.append("")
-            out.append(f"[{section}]")
-            for k, v in spec[section].items():
-                out.append(f"{_fmt_key(k)} = {_fmt_value(v)}")
-    for loop in spec.get("loops", []):
-        out.append("")
-        out.append("[[loops]]")
-        for k, v in (loop.items() if isinstance(loop, Mapping) else {"equation": loop}.items()):
-            out.append(f"{_fmt_key(k)} = {_fmt_value(v)}")
-    for section in ("points", "modes", "bodies"):
-        if spec.get(section):
-            out.append("")
-            out.append(f"[{section}]")
-            for k, v in spec[section].items():
-                out.append(f"{_fmt_key(k)} = {_fmt_value(v)}")
-    for load in spec.get("loads", []) or []:
-        out.append("")
-        out.append("[[loads]]")
-        for k, v in load.items():
-            out.append(f"{_fmt_key(k)} = {_fmt_value(v)}")
-    for section in ("constraints", "gears", "slots", "rolling", "friction"):  # the higher pairs
-        if spec.get(section):
-            out.append("")
-            out.append(f"[{section}]")
-            for k, v in spec[section].items():
-                out.append(f"{_fmt_key(k)} = {_fmt_value(v)}")
-    for name, cam in (spec.get("cams") or {}).items():
-        out.append("")
-        out.append(f"[cams.{_fmt_key(name)}]")
-        for k, v in cam.items():
-            out.append(f"{_fmt_key(k)} = {_fmt_value(v)}")
+    known = set(_TOP_SCALARS) | {"loops", "loads"}
+    known |= set(_DIAGRAM_SECTIONS) if diagram else set(_VECTOR_SECTIONS) | set(_LATE_SECTIONS)
+    if not diagram:  # the vector loops generated from a diagram: the diagram's own keys are not written
+        known |= {"joints", "links", "input"}
+    rest = [k for k in spec if k not in known]
+    for k in rest:  # other plain values must come before the first table
+        if not isinstance(spec[k], Mapping) and not _is_table_array(spec[k]):
+            out.append(f"{_fmt_key(k)} = {_fmt_value(spec[k])}")
+    if diagram:
+        for section in _DIAGRAM_SECTIONS:
+            if isinstance(spec.get(section), Mapping) and (spec[section] or section in ("joints", "links")):
+                _section(out, section, spec[section])
+            elif section in spec and not isinstance(spec[section], Mapping):
+                raise ModelError(f"cannot write [{section}]: expected a table, got {spec[section]!r}")
+    else:
+        for section in _VECTOR_SECTIONS:
+            if spec.get(section):
+                _section(out, section, spec[section])
+        _table_array(out, "loops", spec.get("loops", []))
+        for section in _LATE_SECTIONS:
+            if spec.get(section):
+                _section(out, section, spec[section])
+    _table_array(out, "loads", spec.get("loads", []) or [])
+    for k in rest:
+        if isinstance(spec[k], Mapping):
+            _section(out, k, spec[k])
+        elif _is_table_array(spec[k]):
+            _table_array(out, k, spec[k])
     return "\n".join(out) + "\n"

@@ -432,12 +432,14 @@ MAX_MAGNITUDE = 1e100
 
 
 def _finite(value: float, kind: Kind, text: str, where: str, length_unit: str, given: float = 0.0) -> float:
-    """``value`` (converted from the number ``given``) checked: finite, within ±MAX_MAGNITUDE, and not
-    flushed to zero or below the normal floats by the conversion."""
+    """``value`` (converted from the number ``given`` with a unit's factor) checked: finite, within
+    ±MAX_MAGNITUDE, and not flushed from a normal float to zero or below the normal floats by the
+    conversion (a plain number in a display unit, whose factor is ordinary, is not checked for that:
+    a tiny angle is a tiny angle)."""
     if not math.isfinite(value):
         raise _kind_error(kind, text, where, length_unit,
                           "value overflows (not finite) after conversion to internal units")
-    if given != 0 and abs(value) < sys.float_info.min:
+    if abs(given) >= sys.float_info.min and abs(value) < sys.float_info.min:
         raise _kind_error(kind, text, where, length_unit,
                           "value underflows (becomes 0 or subnormal) after conversion to internal units; "
                           "use a smaller unit")
@@ -460,7 +462,7 @@ def _plain(value: float, kind: Kind, angle_unit: str, text: str | None = None, w
     if kind is Kind.ANGLE:
         if reduce:
             value = _reduce_angle(value, text, _turn_in(lookup(angle_unit)))
-        return _finite(value * angle_factor(angle_unit), kind, shown, where, length_unit, value)
+        return _finite(value * angle_factor(angle_unit), kind, shown, where, length_unit)
     if kind in _SI_WITH_LENGTH and value != 0 and not _metre_model(length_unit):
         si = _SI_LABEL[kind]
         model = _SI_WITH_LENGTH[kind].format(L=length_unit)

@@ -1,11 +1,22 @@
 /* loopsolve interactive page (inlined into every page by loopsolve/view.py; no network, no libraries).
  * Hooks kept for scripts and tests (see DESIGN.md, "Interactive page"):
  *   the range input #loopsolve-input: its value is the row index; an `input` event redraws;
+ *   its data-value attribute is the input's value at that row (model units);
  *   every named point is an SVG circle with data-point="NAME" whose cx, cy are the point's model
- *   coordinates at the current row (the y-up flip is the parent group's transform). */
+ *   coordinates at the current row (the y-up flip is the parent group's transform).
+ * The page renders itself from the JSON in #ls-data; the editor (loopsolve edit) calls
+ * LoopsolveView.render(data, options) again after every edit: options.row (the row to show first),
+ * options.onUpdate(row) (called after every redraw); render returns {update, row, world, destroy}. */
 (function () {
   "use strict";
-  var D = JSON.parse(document.getElementById("ls-data").textContent);
+  function render(D, opts) {
+  opts = opts || {};
+  var listeners = [];
+  function listen(target, type, fn) { target.addEventListener(type, fn); listeners.push([target, type, fn]); }
+  ["ls-diagram", "ls-legend", "ls-plots", "ls-tabs", "ls-values", "ls-events", "ls-marks"].forEach(function (id) {
+    var e = document.getElementById(id);
+    if (e) while (e.firstChild) e.removeChild(e.firstChild);
+  });
   var S = D.scene, N = D.rows, T = S.traj, A = S.angles, size = S.size, pt = 0.054 * size;
   var NS = "http://www.w3.org/2000/svg";
   var COLORS = ["#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b", "#e377c2", "#7f7f7f", "#bcbd22", "#17becf"];
@@ -280,7 +291,7 @@
   var tabs = document.getElementById("ls-tabs");
   ["position", "velocity", "acceleration"].forEach(function (t, k) {
     var b = h("button", {type: "button", "class": k === 0 ? "on" : ""}, tabs, t);
-    b.addEventListener("click", function () {
+    listen(b, "click", function () {
       quantity = k;
       Array.prototype.forEach.call(tabs.children, function (c, j) { c.className = j === k ? "on" : ""; });
       drawPlots(); update(row);
@@ -490,12 +501,15 @@
     i = Math.max(0, Math.min(N - 1, Math.round(i)));
     row = i;
     if (+slider.value !== i) slider.value = i;
+    slider.setAttribute("data-value", String(XIN[i]));
     drawDiagram(i);
     drawCursor(i);
     drawValues(i);
+    if (opts.onUpdate) opts.onUpdate(i);
   }
   function go(i) { if (playing) toggle(); update(i); }
-  slider.addEventListener("input", function () { update(+slider.value); });
+  slider.setAttribute("max", String(N - 1));
+  listen(slider, "input", function () { update(+slider.value); });
   var playBtn = document.getElementById("ls-play");
   function toggle() {
     playing = !playing;
@@ -514,10 +528,13 @@
     lastTime = t;
     requestAnimationFrame(tick);
   }
-  playBtn.addEventListener("click", toggle);
-  document.getElementById("ls-speed").addEventListener("change", function (e) { speed = +e.target.value; });
-  document.addEventListener("keydown", function (e) {
+  listen(playBtn, "click", toggle);
+  var speedSel = document.getElementById("ls-speed");
+  speed = +speedSel.value || 1;
+  listen(speedSel, "change", function (e) { speed = +e.target.value; });
+  listen(document, "keydown", function (e) {
     var tag = (e.target && e.target.tagName) || "";
+    if (tag === "TEXTAREA" || (tag === "INPUT" && e.target.type !== "range") || (e.target && e.target.isContentEditable)) return;
     if (e.key === " " && tag !== "BUTTON" && tag !== "SELECT") { e.preventDefault(); toggle(); return; }
     if (tag === "INPUT" || tag === "SELECT" || tag === "TEXTAREA") return; // the slider steps by itself
     var k = e.shiftKey ? 10 : 1;
@@ -529,11 +546,32 @@
     else if (e.key === "End") go(N - 1);
   });
   var resizeTimer = null;
-  window.addEventListener("resize", function () {
+  listen(window, "resize", function () {
     clearTimeout(resizeTimer);
     resizeTimer = setTimeout(function () { drawPlots(); drawMarks(); update(row); }, 80);
   });
   drawPlots();
   drawMarks();
-  update(0);
+  update(opts.row || 0);
+  return {
+    update: go, world: world, svg: svg, size: size,
+    row: function () { return row; },
+    input: function (i) { return XIN[i === undefined ? row : i]; },
+    modeOf: function (i) { return modeOfRow[i === undefined ? row : i] || ""; },
+    point: function (name, i) {
+      var p = S.points.filter(function (q) { return q.name === name; })[0];
+      if (!p) return null;
+      i = i === undefined ? row : i;
+      return [X(p.t, i), Y(p.t, i)];
+    },
+    destroy: function () {
+      playing = false;
+      listeners.forEach(function (l) { l[0].removeEventListener(l[1], l[2]); });
+      listeners = [];
+    }
+  };
+  }
+  window.LoopsolveView = {render: render};
+  var holder = document.getElementById("ls-data");
+  if (holder && holder.textContent.trim()) render(JSON.parse(holder.textContent));
 })();

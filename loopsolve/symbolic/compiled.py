@@ -334,6 +334,8 @@ def _read_entry(path: Path, key: str) -> str | None:
     except FileNotFoundError:
         return None
     except OSError as exc:
+        if hasattr(os, "getuid") and lst.st_uid == os.getuid() and not lst.st_mode & (stat.S_IWGRP | stat.S_IWOTH):
+            raise _Stale() from None  # our own entry, unreadable (mode 000, an I/O error): a miss, rewritten
         raise _Untrusted(f"the cache entry {path} cannot be opened ({exc.strerror})") from None
     try:
         st = os.fstat(fd)
@@ -345,6 +347,8 @@ def _read_entry(path: Path, key: str) -> str | None:
         data = read_capped(fd, MAX_ENTRY_SIZE)
         if data is None:
             raise _Untrusted(f"the cache entry {path} is too large")
+    except OSError as exc:  # our own regular file that cannot be read to its end (EIO, EISDIR...): a miss
+        raise _Stale() from exc
     finally:
         os.close(fd)
     head, sep, body = data.partition(b"\n")

@@ -309,3 +309,10 @@ def test_unreachable_scheduler_is_a_model_error(monkeypatch):
     with pytest.raises(ls.ModelError, match=r"--scheduler 'tcp://127.0.0.1:9'.*cannot connect") as info:
         ls.study(ls.load(THESIS), {"r2": [20.0]}, 0, 90, 30, scheduler="tcp://127.0.0.1:9", progress=False)
     assert "\n" not in str(info.value)
+
+
+def test_a_negative_seed_is_refused_before_any_work(tmp_path):
+    """``study --samples N --seed -1`` was an internal ValueError from numpy (issue 29)."""
+    assert_refused(study_cli(tmp_path, "--vary", "r2=20:30", "--samples", "3", "--seed", "-1", "--from", "0", "--to",
+                             "90", "--step", "30"), "--seed -1", "at least 0")
+    assert not (tmp_path / "out.nc").exists()
