@@ -195,3 +195,19 @@ def test_bad_friction_declarations(tmp_path, entry, key, words):
     proc = subprocess.run([sys.executable, "-m", "loopsolve", "info", str(path)], capture_output=True, text=True)
     assert proc.returncode == 2 and len(proc.stderr.strip().splitlines()) == 1
     assert key in proc.stderr and words in proc.stderr
+
+
+def test_simulation_spins_down_against_the_journal_friction():
+    """A balanced wheel of 2 kg on a 20 mm journal (μ = 0.2) spins down at the constant rate
+    α = −r sin φ · m g / I, tan φ = μ: the equation of motion with friction, against the closed form."""
+    from pathlib import Path
+
+    mech = ls.load(Path(__file__).parent.parent / "data" / "journal_wheel.toml")
+    sim = ls.simulate(mech, 1.0, step=0.1, speed0=10)
+    alpha = -0.020 * math.sin(math.atan(0.2)) * 2 * 9.81 / 0.01
+    t = np.asarray(sim.t)
+    assert np.allclose(sim.xd, 10 + alpha * t, rtol=1e-9)
+    assert np.allclose(np.radians(sim.x), 10 * t + 0.5 * alpha * t**2, atol=1e-9)
+    f = ls.forces(mech, 30, speed=10.0, accel=alpha)  # coasting: no driving torque, all lost in the bearing
+    assert f["input_torque"] == pytest.approx(0.0, abs=1e-12)
+    assert f["power_lost_O"] == pytest.approx(-alpha * 0.01 * 10.0, rel=1e-12)
