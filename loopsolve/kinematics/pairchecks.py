@@ -12,14 +12,11 @@ from the pitch radii: a pair whose centres do not stay in mesh is a wrong declar
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 
 from ..errors import ModelError
 from ..model.gears import ratio_values
 from ..model.placement import link_vectors, placement
-from ..model.units import Kind
 
 __all__ = ["gear_centres", "check_gears", "link_point", "unit_rates"]
 
