@@ -70,6 +70,10 @@ def info(mech: Mechanism, *, input=None) -> dict:
         classic = None
     top = _topology(mech)
     z0 = _start_pose(ck)
+    if z0 is not None and mech.pairs is not None and mech.pairs.gears:
+        from .pairchecks import check_gears
+
+        check_gears(ck, z0[:, None])  # gears whose centres drift are a model error, at the start pose too
     if top is not None:
         mob = top.mobility()
         data["mobility"] = mob.gruebler - (mech.pairs.n_rows if mech.pairs is not None else 0)

@@ -163,7 +163,7 @@ def test_drifting_centres_exit_2_on_one_line(tmp_path):
     path = tmp_path / "drift.toml"
     path.write_text(FIVEBAR.format(extra='[gears]\ng = { gear = "theta2", mate = "theta3", teeth = [20, 30] }')
                     .replace("r1 = 40", "r1 = 30"))
-    for cmd in (["solve", "--at", "80"], ["sweep", "--from", "60", "--to", "100", "--step", "10"]):
+    for cmd in (["solve", "--at", "80"], ["sweep", "--from", "60", "--to", "100", "--step", "10"], ["info"]):
         proc = subprocess.run([sys.executable, "-m", "loopsolve", cmd[0], str(path)] + cmd[1:], capture_output=True,
                               text=True)
         assert proc.returncode == 2
