@@ -128,7 +128,9 @@ def drawing_entities(state, *, curves: dict | None = None) -> list[Entity]:
     """
     from .drawstyle import drawing_style
     from .geometry import pose_frames
+    from .pairdraw import check_drawable
 
+    check_drawable(state.compiled.mechanism)
     (frame,), _ = pose_frames([state], vectors=False)
     style = drawing_style([frame])
     size = float(style.size)

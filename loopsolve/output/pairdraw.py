@@ -18,9 +18,18 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["Shape", "pair_shapes", "draw_shapes", "shape_entities", "cam_outline"]
+__all__ = ["Shape", "pair_shapes", "draw_shapes", "shape_entities", "cam_outline", "check_drawable"]
 
 _PROFILES: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()
+
+
+def check_drawable(mech) -> None:
+    """Refuse to draw a model with nothing to draw: no vectors (a gear train of constraints alone)."""
+    if not mech.vectors:
+        from ..errors import ModelError
+
+        raise ModelError(f"{mech.source or mech.name}: nothing to draw: the model has no vectors (its higher pairs "
+                         "tie angles alone); solve or sweep it for the numbers, or give its links vectors to see them")
 
 
 @dataclass(frozen=True)

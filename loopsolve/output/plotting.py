@@ -490,6 +490,9 @@ def draw(mech, at=None, *, input=None, mode=None, vectors=False, output=None, ax
         state = mech
     else:
         state = mech.solve(at, input=input, mode=mode, **solve_kwargs)
+    from .pairdraw import check_drawable
+
+    check_drawable(state.mechanism)
     frames, _ = pose_frames([state], vectors=vectors)
     style = drawing_style(frames)
     if ax is None:
@@ -673,6 +676,9 @@ def animate(sweep, *, output, fps: float = 20, progress=None, vectors: bool = Fa
     if not len(sweep):
         raise ModelError("cannot animate an empty sweep (no solved positions)")
     check_frames(len(sweep), max_frames)
+    from .pairdraw import check_drawable
+
+    check_drawable(sweep.mechanism)
     frames, _ = pose_frames(list(sweep.states), vectors=vectors)
     style = drawing_style(frames)
     fig = _new_figure(_figsize(style))

@@ -127,6 +127,9 @@ def _angles(values) -> float | list:
 def _scene(sweep) -> dict:
     """Trajectories and shapes of the diagram, from :mod:`loopsolve.output.geometry`'s frames and style."""
     ck = sweep.compiled
+    from .pairdraw import check_drawable
+
+    check_drawable(sweep.mechanism)
     frames, _ = pose_frames(list(sweep.states), vectors=False)
     style = drawing_style(frames)
     size = float(style.size)

@@ -130,3 +130,11 @@ def test_cam_page_in_a_browser(browser, tmp_path):  # noqa: F811
         assert np.allclose(xy, turned, atol=1e-6)
         assert float(roller[0]) == pytest.approx(5.0) and float(roller[1]) == pytest.approx(
             math.sqrt(48**2 - 25) + sw["s"][r], abs=1e-6)
+
+
+def test_a_model_of_angles_alone_has_nothing_to_draw():
+    from test_gears import PLANETARY
+
+    mech = ls.loads(PLANETARY.format(held="theta_r", value=30, s="input = true, ", c="", r=""))
+    with pytest.raises(ls.ModelError, match="nothing to draw"):
+        mech.draw(10)
