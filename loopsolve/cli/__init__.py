@@ -22,6 +22,7 @@ import warnings
 from pathlib import Path
 
 from ..errors import LoopsolveError
+from .cams import _cam_parser
 from .common import (EXIT_OK, EXIT_SOLVE, EXIT_USAGE, _INPUTS, _check_output, _load, _one_line, _output, _Parser,
                      _rate_args, _render, _text_output, _write)
 from .edit import _edit_parser
@@ -213,6 +214,7 @@ def build_parser() -> argparse.ArgumentParser:
     _atlas_parsers(sub)
     _force_parsers(sub)
     _edit_parser(sub)
+    _cam_parser(sub)
     return parser
 
 

@@ -68,6 +68,7 @@ FORMATS: dict[str, Callable] = {
     "animation": _fixed((".gif", ".mp4"), "an animation"),
     "page": _fixed((".html", ".htm"), "an HTML page"),
     "study": _fixed((".nc", ".zarr", ".csv"), "a study Dataset (netCDF, Zarr or long-format CSV)"),
+    "cam": _fixed((".dxf", ".svg", ".csv"), "a cam profile (DXF, SVG or CSV)"),
 }
 
 

@@ -271,6 +271,13 @@ def design_problems(mech, names: Sequence[str], values: np.ndarray) -> np.ndarra
         for d in np.flatnonzero(bad & (out == "")):
             out[d] = (f"{n} = {v[d]:g}: not a finite number" if not math.isfinite(v[d]) else
                       f"{n} = {v[d]:g} is beyond ±{MAX_MAGNITUDE:g} (values that large overflow the solver's squares)")
+    from ..model.gears import teeth_parameters
+
+    for j, n in enumerate(names):  # tooth numbers are whole numbers, at least 1
+        if n in teeth_parameters(mech):
+            v = values[:, j]
+            for d in np.flatnonzero(((v < 1) | (np.abs(v - np.rint(v)) > 1e-9)) & (out == "")):
+                out[d] = f"{n} = {v[d]:g}: a number of teeth is a whole number, at least 1"
     varied = set(names)
     for vec in checked_links(mech.vectors, mech.parameters, mech.variables):
         used = _expr.names(vec.length) & varied

@@ -310,6 +310,7 @@ def study(mech, vary, start, stop, step, *, samples: int | None = None, lhs: int
         phi_p_module(ck)  # derive once here, so workers load it from the cache
     names = designs.names
     values = np.column_stack([designs.values[n] for n in names])
+    values = _whole_teeth(mech, names, values)
     sens_units = {}
     if sensitivity:
         for pn in names:
@@ -375,6 +376,19 @@ def study(mech, vary, start, stop, step, *, samples: int | None = None, lhs: int
     if writer is not None:
         write(ds, out)
     return ds
+
+
+def _whole_teeth(mech, names, values):
+    """Tooth numbers vary over the integers: their values rounded, designs that then repeat dropped."""
+    from ..model.gears import teeth_parameters
+
+    teeth = [j for j, n in enumerate(names) if n in teeth_parameters(mech)]
+    if not teeth:
+        return values
+    values = values.copy()
+    values[:, teeth] = np.rint(values[:, teeth])
+    _, first = np.unique(values, axis=0, return_index=True)
+    return values[np.sort(first)]
 
 
 def _bar(total, progress):

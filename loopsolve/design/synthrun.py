@@ -489,6 +489,16 @@ def synthesize(mech, *, path=None, function=None, motion=None, link=None, target
                         crank=crank, transmission=transmission)
     if mode == "guesses":
         mode = None
+    from ..model.gears import teeth_parameters
+
+    if vary and set(vary) & teeth_parameters(mech):  # whole tooth numbers: every combination in the bounds
+        return _over_teeth(mech, dict(vary), teeth_parameters(mech), dict(
+            path=path, function=function, motion=motion, link=link, targets=targets, inputs=inputs, crank=crank,
+            transmission=transmission, runs=runs, seed=seed, mode=mode, popsize=popsize, maxiter=maxiter, tol=tol,
+            restarts=restarts, strategy=strategy, polish_candidates=polish_candidates, starts=starts,
+            de_starts=de_starts, lm_iters=lm_iters, workers=workers, scheduler=scheduler, client=client,
+            progress=progress, input_range=input_range, desired=desired, max_cells=max_cells,
+            max_targets=max_targets))
     problem = define(mech, path=path, function=function, motion=motion, link=link, targets=targets, inputs=inputs,
                      vary=vary, crank=crank, transmission=transmission, mode=mode, max_targets=max_targets)
     opts = {"popsize": popsize, "maxiter": maxiter, "tol": tol, "polish": polish_candidates, "restarts": restarts,
@@ -523,6 +533,48 @@ def synthesize(mech, *, path=None, function=None, motion=None, link=None, target
     if bar is not None:
         bar.close()
     return _result(problem, outs, input_range, desired)
+
+
+#: most combinations of tooth numbers one synthesis tries
+MAX_TEETH_COMBINATIONS = 256
+
+
+def _over_teeth(mech, vary, teeth, kwargs):
+    """Synthesis with tooth numbers among the design variables: the continuous ones are synthesized for
+    every combination of whole tooth numbers in their bounds; the best certified design wins."""
+    import itertools
+
+    names = [n for n in vary if n in teeth]
+    ranges = []
+    for n in names:
+        lo, hi = (float(v) for v in vary[n])
+        values = list(range(max(1, math.ceil(min(lo, hi))), math.floor(max(lo, hi)) + 1))
+        if not values:
+            raise ModelError(f"--vary {n}={lo:g}:{hi:g}: {n} is a number of teeth and no whole number lies in these "
+                             "bounds")
+        ranges.append(values)
+    count = math.prod(len(r) for r in ranges)
+    if count > MAX_TEETH_COMBINATIONS:
+        raise ModelError(f"--vary {', '.join(names)}: {count} combinations of tooth numbers, more than "
+                         f"{MAX_TEETH_COMBINATIONS}: narrow their bounds")
+    rest = {n: v for n, v in vary.items() if n not in teeth}
+    if not rest:
+        raise ModelError("--vary: a synthesis varies at least one continuous parameter besides the tooth numbers "
+                         f"({', '.join(names)}; a study tries tooth numbers alone)")
+    best, last_error = None, None
+    for combo in itertools.product(*ranges):
+        fixed = dict(zip(names, combo))
+        try:
+            res = synthesize(mech.with_parameters(**fixed), vary=rest, **kwargs)
+        except SynthesisError as exc:
+            last_error = exc
+            continue
+        res.report["parameters"] = {**{n: float(v) for n, v in fixed.items()}, **res.report["parameters"]}
+        if best is None or res.objective < best.objective:
+            best = res
+    if best is None:
+        raise last_error
+    return best
 
 
 def _classic(mech, method, *, path, function, motion, link, targets, input_range, desired, crank, transmission,

@@ -168,6 +168,8 @@ def check_carriers(dm, z) -> None:
     def carriers_of(k):
         return [bodies[b] for b in range(len(bodies)) if ride[b, k]]
 
+    mech = dm.ck.mechanism
+    slotted = {sl.point for sl in mech.pairs.slots} if mech.pairs is not None else set()  # pins in slots
     listed: dict[str, list[str]] = {}
     for b, body in enumerate(dm.bodies):
         for j in body.joints:
@@ -184,7 +186,7 @@ def check_carriers(dm, z) -> None:
         for c in left_out:
             problems.append(f"joint {j!r} is named by {' and '.join(repr(n) for n in names)} but left out by "
                             f"{c!r}, which carries it ({j} moves with {c!r}): add \"{j}\" to bodies.{c}.joints")
-        if len(names) == 1 and not left_out and not fixed[k] and ride[bodies.index(names[0]), k]:
+        if len(names) == 1 and not left_out and not fixed[k] and ride[bodies.index(names[0]), k] and j not in slotted:
             problems.append(f"joint {j!r} is named by {names[0]!r} only, which makes it a pin to the frame, but {j} "
                             f"moves: add \"{j}\" to the joints of the body that {names[0]!r} meets there (or "
                             "declare that body in [bodies])")
@@ -243,6 +245,9 @@ def check_power_balance(dm, data: dict, inputs_display, *, spurious: dict | None
     """
     res = np.asarray(data["power_residual"], dtype=float)
     scale = np.asarray(data["power_scale"], dtype=float)
+    big = scale[np.isfinite(scale)]
+    if big.size:  # a row where nothing moves (a cam's dwell) has powers of round-off: judge it on the motion's scale
+        scale = np.maximum(scale, 1e-6 * float(big.max()))
     kappa = np.asarray(data.get("kappa", np.ones_like(res)), dtype=float)
     with np.errstate(invalid="ignore"):
         tol = np.maximum(POWER_RTOL, 1e3 * _EPS * np.where(np.isfinite(kappa), kappa, np.inf)) * scale

@@ -67,7 +67,7 @@ def force_units(drive_name: str, columns) -> dict[str, str]:
             out[c] = "N"
         elif c.endswith("_energy"):
             out[c] = "J"
-        elif c == "power_residual":
+        elif c == "power_residual" or c.startswith("power_lost"):
             out[c] = "W"
     return out
 
@@ -77,7 +77,8 @@ class ForceSweep:
 
     Attributes: ``sweep`` (the kinematic :class:`~loopsolve.kinematics.results.Sweep`), ``drive`` (N·m or N),
     ``joint_forces`` {``F_<joint>``: (N, 2)}, ``guide_reactions`` {``<body>_guide``: (N, 3): force x,
-    y and couple}, ``shaking_force`` (N, 2), ``shaking_moment``, ``kinetic_energy``,
+    y and couple}, ``contact_forces`` {``F_<pair>``: (N, 3): the force along the gear's line of
+    action (cam: along the normal; slot: the normal reaction), x and y on the pair's first body}, ``shaking_force`` (N, 2), ``shaking_moment``, ``kinetic_energy``,
     ``potential_energy``, ``power_residual`` (W) — arrays over the rows, or for a result at one
     input (``ls.forces(mech, 30)``: ``scalar`` is True) scalars and ``(2,)`` vectors, as
     :class:`~loopsolve.kinematics.results.State` gives; ``units()`` names every unit; ``singular`` (bool: the Newton–Euler system is
@@ -85,7 +86,8 @@ class ForceSweep:
     system per row: large near a dead centre, where a warning is issued), ``events``.
     """
 
-    __slots__ = ("sweep", "drive", "drive_name", "joint_forces", "guide_reactions", "shaking_force",
+    __slots__ = ("sweep", "drive", "drive_name", "joint_forces", "guide_reactions", "contact_forces", "power_lost",
+                 "shaking_force",
                  "shaking_moment", "kinetic_energy", "potential_energy", "power_residual", "singular",
                  "condition", "events", "scalar", "_arrays", "_cache")
 
@@ -104,6 +106,9 @@ class ForceSweep:
         arrays["condition"] = _ro(data.get("kappa", np.ones(len(arrays["drive"]))))
         arrays["joint_forces"] = {k: _ro(v) for k, v in data["pins"].items()}
         arrays["guide_reactions"] = {k: _ro(v) for k, v in data["guides"].items()}
+        arrays["contact_forces"] = {k: _ro(v) for k, v in data.get("contacts", {}).items()}
+        arrays["power_lost"] = {k: _ro(np.broadcast_to(np.asarray(v, dtype=float), arrays["drive"].shape))
+                                for k, v in data.get("power_lost", {}).items()}
         put(self, "_arrays", arrays)
         for name, a in arrays.items():  # one input: scalars (and (2,) vectors), as State gives
             if isinstance(a, dict):
@@ -116,6 +121,14 @@ class ForceSweep:
         sing = np.flatnonzero(arrays["singular"])
         xs = sweep[ck.inputs[0]] if sing.size else None
         nonfinite = np.asarray(data.get("nonfinite", np.zeros(len(arrays["singular"]), dtype=bool)))
+        locked = np.asarray(data.get("self_locking", np.zeros(len(arrays["singular"]), dtype=bool)))
+        if locked.any():
+            xl = sweep[ck.inputs[0]]
+            for i in np.flatnonzero(locked)[:20]:
+                events.append(Event(EventKind.SELF_LOCKING, float(xl[i]),
+                                    "self-locking: with the friction of the joints no driving "
+                                    f"{'torque' if kind is Kind.ANGLE else 'force'} can move the mechanism here "
+                                    "in this direction (the forces are undefined: NaN)"))
         for i in sing[:20]:
             if nonfinite[i]:
                 why = ("a load, mass property or rate is not a finite number here (NaN or infinite: check the "
@@ -158,9 +171,15 @@ class ForceSweep:
                 out[f"{name}_x"], out[f"{name}_y"] = f[:, 0], f[:, 1]
             for name, f in a["guide_reactions"].items():
                 out[f"F_{name}_x"], out[f"F_{name}_y"], out[f"M_{name}"] = f[:, 0], f[:, 1], f[:, 2]
+            for name, f in a["contact_forces"].items():  # higher pairs: along the line of action / normal, x, y
+                out[name], out[f"{name}_x"], out[f"{name}_y"] = f[:, 0], f[:, 1], f[:, 2]
             out["shaking_force_x"], out["shaking_force_y"] = a["shaking_force"][:, 0], a["shaking_force"][:, 1]
             out["shaking_moment"] = a["shaking_moment"]
             out["kinetic_energy"], out["potential_energy"] = a["kinetic_energy"], a["potential_energy"]
+            if a["power_lost"]:  # friction: the power each joint dissipates, and their sum
+                for name, p in a["power_lost"].items():
+                    out[f"power_lost_{name}"] = p
+                out["power_lost"] = sum(a["power_lost"].values())
             out["power_residual"] = a["power_residual"]
             self._cache["force"] = out
         return self._cache["force"]
@@ -191,7 +210,9 @@ class ForceSweep:
     def units(self) -> dict[str, str]:
         """Unit of every column, and of the attributes (``drive``, ``joint_forces``, ...): SI."""
         drive = "N*m" if self.drive_name == "input_torque" else "N"
-        attrs = {"drive": drive, "joint_forces": "N", "guide_reactions": "N, N, N*m", "shaking_force": "N",
+        attrs = {"drive": drive, "joint_forces": "N", "guide_reactions": "N, N, N*m", "contact_forces": "N",
+                 "power_lost": "W",
+                 "shaking_force": "N",
                  "shaking_moment": "N*m", "kinetic_energy": "J", "potential_energy": "J", "power_residual": "W",
                  "condition": "1"}
         return {**column_units(self.sweep.compiled), **force_units(self.drive_name, self.force_columns), **attrs}

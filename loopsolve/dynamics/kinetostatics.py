@@ -45,7 +45,9 @@ class Layout:
     """Unknowns of the Newton–Euler system: pins, guide reactions and the driver.
 
     ``pins``: (column name, joint index in ``dm.point_names``, body index, other body index or −1);
-    ``guides``: (column name, body index, other index or −1, guide index); ``driver``: body index.
+    ``guides``: (column name, body index, other index or −1, guide index); ``driver``: body index;
+    ``contacts``: the higher pairs' contact unknowns (:class:`loopsolve.dynamics.contacts.Contact`),
+    after the driver's column.
     """
 
     pins: tuple
@@ -53,6 +55,7 @@ class Layout:
     driver: int
     n_unknowns: int
     n_equations: int
+    contacts: tuple = ()
 
 
 def layout(dm: DynamicsModel) -> Layout:
@@ -61,9 +64,11 @@ def layout(dm: DynamicsModel) -> Layout:
 
     names = [b.name for b in dm.bodies]
     pins = []
+    mech = dm.ck.mechanism
+    slotted = {sl.point for sl in mech.pairs.slots} if mech.pairs is not None else set()
     for j, pname in enumerate(dm.point_names):
         carriers = [i for i, b in enumerate(dm.bodies) if pname in b.joints]
-        if not carriers:
+        if not carriers or pname in slotted:  # a pin in a slot: the slot's normal reaction (a contact)
             continue
         if len(carriers) == 1:
             pins.append((f"F_{pname}", j, carriers[0], -1))
@@ -77,16 +82,20 @@ def layout(dm: DynamicsModel) -> Layout:
         if b.guide is not None:
             other = -1 if b.guide_body == FRAME else names.index(b.guide_body)
             guides.append((f"{b.name}_guide", i, other, dm.guide_vectors.index(b.guide)))
-    n_u = 2 * len(pins) + 2 * len(guides) + 1
+    from .contacts import contacts
+
+    pairs = contacts(dm)
+    n_u = 2 * len(pins) + 2 * len(guides) + 1 + sum(c.n for c in pairs)
     n_e = 3 * len(dm.bodies)
     if n_u != n_e:
         mech = dm.ck.mechanism
         raise ModelError(
             f"{mech.source or mech.name}: bodies: the joint forces cannot be found by statics: "
-            f"{len(dm.bodies)} bodies give {n_e} equations of motion but the pins, guides and the driver "
-            f"have {n_u} unknown force components (each pin 2, each guide 2, the driver 1); declare every "
-            "moving link as a body, with the joints it carries")
-    return Layout(tuple(pins), tuple(guides), names.index(dm.input_body), n_u, n_e)
+            f"{len(dm.bodies)} bodies give {n_e} equations of motion but the pins, guides"
+            f"{', contacts' if pairs else ''} and the driver have {n_u} unknown force components (each pin 2, each "
+            f"guide 2, the driver 1{', each gear pair, cam or slot 1, each rolling contact 2' if pairs else ''}); "
+            "declare every moving link as a body, with the joints it carries")
+    return Layout(tuple(pins), tuple(guides), names.index(dm.input_body), n_u, n_e, pairs)
 
 
 def _external(dm: DynamicsModel, e: dict, n: int):
@@ -297,12 +306,127 @@ def inverse_dynamics(dm: DynamicsModel, z, xd, xdd, *, rates=None, check: bool =
         phi = e["phi"][dm.guide_vectors.index(dm.input_guide)]
         ex, ey = np.cos(phi), np.sin(phi)
         entries += [(3 * drv, col, ex), (3 * drv + 1, col, ey)]
+    geo = [_contact_geometry(dm, c, z, z1, e) for c in lay.contacts]
+    sigma = [np.ones(n) for _ in lay.contacts]  # the loaded flank of each gear pair (sign of W), found below
     rhs = np.zeros((n, lay.n_equations))
     for b in range(nb):
         rhs[:, 3 * b] = m[b] * aG[b, 0] - Fext[b, 0]
         rhs[:, 3 * b + 1] = m[b] * aG[b, 1] - Fext[b, 1]
         rhs[:, 3 * b + 2] = inertia[b] * e["al"][b] - Mext[b]
 
+    def all_entries():
+        return entries + _contact_entries(lay, geo, sigma, G, col + 1)
+
+    u, residual, ratio, kappa, nonfinite = _solve_system(all_entries(), rhs, lay, n)
+    for _ in range(3):  # a gear's radial force pushes the gears apart whichever flank is loaded
+        flipped = False
+        c0 = col + 1
+        for i, c in enumerate(lay.contacts):
+            if c.kind in ("gear", "rack"):
+                s_new = np.where(np.isfinite(u[:, c0]), np.where(u[:, c0] < 0, -1.0, 1.0), sigma[i])
+                flipped |= bool(np.any(s_new != sigma[i]))
+                sigma[i] = s_new
+            c0 += c.n
+        if not flipped:
+            break
+        u, residual, ratio, kappa, nonfinite = _solve_system(all_entries(), rhs, lay, n)
+    om = e["om"]
+
+    def rigid_v(body, px, py):
+        """Velocity (SI) of the material point of ``body`` at (px, py); the frame's is zero."""
+        if body < 0:
+            return np.zeros(n), np.zeros(n)
+        return vG[body, 0] - om[body] * (py - G[body, 1]), vG[body, 1] + om[body] * (px - G[body, 0])
+
+    mech = dm.ck.mechanism
+    fterms, locked = [], np.zeros(n, dtype=bool)
+    if mech.pairs is not None and mech.pairs.friction:  # Coulomb friction: the exact solution, or self-locking
+        from .friction import friction_terms, solve_with_friction
+
+        fterms = friction_terms(dm, lay, e, G, vG, om, geo, rigid_v)
+        u, locked = solve_with_friction(all_entries(), rhs, lay, n, fterms, u)
+        residual = _friction_residual(all_entries(), rhs, lay, n, fterms, u)
+    singular = ~(ratio > SINGULAR_RATIO)
+    residual = residual.reshape(n, nb, 3)
+    cond = ratio
+
+    kappa[singular] = np.inf
+    out: dict = {"singular": singular, "nonfinite": nonfinite, "cond": cond, "kappa": kappa, "z1": z1, "z2": z2,
+                 "layout": lay, "self_locking": locked}
+
+    spurious: dict = {}
+    pins, guides = {}, {}
+    col = 0
+    sf = np.zeros((n, 2))
+    sm = np.zeros(n)
+    for name, j, a, o in lay.pins:
+        f = u[:, col:col + 2]
+        pins[name] = f
+        va, vo = rigid_v(a, P[j, 0], P[j, 1]), rigid_v(o, P[j, 0], P[j, 1])
+        spurious[f"the pin {dm.point_names[j]!r} between {_body(dm, a)} and {_body(dm, o)}"] = (
+            f[:, 0] * (va[0] - vo[0]) + f[:, 1] * (va[1] - vo[1]))
+        if o < 0:
+            sf -= f
+            sm -= _cross(P[j, 0], P[j, 1], f[:, 0], f[:, 1])
+        col += 2
+    for name, b, o, g in lay.guides:
+        phi = e["phi"][g]
+        N, C = u[:, col], u[:, col + 1]
+        f = np.stack([-np.sin(phi) * N, np.cos(phi) * N], axis=1)
+        guides[name] = np.column_stack([f, C])
+        vo = rigid_v(o, G[b, 0], G[b, 1])
+        spurious[f"the guide of {_body(dm, b)} (guide = {dm.bodies[b].guide!r} on {_body(dm, o)})"] = (
+            f[:, 0] * (vG[b, 0] - vo[0]) + f[:, 1] * (vG[b, 1] - vo[1])
+            + C * (om[b] - (om[o] if o >= 0 else 0.0)))
+        if o < 0:
+            sf -= f
+            sm -= _cross(G[b, 0], G[b, 1], f[:, 0], f[:, 1]) + C
+        col += 2
+    drive = u[:, col]
+    if ex is None:
+        sm -= drive
+        p_drive = drive * xd
+        spurious[f"the driver on {_body(dm, drv)}"] = drive * (om[drv] - xd)
+    else:
+        f = np.stack([ex * drive, ey * drive], axis=1)
+        sf -= f
+        sm -= _cross(G[drv, 0], G[drv, 1], f[:, 0], f[:, 1])
+        p_drive = drive * xd * lf
+        spurious[f"the driver on {_body(dm, drv)}"] = f[:, 0] * vG[drv, 0] + f[:, 1] * vG[drv, 1] - p_drive
+    contact_forces = _contact_results(lay, geo, sigma, u, col + 1, rigid_v, spurious, sf, sm)
+    vPs = e["vP"] * lf
+    slot = 0
+    for ld in dm.dynamics.loads:
+        vals = e["load"][slot:slot + len(ld.values)]
+        slot += len(ld.values)
+        if ld.kind is LoadKind.FORCE and ld.body != FRAME:
+            j = dm.point_names.index(ld.at)
+            b = [bb.name for bb in dm.bodies].index(ld.body)
+            vb = rigid_v(b, P[j, 0], P[j, 1])
+            spurious[f"the load {ld.name!r} (loads[{ld.index}], at {ld.at!r} on {ld.body!r})"] = (
+                vals[0] * (vb[0] - vPs[j, 0]) + vals[1] * (vb[1] - vPs[j, 1]))
+    lost = {}
+    if fterms:
+        from .friction import lost_power
+
+        lost = lost_power(fterms, u)
+    p_lost = sum(lost.values()) if lost else np.zeros(n)
+    ke = 0.5 * np.sum(m[:, None] * np.sum(vG**2, axis=1) + inertia[:, None] * e["om"] ** 2, axis=0)
+    dke = np.sum(m[:, None] * np.sum(vG * aG, axis=1) + inertia[:, None] * e["om"] * e["al"], axis=0)
+    scale = np.abs(p_drive) + np.abs(dke) + np.abs(dpot) + np.abs(p_loads) + np.abs(p_lost)
+    fscale = (np.sum(np.abs(m[:, None, None] * aG), axis=(0, 1)) + np.sum(np.abs(Fext), axis=(0, 1))
+              + np.abs(u).sum(axis=1))
+    out.update(drive=drive, pins=pins, guides=guides, contacts=contact_forces, shaking_force=sf, shaking_moment=sm,
+               kinetic_energy=ke, potential_energy=pot, power_lost=lost,
+               power_residual=p_drive - (dke + dpot - p_loads + p_lost),
+               power_scale=scale, residual=residual, force_scale=fscale, d1=d1, d2=d2, spurious=spurious)
+    return out
+
+
+def _solve_system(entries, rhs, lay, n):
+    """Solve the Newton–Euler system given by its sparse ``entries`` (row, column, value or array) at
+    every point, in chunks; returns ``u``, the residuals, the Hadamard ratios, the condition numbers
+    and the rows where something was not finite."""
     ne = lay.n_equations
     u = np.empty((n, lay.n_unknowns))
     residual = np.empty((n, ne))
@@ -344,79 +468,71 @@ def inverse_dynamics(dm: DynamicsModel, z, xd, xdd, *, rates=None, check: bool =
             res[:, r] += (v[lo:hi] if isinstance(v, np.ndarray) else v) * uc[c]
         residual[lo:hi] = res
         ratio[lo:hi] = had
-    singular = ~(ratio > SINGULAR_RATIO)
-    residual = residual.reshape(n, nb, 3)
-    cond = ratio
+    return u, residual, ratio, kappa, nonfinite
 
-    kappa[singular] = np.inf
-    out: dict = {"singular": singular, "nonfinite": nonfinite, "cond": cond, "kappa": kappa, "z1": z1, "z2": z2,
-                 "layout": lay}
-    om = e["om"]
 
-    def rigid_v(body, px, py):
-        """Velocity (SI) of the material point of ``body`` at (px, py); the frame's is zero."""
-        if body < 0:
-            return np.zeros(n), np.zeros(n)
-        return vG[body, 0] - om[body] * (py - G[body, 1]), vG[body, 1] + om[body] * (px - G[body, 0])
+def _friction_residual(entries, rhs, lay, n, terms, u):
+    """The Newton–Euler residuals ``A u + friction − b`` of the solution with friction."""
+    from .friction import _magnitude
 
-    spurious: dict = {}
-    pins, guides = {}, {}
-    col = 0
-    sf = np.zeros((n, 2))
-    sm = np.zeros(n)
-    for name, j, a, o in lay.pins:
-        f = u[:, col:col + 2]
-        pins[name] = f
-        va, vo = rigid_v(a, P[j, 0], P[j, 1]), rigid_v(o, P[j, 0], P[j, 1])
-        spurious[f"the pin {dm.point_names[j]!r} between {_body(dm, a)} and {_body(dm, o)}"] = (
-            f[:, 0] * (va[0] - vo[0]) + f[:, 1] * (va[1] - vo[1]))
-        if o < 0:
-            sf -= f
-            sm -= _cross(P[j, 0], P[j, 1], f[:, 0], f[:, 1])
-        col += 2
-    for name, b, o, g in lay.guides:
-        phi = e["phi"][g]
-        N, C = u[:, col], u[:, col + 1]
-        f = np.stack([-np.sin(phi) * N, np.cos(phi) * N], axis=1)
-        guides[name] = np.column_stack([f, C])
-        vo = rigid_v(o, G[b, 0], G[b, 1])
-        spurious[f"the guide of {_body(dm, b)} (guide = {dm.bodies[b].guide!r} on {_body(dm, o)})"] = (
-            f[:, 0] * (vG[b, 0] - vo[0]) + f[:, 1] * (vG[b, 1] - vo[1])
-            + C * (om[b] - (om[o] if o >= 0 else 0.0)))
-        if o < 0:
-            sf -= f
-            sm -= _cross(G[b, 0], G[b, 1], f[:, 0], f[:, 1]) + C
-        col += 2
-    drive = u[:, col]
-    if ex is None:
-        sm -= drive
-        p_drive = drive * xd
-        spurious[f"the driver on {_body(dm, drv)}"] = drive * (om[drv] - xd)
-    else:
-        f = np.stack([ex * drive, ey * drive], axis=1)
-        sf -= f
-        sm -= _cross(G[drv, 0], G[drv, 1], f[:, 0], f[:, 1])
-        p_drive = drive * xd * lf
-        spurious[f"the driver on {_body(dm, drv)}"] = f[:, 0] * vG[drv, 0] + f[:, 1] * vG[drv, 1] - p_drive
-    vPs = e["vP"] * lf
-    slot = 0
-    for ld in dm.dynamics.loads:
-        vals = e["load"][slot:slot + len(ld.values)]
-        slot += len(ld.values)
-        if ld.kind is LoadKind.FORCE and ld.body != FRAME:
-            j = dm.point_names.index(ld.at)
-            b = [bb.name for bb in dm.bodies].index(ld.body)
-            vb = rigid_v(b, P[j, 0], P[j, 1])
-            spurious[f"the load {ld.name!r} (loads[{ld.index}], at {ld.at!r} on {ld.body!r})"] = (
-                vals[0] * (vb[0] - vPs[j, 0]) + vals[1] * (vb[1] - vPs[j, 1]))
-    ke = 0.5 * np.sum(m[:, None] * np.sum(vG**2, axis=1) + inertia[:, None] * e["om"] ** 2, axis=0)
-    dke = np.sum(m[:, None] * np.sum(vG * aG, axis=1) + inertia[:, None] * e["om"] * e["al"], axis=0)
-    scale = np.abs(p_drive) + np.abs(dke) + np.abs(dpot) + np.abs(p_loads)
-    fscale = (np.sum(np.abs(m[:, None, None] * aG), axis=(0, 1)) + np.sum(np.abs(Fext), axis=(0, 1))
-              + np.abs(u).sum(axis=1))
-    out.update(drive=drive, pins=pins, guides=guides, shaking_force=sf, shaking_moment=sm,
-               kinetic_energy=ke, potential_energy=pot, power_residual=p_drive - (dke + dpot - p_loads),
-               power_scale=scale, residual=residual, force_scale=fscale, d1=d1, d2=d2, spurious=spurious)
+    res = -rhs.copy()
+    for r, c, v in entries:
+        res[:, r] += v * u[:, c]
+    for t in terms:
+        res += (t.c * _magnitude(u, t.cols))[:, None] * t.g
+    return res
+
+
+def _contact_results(lay, geo, sigma, u, col0, rigid_v, spurious, sf, sm) -> dict:
+    """``{F_<name>: (N, 3)}``: the contact force along its line (line of action, normal) and its x, y
+    components on the pair's first body; the shaking force and moment and the spurious power updated."""
+    out = {}
+    col = col0
+    for c, g, sg in zip(lay.contacts, geo, sigma):
+        P = g["P"]
+        if c.kind in ("gear", "rack"):
+            W = u[:, col]
+            f = W[:, None] * g["t"] + (np.abs(W) * g["tan"])[:, None] * g["r"]
+            along = np.abs(W) * np.sqrt(1.0 + g["tan"] ** 2)  # |W| / cos φ
+        else:
+            comps = [u[:, col + k, None] * d for k, d in enumerate(g["dirs"])]
+            f = sum(comps)
+            along = u[:, col]  # the normal force (signed: negative pulls)
+        col += c.n
+        out[c.name] = np.column_stack([along, f])
+        va, vb = rigid_v(c.a, P[:, 0], P[:, 1]), rigid_v(c.b, P[:, 0], P[:, 1])
+        spurious[f"the contact {c.key}"] = f[:, 0] * (va[0] - vb[0]) + f[:, 1] * (va[1] - vb[1])
+        for body, sgn in ((c.a, 1.0), (c.b, -1.0)):  # the frame's side: what the mechanism exerts on it
+            if body < 0:
+                sf += sgn * f
+                sm += sgn * _cross(P[:, 0], P[:, 1], f[:, 0], f[:, 1])
+    return out
+
+
+def _contact_geometry(dm, c, z, z1, e):
+    from .contacts import contact_geometry
+
+    return contact_geometry(dm, c, z, z1, e)
+
+
+def _contact_entries(lay, geo, sigma, G, col0):
+    """The Newton–Euler entries of the contact unknowns: force on body ``a`` at the contact, minus it on ``b``."""
+    out = []
+    col = col0
+    for c, g, sg in zip(lay.contacts, geo, sigma):
+        if c.kind in ("gear", "rack"):
+            dirs = [g["t"] + (sg * g["tan"])[:, None] * g["r"]]
+        else:
+            dirs = g["dirs"]
+        P = g["P"]
+        for d in dirs:
+            for body, sgn in ((c.a, 1.0), (c.b, -1.0)):
+                if body < 0:
+                    continue
+                dx, dy = P[:, 0] - G[body, 0], P[:, 1] - G[body, 1]
+                out += [(3 * body, col, sgn * d[:, 0]), (3 * body + 1, col, sgn * d[:, 1]),
+                        (3 * body + 2, col, sgn * _cross(dx, dy, d[:, 0], d[:, 1]))]
+            col += 1
     return out
 
 

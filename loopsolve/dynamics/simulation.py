@@ -221,7 +221,50 @@ def equation_of_motion_rhs(dm: DynamicsModel, pose: _Pose, x, xd, t, drive) -> f
     acc = float((Q[0] + T - 0.5 * dM[0] * (s * xd) ** 2) / (M[0] * s))
     if not np.isfinite(acc):
         raise NonFiniteError(_nonfinite_message(dm, z, loads, T, t, x, xd))
+    mech = dm.ck.mechanism
+    if mech.pairs is not None and mech.pairs.friction and xd != 0:
+        acc = _with_friction(dm, z, xd, T, acc, float(M[0] * s), t)
     return acc
+
+
+class SelfLockingError(SolveError):
+    """The mechanism self-locks: with its joints' friction no driving torque moves it on (simulation)."""
+
+
+def _with_friction(dm, z, xd, T, acc, inertia, t) -> float:
+    """ẍ with Coulomb friction: the input acceleration whose inverse dynamics (with the joints' friction,
+    :mod:`loopsolve.dynamics.friction`) needs the applied driving torque T. The required torque is piecewise
+    linear in ẍ (slope the generalized inertia, where the friction's signs hold): secant steps from the
+    frictionless ẍ."""
+    from .kinetostatics import inverse_dynamics
+
+    def excess(a):
+        data = inverse_dynamics(dm, z[None, :], xd, a, check=False)
+        return float(data["drive"][0]) - T
+
+    a0, f0 = acc, excess(acc)
+    if not np.isfinite(f0):
+        raise SelfLockingError(f"self-locking at t = {t:.6g} s: with the joints' friction no driving torque moves the "
+                               "mechanism on")
+    a1 = a0 - f0 / inertia
+    for _ in range(8):
+        f1 = excess(a1)
+        if not np.isfinite(f1):
+            raise SelfLockingError(f"self-locking at t = {t:.6g} s: with the joints' friction no driving torque moves "
+                                   "the mechanism on")
+        if abs(f1) <= 1e-10 * (abs(T) + abs(inertia * a1) + 1e-300):
+            return a1
+        slope = (f1 - f0) / (a1 - a0) if a1 != a0 else inertia
+        a0, f0 = a1, f1
+        a1 = a1 - f1 / (slope if slope != 0 else inertia)
+    return a1
+
+
+def _safe_acc(dm, pose, x, xd, t, drive) -> float:
+    try:
+        return equation_of_motion_rhs(dm, pose, x, xd, t, drive)
+    except SelfLockingError:
+        return math.nan
 
 
 def _nonfinite_message(dm, z, loads, T, t, x, xd) -> str:
@@ -372,8 +415,12 @@ def simulate(mech, duration: float, *, step: float = 0.01, torque=0.0, speed0=No
             fatal = exc
             break
         except _Stop:
-            events.append(limit_event(t_before, failure[-1][1]))
-            message = "stopped at a limit position"
+            if isinstance(failure[-1][1], SelfLockingError):
+                events.append(Event(EventKind.SELF_LOCKING, float(t_before), str(failure[-1][1])))
+                message = "stopped: the mechanism self-locks"
+            else:
+                events.append(limit_event(t_before, failure[-1][1]))
+                message = "stopped at a limit position"
             break
         steps += 1
         if solver.status == "running" and (steps >= max_steps or (solver.step_size is not None
@@ -413,7 +460,7 @@ def simulate(mech, duration: float, *, step: float = 0.01, torque=0.0, speed0=No
     out_pose = _Pose(ck, state0.z)
     zs = np.array([out_pose.at(x).copy() for x in xs]) if len(xs) else np.zeros((0, len(ck.variables)))
     acc_pose = _Pose(ck, state0.z)
-    acc = np.array([equation_of_motion_rhs(dm, acc_pose, x, w, t, drive) for x, w, t in zip(xs, ws, ts)])
+    acc = np.array([_safe_acc(dm, acc_pose, x, w, t, drive) for x, w, t in zip(xs, ws, ts)])
     if len(xs):
         data = inverse_dynamics(dm, zs, ws, acc)
         ke, pe = data["kinetic_energy"], data["potential_energy"]

@@ -714,7 +714,7 @@ class Tracer:
         k = self.k
         for i, idx in enumerate(k.iu):
             d = z[idx] - z0[idx]
-            if k.angle_u[i]:
+            if k.turn_u[i]:
                 d = (d + math.pi) % (2 * math.pi) - math.pi
             if abs(d) * k.wu[i] > 1e-6:
                 return False

@@ -24,7 +24,8 @@ def info(mech: Mechanism, *, input=None, reach: bool = True) -> dict:
 
     ``mobility`` is the Gruebler–Kutzbach count for a kinematic-diagram model (whose
     ``topology`` gives links, joints and the formula), else joint variables minus twice the
-    loops; ``mobility_rank`` is the second opinion: joint variables minus the rank of Φ_q at
+    loops, minus one for each higher pair (``pairs``: constraints, gear pairs, cams, slots,
+    rolling contacts, each with its ``name`` and ``equation``); ``mobility_rank`` is the second opinion: joint variables minus the rank of Φ_q at
     the solved start pose (``None`` when it does not assemble). Four-bar loops (found in the
     link–joint graph of a diagram, also inside six-bars, or as four constant-length vectors of
     a vector loop) name their ``ground``, ``input`` (the side that drives the loop: the
@@ -51,7 +52,7 @@ def info(mech: Mechanism, *, input=None, reach: bool = True) -> dict:
         "name": mech.name,
         "source": mech.source,
         "units": {"length": u.length, "angle": u.angle},
-        "mobility": len(mech.variables) - 2 * len(mech.loops),
+        "mobility": len(mech.variables) - mech.n_equations,
         "mobility_rank": None,
         "inputs": list(ck.inputs),
         "unknowns": list(ck.unknowns),
@@ -59,6 +60,7 @@ def info(mech: Mechanism, *, input=None, reach: bool = True) -> dict:
                        "input": v.name in ck.inputs} for v in mech.variables],
         "parameters": {p.name: (conv(p.value) if p.kind is Kind.ANGLE else p.value) for p in mech.parameters},
         "loops": [{"name": lp.name, "equation": lp.text} for lp in mech.loops],
+        "pairs": ([{"name": e.key, "equation": e.text} for e in mech.pairs.rows] if mech.pairs is not None else []),
         "blocks": [[ck.unknowns[j] for j in b.unknowns] for b in ck.blocks],
         "points": [p.name for p in mech.points],
         "modes": dict(mech.mode_aliases),
@@ -70,9 +72,13 @@ def info(mech: Mechanism, *, input=None, reach: bool = True) -> dict:
         classic = None
     top = _topology(mech)
     z0 = _start_pose(ck)
+    if z0 is not None and mech.pairs is not None and mech.pairs.gears:
+        from .pairchecks import check_gears
+
+        check_gears(ck, z0[:, None])  # gears whose centres drift are a model error, at the start pose too
     if top is not None:
         mob = top.mobility()
-        data["mobility"] = mob.gruebler
+        data["mobility"] = mob.gruebler - (mech.pairs.n_rows if mech.pairs is not None else 0)
         data["topology"] = {"links": mob.n_links, "joints": len(top.joints), "j1": mob.j1, "j2": mob.j2,
                             "gruebler": mob.gruebler, "formula": mob.formula(),
                             "independent_loops": mob.loops,
@@ -572,6 +578,8 @@ def format_info(data: dict) -> str:
              f"  input(s): {', '.join(data['inputs'])}",
              f"  unknowns: {', '.join(data['unknowns'])}",
              "  loops: " + "; ".join(f"{lp['name']}: {lp['equation']}" for lp in data["loops"]),
+             *(["  higher pairs: " + "; ".join(f"{e['name']}: {e['equation']}" for e in data["pairs"])]
+               if data.get("pairs") else []),
              "  solve order (blocks): " + " -> ".join("(" + ", ".join(b) + ")" for b in data["blocks"])]
     if data.get("points"):
         lines.append(f"  points: {', '.join(data['points'])}")

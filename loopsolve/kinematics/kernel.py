@@ -95,6 +95,7 @@ class Kernel:
         sc = float(ck.scale)
         self.scale = sc
         self.angle_u = [ck.kinds[i] is Kind.ANGLE for i in self.iu]
+        self.turn_u = [bool(ck.periodic[i]) for i in self.iu]  # angles a whole turn leaves the same pose
         self.wu = [1.0 if a else 1.0 / sc for a in self.angle_u]
         self.angle_x = ck.kinds[self.ix] is Kind.ANGLE
         self.wx = 1.0 if self.angle_x else 1.0 / sc

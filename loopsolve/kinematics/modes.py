@@ -130,6 +130,14 @@ def _single_roots(ck, z, block) -> list[tuple[float]] | None:
         return float(ck.phi(zz)[e])
 
     rng = np.random.default_rng(11)
+    if ck.kinds[iz] is Kind.ANGLE and not ck.periodic[iz]:
+        # an angle tied by a gear pair, rolling contact or constraint: linear in it (one root) or unknown
+        f0 = f(0.0)
+        D = f(1.0) - f0
+        tests = rng.uniform(-2 * math.pi, 2 * math.pi, 3)
+        if D == 0 or any(abs(f(t) - (D * t + f0)) > tol for t in tests):
+            return None
+        return [(-f0 / D,)]
     if ck.kinds[iz] is Kind.ANGLE:
         f0, fp, fh = f(0.0), f(math.pi), f(math.pi / 2)
         R = (f0 + fp) / 2
@@ -291,21 +299,58 @@ def _multistart_roots(ck, z, block, n_starts: int = 48) -> list[np.ndarray]:
         starts.append(st)
     found: list[np.ndarray] = []
     w = np.where(angle, 1.0, 1.0 / ck.scale)
+    turn = angle & ck.periodic[zi]  # an angle tied by a gear or rolling contact is not reduced by turns
     for st in starts:
         res = _newton_block(ck, z, block, st)
         if res.status is not NewtonStatus.CONVERGED or not np.all(np.isfinite(res.x)):
             continue
-        x = np.where(angle, (res.x + math.pi) % TWO_PI - math.pi, res.x)
-        if any(np.max(np.abs(np.where(angle, (x - f + math.pi) % TWO_PI - math.pi, x - f) * w)) < 1e-7 for f in found):
+        x = np.where(turn, (res.x + math.pi) % TWO_PI - math.pi, res.x)
+        if any(np.max(np.abs(np.where(turn, (x - f + math.pi) % TWO_PI - math.pi, x - f) * w)) < 1e-7 for f in found):
             continue
         found.append(x)
     return found
+
+
+def _linear_roots(ck, z, block) -> list[np.ndarray] | None:
+    """The one root of a block linear in its unknowns (gear trains, rolling, linear constraints), else None.
+
+    Φ(u) = A u + c is probed at the unit vectors and checked at random points, as the dyad forms are."""
+    cols = block.unknowns
+    zi = ck.unknown_idx[np.array(cols)]
+    if any(ck.periodic[int(i)] for i in zi):
+        return None  # an angle of the loops enters through its sine and cosine
+    eqs = np.array(block.eqs)
+    zz = np.array(z, dtype=float)
+    s = float(ck.scale)
+
+    def f(u):
+        zz[zi] = u
+        return ck.phi(zz)[eqs]
+
+    unit = np.array([1.0 if ck.kinds[int(i)] is Kind.ANGLE else s for i in zi])
+    c = f(np.zeros(len(zi)))
+    A = np.column_stack([(f(np.eye(len(zi))[j] * unit[j]) - c) / unit[j] for j in range(len(zi))])
+    rng = np.random.default_rng(3)
+    tol = 1e-9 * (s + 1.0)
+    for _ in range(3):
+        u = rng.uniform(-2, 2, len(zi)) * unit
+        if not np.all(np.abs(f(u) - (A @ u + c)) <= tol * (1.0 + np.max(np.abs(u / unit)))):
+            return None
+    try:
+        if np.linalg.cond(A) > 1e12:
+            return None
+        return [np.linalg.solve(A, -c)]
+    except np.linalg.LinAlgError:
+        return None
 
 
 def _block_roots(ck, z, block) -> list[np.ndarray]:
     roots = _dyad_roots(ck, z, block)
     if roots is not None:
         return [np.array(r, dtype=float) for r in roots]
+    roots = _linear_roots(ck, z, block)
+    if roots is not None:
+        return roots
     return _multistart_roots(ck, z, block)
 
 
@@ -375,7 +420,8 @@ def _solutions(ck, z0, one_root: list[bool]) -> list[np.ndarray]:
             for r in roots:
                 zz = z.copy()
                 for k, i in enumerate(zi):
-                    zz[i] = _wrap_near(float(r[k]), float(z0[i])) if ck.kinds[int(i)] is Kind.ANGLE else float(r[k])
+                    zz[i] = (_wrap_near(float(r[k]), float(z0[i])) if ck.kinds[int(i)] is Kind.ANGLE
+                             and ck.periodic[int(i)] else float(r[k]))
                 res = _newton_block(ck, zz, b, zz[zi], settings=Newton(max_iter=8))
                 if res.status is NewtonStatus.CONVERGED and np.all(np.abs(res.x - zz[zi]) < 1e-6 * (1 + ck.scale)):
                     zz[zi] = res.x

@@ -35,6 +35,8 @@ class EventKind(enum.Enum):
     SINGULAR = "singular"
     NOT_ASSEMBLABLE = "not-assemblable"
     MODE_CHANGE = "mode-change"
+    #: a force analysis with friction: no driving force or torque can move the mechanism there
+    SELF_LOCKING = "self-locking"
 
 
 @dataclass(frozen=True, slots=True)

@@ -453,7 +453,7 @@ def _within_a_turn(ck, found, settings: Newton, disp):
     restores the residual.
     """
     z = np.array(found[0], dtype=float)
-    ang = np.array([i for i in ck.unknown_idx if ck.kinds[i] is Kind.ANGLE], dtype=int)
+    ang = np.array([i for i in ck.unknown_idx if ck.kinds[i] is Kind.ANGLE and ck.periodic[i]], dtype=int)
     if not len(ang) or np.all(np.abs(z[ang]) <= math.pi) or not np.all(np.isfinite(z[ang])):
         return found
     ang = ang[np.abs(z[ang]) > math.pi]
@@ -464,7 +464,7 @@ def _within_a_turn(ck, found, settings: Newton, disp):
 def _coincide(ck, zs) -> bool:
     """Whether the positions ``zs`` are one pose (within 1e-6 in scaled units, angles modulo 2π)."""
     w = np.array([1.0 if k is Kind.ANGLE else 1.0 / ck.scale for k in ck.kinds])
-    ang = np.array([k is Kind.ANGLE for k in ck.kinds])
+    ang = np.array([k is Kind.ANGLE for k in ck.kinds]) & ck.periodic
     for z in zs[1:]:
         d = np.asarray(z) - np.asarray(zs[0])
         d = np.where(ang, (d + math.pi) % (2 * math.pi) - math.pi, d)
@@ -547,4 +547,8 @@ def solve(mech: Mechanism, at=None, *, speed=None, accel=None, jerk=None, input:
             zf[kern.ix] = x
             solve_rates(ck, zf, (1.0, 0.0, 0.0), display_input=disp)  # raises with the refined positions
         raise
+    if mech.pairs is not None and mech.pairs.gears:
+        from .pairchecks import check_gears
+
+        check_gears(ck, z[:, None], [disp])
     return State(ck, z, z1, z2, z3, pts, sig, residual, n_iter, cond)

@@ -411,6 +411,10 @@ def sweep(mech, start, stop, step, *, speed=None, accel=None, jerk=None, input: 
         names[:] = sol.sigs
         modes = tuple(names[code])
     _announce_stop(ck, path.events, through_limits)
+    if mech.pairs is not None and mech.pairs.gears:
+        from .pairchecks import check_gears
+
+        check_gears(ck, Z, [display_value(ck, x) for x in Z[ix]])
     return Sweep.from_arrays(ck, Z.T, Z1.T, Z2.T, Z3.T, modes=modes, residual=res, n_iter=its,
                              cond=cond, events=tuple(events), mode=first.sig,
                              method="batched" if use_batch else "tracked", copy=False)

@@ -146,8 +146,21 @@ class Mechanism:
     spec: Mapping[str, Any] = field(default_factory=dict, compare=False, repr=False)
     mode_aliases: Mapping[str, str] = field(default_factory=dict, compare=False)
     dynamics: Dynamics | None = field(default=None, compare=False, repr=False)
+    #: gears, cams, slots, rolling contacts, constraints and friction (:mod:`loopsolve.model.pairs`)
+    pairs: Any = field(default=None, repr=False)
 
     # ----------------------------------------------------------------- lookups
+    @property
+    def n_equations(self) -> int:
+        """Scalar equations of Φ: two per loop and one per constraint, gear pair, cam, slot or rolling contact."""
+        return 2 * len(self.loops) + (self.pairs.n_rows if self.pairs is not None else 0)
+
+    @property
+    def equation_names(self) -> tuple[str, ...]:
+        """The name of every row of Φ: ``<loop>.x``, ``<loop>.y``, then ``<section>.<name>`` of each higher pair."""
+        names = tuple(f"{lp.name}.{c}" for lp in self.loops for c in "xy")
+        return names + (self.pairs.row_names if self.pairs is not None else ())
+
     @property
     def inputs(self) -> tuple[str, ...]:
         """Names of the declared input variables."""
@@ -190,7 +203,7 @@ class Mechanism:
             self.variable(n)
         if len(set(names)) != len(names):
             raise ModelError(f"input {names} names a variable twice")
-        n_eq = 2 * len(self.loops)
+        n_eq = self.n_equations
         n_unknown = len(self.variables) - len(names)
         if not names:
             raise ModelError(
@@ -200,8 +213,10 @@ class Mechanism:
         if n_unknown != n_eq:
             raise ModelError(
                 f"{self.name!r} with input(s) {', '.join(names)} has {n_unknown} unknowns but "
-                f"{n_eq} scalar loop equations ({len(self.loops)} loop(s)); a single-DOF "
-                f"mechanism needs exactly {len(self.variables) - n_eq} input(s)"
+                f"{n_eq} scalar {'loop ' if n_eq == 2 * len(self.loops) else 'loop and higher-pair '}equations "
+                f"({len(self.loops)} loop(s)"
+                + (f", {self.pairs.n_rows} higher pair(s)" if n_eq != 2 * len(self.loops) else "")
+                + f"); a single-DOF mechanism needs exactly {len(self.variables) - n_eq} input(s)"
             )
         return names
 

@@ -275,7 +275,8 @@ def dumps(mech_or_spec: Mechanism | Mapping[str, Any]) -> str:
 
     A mechanism, or a vector-loop ``dict``, is written in the vector-loop layout:
     ``loads(dumps(m))`` gives a mechanism with the same derivation as ``m``, and the same
-    ``gravity``, ``[bodies]`` and ``[[loads]]`` (so the same force analysis). A ``dict`` in the
+    ``gravity``, ``[bodies]`` and ``[[loads]]`` (so the same force analysis) and higher pairs
+    (``[gears]``, ``[cams.NAME]``, ...: written as any other key). A ``dict`` in the
     kinematic-diagram layout (``[joints]`` and ``[links]``, no ``[vectors]``) is written in that
     layout. Either way a ``dict`` read from a model file comes back key for key and value for
     value (``tomllib.loads(dumps(d)) == d``): keys loopsolve does not know are written too.

@@ -22,6 +22,7 @@ from .bodies import parse_dynamics
 from ..errors import ModelError, ModelFileError
 from .exprcheck import _check_literals, _check_terms, _constant_size, _degree, _nesting, _TooLarge
 from .mechanism import Loop, Mechanism, Parameter, Point, Units, Variable, Vector, _deep_copy
+from . import pairs as _pairs
 from .units import MAX_MAGNITUDE, Kind, UnitError, parse_quantity, unit_kind, units_of_kind, validate_units
 
 __all__ = ["build_mechanism"]
@@ -320,7 +321,7 @@ def build_mechanism(spec: Mapping[str, Any], *, source: str | None = None) -> Me
 
     known_top = {"name", "units", "parameters", "variables", "vectors", "loops", "points",
                  "description", "schema", "links", "joints", "input", "version", "modes",
-                 "gravity", "bodies", "loads"}
+                 "gravity", "bodies", "loads"} | set(_pairs.SECTIONS)
     for k in spec:
         if k not in known_top:
             near = difflib.get_close_matches(str(k), known_top, n=1)
@@ -356,9 +357,10 @@ def build_mechanism(spec: Mapping[str, Any], *, source: str | None = None) -> Me
         _check_name(vname, f"vectors.{vname}", problems)
     if not var_spec:
         problems.add("variables", "no joint variables declared")
-    if not vec_spec:
+    n_pair_rows = _pairs.declared_rows(spec)
+    if not vec_spec and not n_pair_rows:
         problems.add("vectors", "no vectors declared")
-    if not loops_spec:
+    if not loops_spec and not n_pair_rows:
         problems.add("loops", "no vector loops declared: add [[loops]] equation = \"...\"")
 
     # ---- vectors (parse expressions)
@@ -434,6 +436,10 @@ def build_mechanism(spec: Mapping[str, Any], *, source: str | None = None) -> Me
         if nm not in param_spec and nm not in var_spec:
             problems.add(where, f"unknown name {nm!r} (not a parameter or variable); declared: "
                          + ", ".join(list(param_spec) + list(var_spec)))
+    _pairs.infer_kinds(spec, seen)  # higher pairs name variables too (gear angles, a rack's travel...)
+    pair_names = _pairs.pair_variables(spec)
+    for nm, where in pair_names.items():
+        used.setdefault(nm, where)
 
     def kind_of(nm: str) -> Kind | None:
         ctxs = {c for c, _ in seen.get(nm, ())}
@@ -517,7 +523,7 @@ def build_mechanism(spec: Mapping[str, Any], *, source: str | None = None) -> Me
             kind = dk or kind
         if kind is None:
             if vname not in used:
-                problems.add(key, f"variable {vname!r} is not used by any vector")
+                problems.add(key, f"variable {vname!r} is not used by any vector or higher pair")
             elif vname not in seen:
                 problems.add(key, f"cannot tell whether {vname!r} is an angle or a length from its use in "
                              f"{used[vname]}: add kind = \"angle\" or kind = \"length\"")
@@ -605,21 +611,29 @@ def build_mechanism(spec: Mapping[str, Any], *, source: str | None = None) -> Me
         if pt is not None:
             points.append(pt)
 
-    _check_links(vectors, loops if len(loops) == len(loops_spec) else None, parameters, variables, problems)
+    _check_links(vectors, loops if len(loops) == len(loops_spec) else None, parameters, variables, problems,
+                 set(pair_names), _pairs.slot_vectors(spec, {p.name: p for p in points}))
 
     # ---- counts: from the declared names, so they are reported with every other problem
     declared_inputs = [n for n, d in var_spec.items() if isinstance(d, Mapping) and d.get("input") is True]
-    if var_spec and loops_spec and declared_inputs:
-        n_eq = 2 * len(loops_spec)
+    if var_spec and (loops_spec or n_pair_rows) and declared_inputs:
+        n_eq = 2 * len(loops_spec) + n_pair_rows
         n_unknown = len(var_spec) - len(declared_inputs)
         if n_unknown != n_eq:
+            unknown = ", ".join(n for n in var_spec if n not in declared_inputs)
+            if n_pair_rows:
+                what = (f"{n_eq} scalar equations ({2 * len(loops_spec)} from {len(loops_spec)} loop(s), "
+                        f"{n_pair_rows} from {', '.join(_pairs.declared_row_keys(spec))}): each loop gives two "
+                        "equations (x and y) and each constraint, gear pair, cam, slot or rolling contact one, so "
+                        "the unknowns must number the equations")
+            else:
+                what = (f"{n_eq} scalar loop equations from {len(loops_spec)} loop(s): each loop gives two "
+                        "equations (x and y), so the unknowns must number twice the loops")
             problems.add(
                 "variables",
-                f"{n_unknown} unknown variable(s) ({', '.join(n for n in var_spec if n not in declared_inputs)}) "
-                f"but {n_eq} scalar loop equations from {len(loops_spec)} loop(s): each loop gives two "
-                "equations (x and y), so the unknowns must number twice the loops; "
+                f"{n_unknown} unknown variable(s) ({unknown}) but {what}; "
                 f"{len(declared_inputs)} input(s) declared ({', '.join(declared_inputs)}) "
-                f"where these {len(var_spec)} variables and {len(loops_spec)} loop(s) leave a mobility of "
+                f"where these {len(var_spec)} variables and {n_eq} equations leave a mobility of "
                 f"{len(var_spec) - n_eq}",
             )
     # ---- assembly-mode aliases: name -> signature ("open" = "-" for a four-bar)
@@ -628,7 +642,7 @@ def build_mechanism(spec: Mapping[str, Any], *, source: str | None = None) -> Me
     if not isinstance(modes_spec, Mapping):
         problems.add("modes", "expected a table of alias = \"signature\" (e.g. open = \"-\")")
     else:
-        n_unknown = max(2 * len(loops_spec), 1)
+        n_unknown = max(2 * len(loops_spec) + n_pair_rows, 1)
         for alias, sig in modes_spec.items():
             if not isinstance(alias, str) or not _LABEL_RE.match(alias):
                 problems.add(f"modes.{_short(repr(alias), 40)}", "a mode name is up to 64 letters, digits, _, -, . "
@@ -641,6 +655,15 @@ def build_mechanism(spec: Mapping[str, Any], *, source: str | None = None) -> Me
             else:
                 mode_aliases[str(alias)] = sig
     dynamics = _dynamics(spec, problems, vectors, points, vec_names, param_spec, var_spec, units)
+    pairs = _pairs.parse_pairs(_pairs.PairContext(
+        problems=problems, parse_expr=lambda v, k: _parse_expr(v, k, problems, moving),
+        check_literals=lambda n, c, k, t: _check_literals(n, c, k, problems, angle_unit, length_unit, t),
+        check_name=lambda n, k: _check_name(n, k, problems),
+        parameters={p.name: p for p in parameters}, variables={v.name: v for v in variables},
+        vectors={v.name: v for v in vectors}, points={p.name: p for p in points},
+        bodies=tuple(b.name for b in dynamics.bodies) if dynamics else (),
+        links=_pairs.declared_links(spec, dynamics), angle_unit=angle_unit, length_unit=length_unit,
+        dynamics=dynamics, spec=spec, loops=tuple(loops)))
     problems.raise_if_any()
     return Mechanism(
         name=name.strip(),
@@ -654,6 +677,7 @@ def build_mechanism(spec: Mapping[str, Any], *, source: str | None = None) -> Me
         spec=_deep_copy(spec),
         mode_aliases=mode_aliases,
         dynamics=dynamics,
+        pairs=pairs,
     )
 
 
@@ -686,7 +710,8 @@ def link_length_problem(v, value: float) -> str:
             "direction add 180 to the angle)")
 
 
-def _check_links(vectors, loops, parameters, variables, problems: _Problems) -> None:
+def _check_links(vectors, loops, parameters, variables, problems: _Problems, in_pairs=frozenset(),
+                 pair_vectors=frozenset()) -> None:
     """Links of nonzero positive length, and every variable in some loop.
 
     A vector whose angle varies but whose length is a constant is a link: a length of zero leaves
@@ -705,10 +730,10 @@ def _check_links(vectors, loops, parameters, variables, problems: _Problems) -> 
             problems.add(f"vectors.{v.name}.length", link_length_problem(v, value))
     if loops is None:  # a loop could not be read: its vectors are unknown
         return
-    in_loops = {n for lp in loops for _, n in lp.terms}
+    in_loops = {n for lp in loops for _, n in lp.terms} | set(pair_vectors)  # a slot's pin and line are in Φ too
     for var in variables:
         users = [v.name for v in vectors if var.name in _vector_names(v)]
-        if users and not any(u in in_loops for u in users):
+        if users and not any(u in in_loops for u in users) and var.name not in in_pairs:
             problems.add(f"variables.{var.name}", f"{'the input ' if var.input else ''}{var.name!r} appears in no "
                          f"loop: the vector(s) {', '.join(users)} using it are in no loop equation, so it "
                          f"{'drives nothing (every rate would be 0)' if var.input else 'is never determined'}; "

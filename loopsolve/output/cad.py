@@ -128,7 +128,9 @@ def drawing_entities(state, *, curves: dict | None = None) -> list[Entity]:
     """
     from .drawstyle import drawing_style
     from .geometry import pose_frames
+    from .pairdraw import check_drawable
 
+    check_drawable(state.compiled.mechanism)
     (frame,), _ = pose_frames([state], vectors=False)
     style = drawing_style([frame])
     size = float(style.size)
@@ -180,6 +182,9 @@ def drawing_entities(state, *, curves: dict | None = None) -> list[Entity]:
     for p, text, _ in frame.labels:
         q = np.asarray(p, dtype=float) + np.array([0.35, 0.35]) * size
         out.append(Entity("LABELS", "text", (_xy(q),), size=0.6 * size, text=str(text), name=str(text)))
+    from .pairdraw import pair_shapes, shape_entities
+
+    out += shape_entities(pair_shapes(state))  # gears as pitch circles, cams, followers, slots
     for name, xy in (curves or {}).items():
         xy = np.asarray(xy, dtype=float)
         xy = xy[np.isfinite(xy).all(axis=1)]

@@ -138,8 +138,9 @@ class _Builder:
                                r"\text{--}"))
             else:
                 vrows.append((vector_latex(v.name), self.tex(length), self.p.angle(angle)))
-        self.items.append(_Text("Vectors (length and angle of each):"))
-        self.items.append(_Table(("Vector", "Length", "Angle"), tuple(vrows), "lll"))
+        if vrows:
+            self.items.append(_Text("Vectors (length and angle of each):"))
+            self.items.append(_Table(("Vector", "Length", "Angle"), tuple(vrows), "lll"))
         ins = ", ".join("$%s$" % self.sym(n) for n in kin.inputs)
         q = r",\ ".join(self.sym(n) for n in kin.unknowns)
         self.items.append(_Text(r"Input: %s. Unknowns: $\mathbf{q} = [%s]^{T}$ (%d scalar equations, "
@@ -147,6 +148,8 @@ class _Builder:
 
     def loops(self):
         mech, kin = self.mech, self.kin
+        if not mech.loops:
+            return
         self.items.append(_Section("Vector loops and position equations"))
         self.items.append(_Text(r"Each loop closes: in vector form, in complex-exponential form "
                                 r"($\vec{r} = r\,\mathrm{e}^{\mathrm{j}\theta}$, "
@@ -376,9 +379,25 @@ class _Builder:
         self.items.append(_Table(("", "Position", "Velocity", "Acceleration", "Jerk"), tuple(rows),
                                  "lrrrr", equation=True))
 
+    def pairs(self):
+        """The equations of the constraints, gear pairs, cams, slots and rolling contacts (rows of Φ after the loops)."""
+        mech, kin = self.mech, self.kin
+        if mech.pairs is None or not mech.pairs.n_rows:
+            return
+        self.items.append(_Section("Constraints and higher pairs"))
+        self.items.append(_Text(r"Each adds one position equation to $\boldsymbol{\Phi}(\mathbf{q}) = \mathbf{0}$, "
+                                r"differentiated and solved with the loops (angles in radians):"))
+        lines = []
+        first = 2 * len(mech.loops)
+        for i, elem in enumerate(mech.pairs.rows):
+            e = kin.phi[first + i]
+            lines.append(r"&\text{%s:} & %s &= 0" % (_escape(elem.key), self.tex(e)))
+        self.items.append(_Eqs(tuple(lines)))
+
     def build(self):
         self.header()
         self.loops()
+        self.pairs()
         self.rates()
         self.points()
         self.dynamics()

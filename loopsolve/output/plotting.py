@@ -490,6 +490,9 @@ def draw(mech, at=None, *, input=None, mode=None, vectors=False, output=None, ax
         state = mech
     else:
         state = mech.solve(at, input=input, mode=mode, **solve_kwargs)
+    from .pairdraw import check_drawable
+
+    check_drawable(state.mechanism)
     frames, _ = pose_frames([state], vectors=vectors)
     style = drawing_style(frames)
     if ax is None:
@@ -501,6 +504,9 @@ def draw(mech, at=None, *, input=None, mode=None, vectors=False, output=None, ax
     _render_static(ax, frames[0], style)
     _render_moving(ax, frames[0], style)
     _frame_axes(ax, style, state.mechanism)
+    from .pairdraw import draw_pairs
+
+    draw_pairs(ax, state, pad=2.6 * style.size)  # gears, cams, slots
     ax.set_title(_pose_title(state), fontsize=11)
     if output is not None:
         _save(fig, output)
@@ -670,12 +676,19 @@ def animate(sweep, *, output, fps: float = 20, progress=None, vectors: bool = Fa
     if not len(sweep):
         raise ModelError("cannot animate an empty sweep (no solved positions)")
     check_frames(len(sweep), max_frames)
+    from .pairdraw import check_drawable
+
+    check_drawable(sweep.mechanism)
     frames, _ = pose_frames(list(sweep.states), vectors=vectors)
     style = drawing_style(frames)
     fig = _new_figure(_figsize(style))
     ax = fig.add_subplot()
     _render_static(ax, frames[0], style)
     _frame_axes(ax, style, sweep.mechanism)
+    from .pairdraw import draw_pairs, pair_shapes, widen
+
+    if sweep.mechanism.pairs is not None:  # room for the gears, cams and slots of every frame
+        widen(ax, [s for st in sweep.states for s in pair_shapes(st)], 2.6 * style.size)
     # traces of every point that moves: the whole path dotted, the path so far solid
     ck = sweep.compiled
     paths = np.array([s.points[0] for s in sweep.states])  # (N, P, 2)
@@ -690,7 +703,7 @@ def animate(sweep, *, output, fps: float = 20, progress=None, vectors: bool = Fa
     output = Path(output)
 
     def render(i, blit: bool):
-        artists = _render_moving(ax, frames[i], style)
+        artists = _render_moving(ax, frames[i], style) + draw_pairs(ax, sweep.states[i])
         for k, j in enumerate(moving):
             artists += ax.plot(paths[: i + 1, j, 0], paths[: i + 1, j, 1], color=f"C{k}", lw=1.8, zorder=2)
         ax.set_title(_pose_title(sweep.states[i]), fontsize=11)

@@ -75,7 +75,7 @@
   el("line", {x1: 0, y1: 0, x2: 0, y2: hs, "class": "ls-hatch-line", "stroke-width": 0.3 * hs}, pat);
   drawGrid();
   var world = el("g", {transform: "scale(1,-1)", id: "ls-world"}, svg);
-  var gStatic = el("g", {}, world), gPaths = el("g", {}, world), gLevers = el("g", {}, world),
+  var gStatic = el("g", {}, world), gPairs = el("g", {}, world), gPaths = el("g", {}, world), gLevers = el("g", {}, world),
     gLinks = el("g", {}, world), gGuides = el("g", {}, world), gBlocks = el("g", {}, world),
     gJoints = el("g", {}, world), gPoints = el("g", {}, world);
   var gLabels = el("g", {}, svg);
@@ -155,6 +155,12 @@
   var blocks = S.blocks.map(function (b) {
     return {d: b, poly: el("polygon", {"class": "block", "stroke-width": 1.4 * pt}, gBlocks)};
   });
+  // gears (pitch circles), cams (profile and follower), slots: see loopsolve/output/pairdraw.py
+  var pairs = (S.pairs || []).map(function (p) {
+    var cls = "pair-" + p.c, w = (p.c === "gear" ? 1.4 : 1.8) * pt;
+    if (p.k === "circle") return {d: p, e: el("circle", {r: p.r, "class": cls, "stroke-width": w}, gPairs)};
+    return {d: p, e: el(p.k === "rot" || p.closed ? "polygon" : "polyline", {"class": cls, "stroke-width": w}, gPairs)};
+  });
   var joints = S.joints.map(function (t) {
     return {t: t, c: el("circle", {r: 0.22 * size, "class": "joint", "stroke-width": 1.3 * pt}, gJoints)};
   });
@@ -211,6 +217,17 @@
       var p = 0.95 * size, q = 0.5 * size;
       setPoly(b.poly, [[x - dx * p + dy * q, y - dy * p - dx * q], [x + dx * p + dy * q, y + dy * p - dx * q],
         [x + dx * p - dy * q, y + dy * p + dx * q], [x - dx * p - dy * q, y - dy * p + dx * q]]);
+    });
+    pairs.forEach(function (p) {
+      var d = p.d;
+      if (d.k === "circle") { setCircle(p.e, X(d.t, i), Y(d.t, i)); return; }
+      if (d.k === "rot") {
+        var cx = X(d.t, i), cy = Y(d.t, i), a = ang(d.a, i), c = Math.cos(a), s = Math.sin(a), xy = [];
+        for (var k = 0; k < d.p.length; k += 2) xy.push([cx + c * d.p[k] - s * d.p[k + 1], cy + s * d.p[k] + c * d.p[k + 1]]);
+        setPoly(p.e, xy);
+        return;
+      }
+      setPoly(p.e, d.n.map(function (t) { return [X(t, i), Y(t, i)]; }));
     });
     joints.forEach(function (j) { setCircle(j.c, X(j.t, i), Y(j.t, i)); });
     points.forEach(function (p) { setCircle(p.c, X(p.d.t, i), Y(p.d.t, i)); });

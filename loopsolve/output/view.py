@@ -127,6 +127,9 @@ def _angles(values) -> float | list:
 def _scene(sweep) -> dict:
     """Trajectories and shapes of the diagram, from :mod:`loopsolve.output.geometry`'s frames and style."""
     ck = sweep.compiled
+    from .pairdraw import check_drawable
+
+    check_drawable(sweep.mechanism)
     frames, _ = pose_frames(list(sweep.states), vectors=False)
     style = drawing_style(frames)
     size = float(style.size)
@@ -236,7 +239,18 @@ def _scene(sweep) -> dict:
         # points that always coincide (a pin and the block on it) share one path
         path = next((q["path"] for q in points if _close(table.items[q["t"]], table.items[t], 1e-7 * ck.scale)), j)
         points.append({"name": name, "t": t, "pin": pin, "moves": moves, "path": path})
+    from .pairdraw import page_shapes
+
+    pairs = page_shapes(sweep, table.add, angle)  # gears, cams and followers, slots
     lo, hi = np.asarray(style.lo, dtype=float), np.asarray(style.hi, dtype=float)
+    for shape in pairs:  # a cam's profile reaches past its centre's trajectory
+        if shape["k"] == "rot":
+            reach = float(np.max(np.hypot(shape["p"][0::2], shape["p"][1::2])))
+            c = np.asarray(table.items[shape["t"]], dtype=float).reshape(-1, 2)
+            lo, hi = np.fmin(lo, np.nanmin(c, axis=0) - reach), np.fmax(hi, np.nanmax(c, axis=0) + reach)
+        elif shape["k"] == "circle":
+            c = np.asarray(table.items[shape["t"]], dtype=float).reshape(-1, 2)
+            lo, hi = np.fmin(lo, np.nanmin(c, axis=0) - shape["r"]), np.fmax(hi, np.nanmax(c, axis=0) + shape["r"])
     for flat in table.items:
         xy = np.array([math.nan if v is None else v for v in flat], dtype=float).reshape(-1, 2)
         if np.isfinite(xy).any():
@@ -245,7 +259,8 @@ def _scene(sweep) -> dict:
     extent = _nums([lo - pad, hi + pad])
     return {"size": _num(size), "extent": extent, "traj": table.items, "angles": angle_list,
             "static": statics, "links": links, "levers": levers, "guides": guides, "blocks": blocks,
-            "joints": joints, "labels": labels, "points": points, "unit": ck.mechanism.units.length}
+            "joints": joints, "labels": labels, "points": points, "unit": ck.mechanism.units.length,
+            "pairs": pairs}
 
 
 def _close(a: list, b: list, tol: float) -> bool:

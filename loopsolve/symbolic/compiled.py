@@ -117,6 +117,8 @@ def _structure_key(mech: Mechanism, inputs: tuple) -> str:
         tuple((pt.name, pt.terms, pt.factors) for pt in mech.points),
         tuple(inputs),
     )
+    if mech.pairs is not None and mech.pairs.n_rows:  # their equations are in the code (friction is not)
+        parts += (mech.pairs.rows,)
     return hashlib.sha256(repr(parts).encode()).hexdigest()[:24]
 
 
@@ -216,7 +218,8 @@ def generate_source(kin) -> tuple[str, dict]:
     m, n = kin.jac.shape
     incidence = [[kin.jac[i, j] != 0 for j in range(n)] for i in range(m)]
     blocks = solve_order(incidence, unknown_names=kin.unknowns,
-                         equation_names=[f"{ln}.{c}" for ln in kin.loop_names for c in "xy"])
+                         equation_names=list(kin.equation_names)
+                         or [f"{ln}.{c}" for ln in kin.loop_names for c in "xy"])
     meta = {
         "VARIABLES": tuple(kin.variables),
         "KINDS": tuple(k.name for k in kin.kinds),
@@ -555,6 +558,34 @@ class CompiledKinematics:
         v = getattr(self.module, f"vectors{order}_v")(*zs, self.p)
         return v.reshape(-1, 2, v.shape[-1]) if v.ndim > 1 else v.reshape(-1, 2)
 
+    @functools.cached_property
+    def periodic(self) -> np.ndarray:
+        """For each variable (declaration order): an angle on which Φ depends 2π-periodically.
+
+        The angles of the loops are (they enter through sines and cosines); an angle tied by a gear
+        pair, a rolling contact or a constraint outside a sine is not: turning it by a whole turn
+        breaks the constraint, so it is never reduced modulo a turn (Φ at two seeded poses compared
+        with the angle turned by 2π).
+        """
+        out = np.array([k is Kind.ANGLE for k in self.kinds])
+        if not self.module.N_EQ or not out.any():
+            return out
+        rng = np.random.default_rng(5)
+        zs = [np.where(out, rng.uniform(-np.pi, np.pi, len(out)), rng.uniform(0.5, 1.5, len(out)) * self.scale)
+              for _ in range(2)]
+        for i in np.flatnonzero(out):
+            for z in zs:
+                f0 = self.phi(z)
+                z2 = z.copy()
+                z2[i] += 2 * np.pi
+                f1 = self.phi(z2)
+                if not (np.all(np.isfinite(f0)) and np.all(np.isfinite(f1))):
+                    continue
+                if np.max(np.abs(f1 - f0)) > 1e-9 * (1.0 + self.scale + float(np.max(np.abs(f0)))):
+                    out[i] = False
+                    break
+        return out
+
     def index(self, name: str) -> int:
         """Position of variable ``name`` in ``z``."""
         try:
@@ -585,6 +616,10 @@ def compile_mechanism(mech: Mechanism, input: str | Sequence[str] | None = None,
     (('theta3', 'theta4'), 1)
     """
     inputs = mech.resolve_inputs(input)
+    if mech.pairs is not None and mech.pairs.cams:
+        from ..model.cams import check_cams
+
+        check_cams(mech)  # an undercut profile is a wrong declaration (loopsolve cam reports it in full)
     module = _cached_module(mech, inputs, cache)
     variables = tuple(module.VARIABLES)
     kinds = tuple(Kind[k] for k in module.KINDS)

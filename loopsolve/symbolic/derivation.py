@@ -41,7 +41,8 @@ class Kinematics:
     params : tuple of sympy.Symbol
         Parameter symbols; ``param_values`` their values (internal units).
     phi : sympy.Matrix
-        Loop-closure equations, two rows per loop (x then y).
+        Loop-closure equations, two rows per loop (x then y), then one row per higher pair
+        (constraint, gear pair, cam, slot, rolling contact; see :mod:`loopsolve.symbolic.pairs`).
     jac : sympy.Matrix
         Φ_q, the coefficient matrix (rows of ``phi`` × ``unknowns``).
     rhs : tuple of sympy.Matrix
@@ -75,6 +76,8 @@ class Kinematics:
     points: Mapping[str, tuple[sp.Matrix, sp.Matrix, sp.Matrix, sp.Matrix]]
     vectors: Mapping[str, tuple[sp.Expr, sp.Expr | None]]
     vector_xy: Mapping[str, sp.Matrix]
+    #: the name of every row of Φ: ``<loop>.x``, ``<loop>.y``, then ``<section>.<name>`` of each higher pair
+    equation_names: tuple[str, ...] = ()
 
     @property
     def unknown_symbols(self) -> tuple[sp.Symbol, ...]:
@@ -220,7 +223,23 @@ def derive(mech: Mechanism, input: str | Sequence[str] | None = None) -> Kinemat
             total += sign * vector_xy[vn]
         rows.extend([total[0], total[1]])
         loop_vectors.append(tuple(vector_xy[vn] for _, vn in loop.terms))
-    phi = sp.Matrix(rows)
+    if mech.pairs is not None:
+        from .pairs import PairSymbols, pair_rows
+
+        def point(name):
+            p = next(pt for pt in mech.points if pt.name == name)
+            pos = sp.zeros(2, 1)
+            for i, (sign, vn) in enumerate(p.terms):
+                f = p.factor(i)
+                pos += sign * (conv(f) if f is not None else 1) * vector_xy[vn]
+            return pos
+
+        for name, e in pair_rows(PairSymbols(conv, dict(zip(names, z)), k, vector_xy, vectors, point, mech)):
+            if _not_finite_real(e):
+                raise ModelError(f"{where}: {name}: the equation is not a finite real expression (it simplifies to "
+                                 f"{_short(e)}): check divisions by zero and the domains of sqrt, asin and acos")
+            rows.append(e)
+    phi = sp.Matrix(rows) if rows else sp.zeros(0, 1)
 
     kin_tmp = _Deriv(z, z1, z2, z3)
     q_idx = [names.index(n) for n in unknowns]
@@ -281,6 +300,7 @@ def derive(mech: Mechanism, input: str | Sequence[str] | None = None) -> Kinemat
         points=points,
         vectors=vectors,
         vector_xy=vector_xy,
+        equation_names=mech.equation_names,
     )
 
 
@@ -300,6 +320,11 @@ def _size_exceeds(e, limit: int) -> bool:
 def _check_size(mech: Mechanism, m: sp.Matrix, limit: int, order: str) -> None:
     """Refuse a derivation whose entries grow past ``limit`` operations, naming the loop."""
     for i in range(m.rows):
+        if _size_exceeds(m[i], limit) and i >= 2 * len(mech.loops):
+            raise ModelError(
+                f"{mech.source or mech.name}: {mech.equation_names[i]}: the {order} time derivative of its "
+                f"equation has more than {limit} operations, too large to derive and compile in reasonable "
+                "time; simplify its expressions")
         if _size_exceeds(m[i], limit):
             loop = mech.loops[i // 2]
             raise ModelError(

@@ -42,8 +42,10 @@ BASE = {
                    "r2=0.5:2", "-q"],
     "forces": ["forces", "{m}", "--at", "30"],
     "simulate": ["simulate", "{m}", "--duration", "0.1"],
+    "cam": ["cam", "{m}", "c1"],
 }
-MODEL_OF = {"forces": "thesis_crank_rocker_dynamics.toml", "simulate": "thesis_crank_rocker_dynamics.toml"}
+MODEL_OF = {"forces": "thesis_crank_rocker_dynamics.toml", "simulate": "thesis_crank_rocker_dynamics.toml",
+            "cam": str(Path(__file__).resolve().parent.parent / "data" / "cam_follower.toml")}
 TARGETS = "x,y\n1.247635,2.261923\n1.125070,2.556968\n0.759129,2.635152\n"
 
 
