@@ -75,14 +75,16 @@ add_module_names = False
 
 # ---------------------------------------------------------------- math without a CDN
 imgmath_image_format = "svg"
-imgmath_use_preview = True
+# TeX Live as CI installs it (texlive-latex-base, -recommended) has neither preview.sty nor anyfontsize.sty:
+# no preview (no baseline depth), and docs/_templates/imgmath/template.tex.jinja uses fix-cm instead
+imgmath_use_preview = False
 imgmath_latex_preamble = r"\usepackage{amsmath}\usepackage{amssymb}"
 imgmath_font_size = 14
 
 # ---------------------------------------------------------------- notebooks
 nb_execution_mode = "off"  # executed once by loopsolve_docs (cached), like tests/test_notebooks.py does
 myst_enable_extensions = ["dollarmath", "amsmath"]
-suppress_warnings = ["mystnb.unknown_mime_type"]
+suppress_warnings = ["mystnb.unknown_mime_type", "myst.header"]  # the notebooks skip heading levels
 
 # ---------------------------------------------------------------- theme (assets bundled in the package)
 html_theme = "pydata_sphinx_theme"

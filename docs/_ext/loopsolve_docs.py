@@ -85,25 +85,19 @@ def _cached(key: str, make) -> Path:
 
 # ------------------------------------------------------------------ the gallery
 def _derivation_rst(tex: str) -> str:
-    """``latex --snippet`` output as reST: each ``% comment`` a heading, each environment a math block."""
-    out, block = [], []
+    """``latex --snippet`` output as one reST math block (one LaTeX run per model: imgmath runs LaTeX
+    and dvisvgm once per block, and a block per equation made the gallery the slowest part of the
+    build); each ``% comment`` of the snippet becomes a bold heading inside it."""
+    body = []
     for line in tex.splitlines():
-        if block:
-            block.append(line)
-            if line.startswith(r"\end{"):
-                body = "\n".join("      " + b for b in block)
-                out.append(f".. math::\n   :nowrap:\n\n{body}\n")
-                block = []
-        elif line.startswith("% loopsolve:"):
+        if line.startswith("% loopsolve:"):
             continue
-        elif line.startswith("% "):
-            title = line[2:].strip()
-            out.append(f"{title}\n{'~' * len(title)}\n")
-        elif line.startswith(r"\begin{"):
-            block = [line]
+        if line.startswith("% "):
+            body.append(r"\par\medskip\noindent\textbf{" + line[2:].strip() + r"}\par")
         elif line.strip():
-            out.append(line + "\n")
-    return "\n".join(out)
+            body.append(line)
+    text = "\n".join("      " + b for b in body)
+    return f".. math::\n   :nowrap:\n\n      \\begin{{minipage}}{{60em}}\n{text}\n      \\end{{minipage}}\n"
 
 
 def _model_outputs(model: Path, directory: Path) -> None:
