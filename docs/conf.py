@@ -81,11 +81,13 @@ add_module_names = False
 
 # ---------------------------------------------------------------- math without a CDN
 imgmath_image_format = "svg"
-# TeX Live as CI installs it (texlive-latex-base, -recommended) has neither preview.sty nor anyfontsize.sty:
-# no preview (no baseline depth), and docs/_templates/imgmath/template.tex.jinja uses fix-cm instead
+# TeX Live as CI installs it (texlive-latex-base, -recommended) has neither preview.sty nor anyfontsize.sty
+# (both in texlive-latex-extra): no preview (no baseline depth for inline math), and a stand-in
+# anyfontsize.sty in docs/_tex (the math is set at the document's 12pt, so no other size is needed)
 imgmath_use_preview = False
+os.environ["TEXINPUTS"] = str(DOCS / "_tex") + os.pathsep + os.environ.get("TEXINPUTS", "")
 imgmath_latex_preamble = r"\usepackage{amsmath}\usepackage{amssymb}"
-imgmath_font_size = 14
+imgmath_font_size = 12
 
 # ---------------------------------------------------------------- notebooks
 nb_execution_mode = "off"  # executed once by loopsolve_docs (cached), like tests/test_notebooks.py does

@@ -67,8 +67,12 @@ def _run(argv: list[str]) -> str:
     return out.getvalue()
 
 
+_USED: set[str] = set()
+
+
 def _cached(key: str, make) -> Path:
     """The directory ``CACHE/key``, made by ``make(directory)`` unless it exists."""
+    _USED.add(key)
     target = CACHE / key
     if not (target / ".done").exists():
         if target.exists():
@@ -252,6 +256,34 @@ def _execute(nb_path: Path, directory: Path) -> None:
     nbformat.write(nb, directory / nb_path.name)
 
 
+def _for_sphinx(data: bytes) -> bytes:
+    import nbformat
+
+    nb = nbformat.reads(data.decode("utf-8"), as_version=4)
+    for cell in nb.cells:
+        for out in cell.get("outputs", []):
+            latex = out.get("data", {}).get("text/latex")
+            if latex and "\\begin{align" in latex:
+                out["data"]["text/latex"] = _one_display(latex)
+    return nbformat.writes(nb).encode("utf-8")
+
+
+def _one_display(latex: str) -> str:
+    """A LaTeX snippet of several ``align*`` environments and ``%`` headings (``mech.to_latex(snippet=True)``
+    displayed in a notebook) as one display-math body: Jupyter's MathJax typesets the environments one
+    by one, but Sphinx puts a math output inside one display environment, where ``align*`` cannot be."""
+    parts = []
+    for line in latex.splitlines():
+        if line.startswith("% loopsolve:") or not line.strip():
+            continue
+        if line.startswith("% "):
+            parts.append(r"\text{\textbf{" + line[2:].strip() + r"}}\\[1ex]")
+        else:
+            parts.append(line.replace(r"\begin{align*}", r"\begin{aligned}").replace(r"\end{align*}",
+                                                                                   r"\end{aligned}\\[2ex]"))
+    return "\\begin{gathered}\n" + "\n".join(parts) + "\n\\end{gathered}"
+
+
 def _notebooks(app) -> None:
     src = app.config.loopsolve_source_hash
     NB_OUT.mkdir(exist_ok=True)
@@ -260,7 +292,7 @@ def _notebooks(app) -> None:
         key = "nb-" + hashlib.sha256(nb_path.read_bytes() + src.encode()).hexdigest()[:16]
         done = _cached(key, lambda d, p=nb_path: _execute(p, d))
         target = NB_OUT / nb_path.name
-        data = (done / nb_path.name).read_bytes()
+        data = _for_sphinx((done / nb_path.name).read_bytes())
         if not target.exists() or target.read_bytes() != data:
             target.write_bytes(data)
         names.append(nb_path.stem)
@@ -295,6 +327,9 @@ def _generate(app) -> None:
     _landing(app)
     _gallery(app)
     _notebooks(app)
+    for old in CACHE.iterdir():  # entries of older sources or models: never read again
+        if old.name not in _USED:
+            shutil.rmtree(old, ignore_errors=True)
 
 
 def setup(app):

@@ -78,7 +78,8 @@ def commands(text: str) -> list[tuple[str, str | None]]:
 
 
 def _is_setup(part: str) -> bool:
-    return bool(re.search(r"\b(pip install|pytest|apt-get|apt install)\b", part))
+    """Installs, the test suite and the site's build: run by CI (.ci/run), checked below, not re-run here."""
+    return bool(re.search(r"\b(pip install|pytest|apt-get|apt install|-m sphinx)\b", part))
 
 
 def _ci_run() -> str:
@@ -102,6 +103,16 @@ def test_the_test_command_is_the_one_ci_runs():
     for cmd in readme_tests:
         for part in (p.strip() for p in cmd.split("&&")):
             assert part in ci_line, f"{part!r} (README) is not what .ci/run runs: {ci_line!r}"
+
+
+def test_the_docs_command_is_the_documented_build():
+    """The README's command that builds the site is the one docs/development/docs.md gives (and CI runs)."""
+    page = (ROOT / "docs" / "development" / "docs.md").read_text(encoding="utf-8")
+    for cmd, _ in commands(README.read_text(encoding="utf-8")):
+        for part in (p.strip() for p in cmd.split("&&")):
+            if "-m sphinx" in part:
+                build = part.split("#")[0].strip()
+                assert build in page, f"{build!r} is not the build docs/development/docs.md gives"
 
 
 def test_installs_name_existing_extras_and_ci_packages():
