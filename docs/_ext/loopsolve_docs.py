@@ -263,7 +263,7 @@ def _for_sphinx(data: bytes) -> bytes:
     for cell in nb.cells:
         for out in cell.get("outputs", []):
             latex = out.get("data", {}).get("text/latex")
-            if latex and "\\begin{align" in latex:
+            if latex and "\\begin{align*}" in latex:
                 out["data"]["text/latex"] = _one_display(latex)
     return nbformat.writes(nb).encode("utf-8")
 
@@ -272,11 +272,16 @@ def _one_display(latex: str) -> str:
     """A LaTeX snippet of several ``align*`` environments and ``%`` headings (``mech.to_latex(snippet=True)``
     displayed in a notebook) as one display-math body: Jupyter's MathJax typesets the environments one
     by one, but Sphinx puts a math output inside one display environment, where ``align*`` cannot be."""
-    parts = []
+    parts, table = [], None
     for line in latex.splitlines():
-        if line.startswith("% loopsolve:") or not line.strip():
+        if line.startswith("% loopsolve:") or not line.strip() or line.strip() in (r"\begin{center}", r"\end{center}"):
             continue
-        if line.startswith("% "):
+        if table is not None or line.startswith(r"\begin{tabular}"):  # a numeric table: text inside the display
+            table = (table or []) + [line]
+            if line.startswith(r"\end{tabular}"):
+                parts.append(r"\text{" + "\n".join(table) + r"}\\[2ex]")
+                table = None
+        elif line.startswith("% "):
             parts.append(r"\text{\textbf{" + line[2:].strip() + r"}}\\[1ex]")
         else:
             parts.append(line.replace(r"\begin{align*}", r"\begin{aligned}").replace(r"\end{align*}",
