@@ -86,7 +86,9 @@ imgmath_image_format = "svg"
 # anyfontsize.sty in docs/_tex (the math is set at the document's 12pt, so no other size is needed)
 imgmath_use_preview = False
 os.environ["TEXINPUTS"] = str(DOCS / "_tex") + os.pathsep + os.environ.get("TEXINPUTS", "")
-imgmath_latex_preamble = r"\usepackage{amsmath}\usepackage{amssymb}"
+# a page tall and wide enough for a whole derivation (the gallery renders each model's as one image; imgmath
+# converts the first page only, and the picture is cropped to its ink)
+imgmath_latex_preamble = r"\setlength{\textwidth}{60em}\setlength{\textheight}{500cm}"
 imgmath_font_size = 12
 
 # ---------------------------------------------------------------- notebooks

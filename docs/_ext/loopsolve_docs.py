@@ -101,7 +101,7 @@ def _derivation_rst(tex: str) -> str:
         elif line.strip():
             body.append(line)
     text = "\n".join("      " + b for b in body)
-    return f".. math::\n   :nowrap:\n\n      \\begin{{minipage}}{{60em}}\n{text}\n      \\end{{minipage}}\n"
+    return f".. math::\n   :nowrap:\n\n      \\noindent\n{text}\n"
 
 
 def _model_outputs(model: Path, directory: Path) -> None:
