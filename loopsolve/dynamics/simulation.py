@@ -14,6 +14,7 @@ import csv
 import io
 import json
 import math
+import numbers
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -347,6 +348,9 @@ def simulate(mech, duration: float, *, step: float = 0.01, torque=0.0, speed0=No
     t_end = float(t_eval[-1])
     if max_steps is None:
         max_steps = MAX_STEPS + 200 * len(t_eval)
+    elif isinstance(max_steps, bool) or not isinstance(max_steps, numbers.Integral) or max_steps < 1:
+        raise ModelError(f"--max-steps (max_steps=) {max_steps!r}: the bound on the integrator's steps must be a "
+                         "whole number of at least 1 (default: 20000 + 200 per output row)")
     h_min = MIN_STEP * t_end
     try:
         solver = solvers[method](rhs, 0.0, y0, t_end, rtol=rtol, atol=atol, max_step=step)

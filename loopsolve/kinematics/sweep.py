@@ -11,6 +11,7 @@ answered by :mod:`loopsolve.kinematics.reach`, the output grid is :mod:`loopsolv
 from __future__ import annotations
 
 import math
+import numbers
 import sys
 
 import numpy as np
@@ -199,6 +200,9 @@ def _make_grid(x0, x1, h, kind, through_limits, deg=None, max_rows=MAX_ROWS) -> 
 
     The rows are counted before anything is allocated: more than ``max_rows`` is a ModelError.
     """
+    if isinstance(max_rows, bool) or not isinstance(max_rows, numbers.Real) or not max_rows >= 1:
+        raise ModelError(f"--max-rows (max_rows=) {max_rows!r}: the limit on a sweep's rows must be a number of "
+                         f"at least 1 (default {MAX_ROWS:,})")
     h = math.copysign(abs(h), x1 - x0) if x1 != x0 else abs(h)
     count = (x1 - x0) / h
     full_turn = through_limits and kind is Kind.ANGLE and abs(x1 - x0) >= 2 * math.pi - 1e-9

@@ -1,7 +1,8 @@
 """A linkage at one pose as a CAD drawing: DXF (through ezdxf) or SVG, in model units.
 
 What is drawn comes from :mod:`loopsolve.output.geometry` (the same frames the figures use), placed in
-the model's coordinates (1 drawing unit = 1 model length unit; the DXF header says the unit), on
+the model's coordinates (every named point where the solve puts it, wherever the model places its
+frame; 1 drawing unit = 1 model length unit, which the DXF header's ``$INSUNITS`` names), on
 one layer per role:
 
 ========== ===============================================================================
@@ -12,8 +13,10 @@ LINKS      a line between every two joints of a link (a link of three or more jo
 PINS       a circle at every joint (radius ``pin``)
 GROUND     a triangle under every ground pivot, the fixed vectors (ground lines), guides
 SLIDERS    a rectangle for every slider block
-POINTS     a small circle at every tracer point (a point of a link that is not a joint)
-CURVES     the path of each tracer point (or each ``curves`` point) over a sweep: a polyline
+POINTS     a small circle at every tracer point (a named point that is not a joint: a coupler
+           point, a centre of mass), at the solve's coordinates
+CURVES     the path of each tracer point that moves (or each ``curves`` point) over a sweep: a
+           polyline
 LABELS     the joint and point names
 ========== ===============================================================================
 
@@ -32,8 +35,8 @@ import numpy as np
 
 from ..errors import MissingDependencyError, ModelError
 
-__all__ = ["Entity", "LAYERS", "drawing_entities", "check_cad_output", "export_cad", "point_curves", "write_dxf",
-           "write_svg", "CAD_FORMATS"]
+__all__ = ["Entity", "LAYERS", "drawing_entities", "check_cad_output", "dxf_units", "export_cad", "point_curves",
+           "write_dxf", "write_svg", "CAD_FORMATS"]
 
 CAD_FORMATS = ("dxf", "svg")
 
@@ -48,7 +51,31 @@ LAYERS = {
     "LABELS": (7, "#000000"),
 }
 
-_INSUNITS = {"mm": 4, "cm": 5, "m": 6, "in": 1, "ft": 2, "um": 13, "km": 7}
+#: the DXF ``$INSUNITS`` codes of lengths and the size of each unit in metres (DXF reference, HEADER)
+_INSUNITS = {1: 0.0254, 2: 0.3048, 3: 1609.344, 4: 1e-3, 5: 1e-2, 6: 1.0, 7: 1e3, 8: 2.54e-8, 9: 2.54e-5,
+             10: 0.9144, 11: 1e-10, 12: 1e-9, 13: 1e-6, 14: 0.1, 15: 10.0, 16: 100.0, 17: 1e9}
+#: the codes of the inch-based units (``$MEASUREMENT`` 0: imperial; every other unit is metric, 1)
+_IMPERIAL = frozenset({1, 2, 3, 8, 9, 10})
+
+
+def dxf_units(unit: str) -> tuple[int, int]:
+    """``($INSUNITS, $MEASUREMENT)`` of a model length unit: the DXF code of the same size (0, unitless,
+    for a unit DXF has no code for or a display-only name such as ``"units"``) and 0 (imperial) or
+    1 (metric).
+
+    Examples
+    --------
+    >>> from loopsolve.output.cad import dxf_units
+    >>> dxf_units("mm"), dxf_units("cm"), dxf_units("m"), dxf_units("inch"), dxf_units("units")
+    ((4, 1), (5, 1), (6, 1), (1, 0), (0, 1))
+    """
+    from ..model.units import is_physical_length, length_factor
+
+    if not is_physical_length(unit):
+        return 0, 1
+    metres = length_factor(unit, "m")
+    code = next((c for c, f in _INSUNITS.items() if math.isclose(metres, f, rel_tol=1e-9)), 0)
+    return code, 0 if code in _IMPERIAL else 1
 
 
 @dataclass(frozen=True)
@@ -118,10 +145,8 @@ def drawing_entities(state, *, curves: dict | None = None) -> list[Entity]:
 
             order = hull_order(np.asarray(pts))
             out.append(Entity("LINKS", "polyline", tuple(pts[i] for i in order), closed=True, name=name))
-    tracers = _tracer_joints(frame, state)  # a vector model's coupler point: a tracer, not a pin
     for p in frame.joints:
-        if _key(p, state) not in tracers:
-            out.append(Entity("PINS", "circle", (_xy(p),), size=pin))
+        out.append(Entity("PINS", "circle", (_xy(p),), size=pin))
     for p, key in frame.pivots:
         u = np.asarray(style.pivot_dir.get(key, np.array([0.0, -1.0])), dtype=float)
         n = np.array([-u[1], u[0]])
@@ -150,7 +175,7 @@ def drawing_entities(state, *, curves: dict | None = None) -> list[Entity]:
         a, b = 0.95 * size, 0.5 * size
         corners = (p - d * a - n * b, p + d * a - n * b, p + d * a + n * b, p - d * a + n * b)
         out.append(Entity("SLIDERS", "polyline", tuple(_xy(c) for c in corners), closed=True))
-    for p, name in frame.points + [(xy, text) for xy, text in tracers.values()]:
+    for p, name in frame.points:  # every named point that is not a joint, at the solve's coordinates
         out.append(Entity("POINTS", "circle", (_xy(p),), size=0.16 * size, name=str(name)))
     for p, text, _ in frame.labels:
         q = np.asarray(p, dtype=float) + np.array([0.35, 0.35]) * size
@@ -175,7 +200,7 @@ def write_dxf(entities, output, *, unit: str = "mm", title: str = "") -> None:
     """Write ``entities`` to a DXF file (R2010) with ezdxf, one layer per role."""
     ezdxf = _ezdxf()
     doc = ezdxf.new("R2010", setup=True)
-    doc.header["$INSUNITS"] = _INSUNITS.get(unit, 0)
+    doc.header["$INSUNITS"], doc.header["$MEASUREMENT"] = dxf_units(unit)
     for name, (aci, _) in LAYERS.items():
         doc.layers.add(name, color=aci)
     msp = doc.modelspace()
@@ -239,35 +264,18 @@ def write_svg(entities, output, *, unit: str = "mm", title: str = "") -> None:
     ET.ElementTree(root).write(str(output), encoding="utf-8", xml_declaration=True)
 
 
-def _key(p, state):
-    tol = 1e-9 * state.compiled.scale
-    return tuple(np.round(np.asarray(p, dtype=float) / tol).astype(np.int64))
-
-
-def _tracer_joints(frame, state) -> dict:
-    """{position key: (xy, name)} of the named points of one moving link only that the frame draws
-    as joints (not a pin between links, not a ground pivot): the coupler point of a vector model,
-    whose coupler is drawn through it."""
-    count: dict = {}
-    for _, xy, _ in frame.links:
-        for k in {_key(p, state) for p in xy}:
-            count[k] = count.get(k, 0) + 1
-    fixed = {_key(p, state) for p, _ in frame.pivots} | {_key(p, state) for p, _ in frame.blocks}
-    known = set(state.compiled.points)
-    drawn = {str(name) for _, name in frame.points}
-    out: dict = {}
-    for p, text, _ in frame.labels:
-        k = _key(p, state)
-        if count.get(k) == 1 and k not in fixed and text in known and text not in drawn and k not in out:
-            out[k] = (p, str(text))
-    return out
-
-
 def _tracer_points(state) -> list[str]:
+    """The named points that are not joints (coupler points, centres of mass ...): the default curves."""
     from .geometry import pose_frames
 
     (frame,), _ = pose_frames([state], vectors=False)
-    return [str(name) for _, name in frame.points] + [t for _, t in _tracer_joints(frame, state).values()]
+    return [str(name) for _, name in frame.points]
+
+
+def _moves(xy, scale: float) -> bool:
+    xy = np.asarray(xy, dtype=float)
+    xy = xy[np.isfinite(xy).all(axis=1)]
+    return len(xy) >= 2 and float(np.ptp(xy, axis=0).max()) > 1e-9 * scale
 
 
 def point_curves(mech, state, names, *, step=None) -> dict:
@@ -342,6 +350,8 @@ def export_cad(mech, output, at=None, *, input: str | None = None, mode: str | N
     state = mech.solve(at, input=input, mode=mode, **solve_kwargs)
     names = _tracer_points(state) if curves is None else list(curves)
     paths = point_curves(mech, state, names, step=step)
+    if curves is None:  # by default the paths of the tracer points that move
+        paths = {n: xy for n, xy in paths.items() if _moves(xy, state.compiled.scale)}
     ents = drawing_entities(state, curves=paths)
     unit = mech.units.length
     title = f"{mech.name} at {state.input} = {state.input_value:.6g}"

@@ -5,19 +5,13 @@ Both renderers use it: :mod:`loopsolve.output.plotting` (matplotlib figures and 
 says what is drawn where (a :class:`Frame`); :mod:`loopsolve.output.drawstyle` derives from all the
 frames of a picture how it is dressed (symbol sizes, sides of ground symbols, label places).
 
-The kinematic diagram is rebuilt from the solved state alone:
-
-* every vector is placed by walking the loops (``lhs`` forward, ``rhs`` backward, starting at
-  the origin or at a vector an earlier loop already placed) and then the points of interest
-  (sums of vectors from the origin), with the lengths and angles of
-  :meth:`CompiledKinematics.vector_values`;
-* a vector whose length and angle do not depend on any variable is *ground* when one of its
-  ends is fixed (the origin is); its ends are fixed points;
-* a vector whose angle depends on variables and whose length is constant is part of a *link*;
-  vectors whose angles depend on the same variables are the same rigid link (a link with
-  three or more joints is drawn as a filled polygon: a ternary link is a triangle);
-* a vector whose length is a variable is a *slider*: a block at its tip on a guide along it
-  (a fixed guide, hatched, when its angle is constant; a slotted lever when it rotates).
+The kinematic diagram of a vector-loop model is its skeleton (:mod:`loopsolve.output.skeleton`: which
+vector ends meet, what is ground, link or slider) placed at each solved pose: every named point at
+its solved coordinates (what ``solve`` prints), wherever the model puts its frame, and the other
+joints reached from those along the vectors. A link with three or more joints is drawn as a filled
+polygon (a ternary link is a triangle); a slider is a block at its tip on a guide along it (a
+fixed guide, hatched, when its angle is constant; a slotted lever when it rotates). Every named
+point that is not a joint (a coupler point, a centre of mass) is a tracer: ``Frame.points``.
 
 A model written as a kinematic diagram (``[joints]``/``[links]``, see :mod:`loopsolve.model.diagram`)
 is drawn from its links and joints instead, when its ``spec`` still carries them.
@@ -30,12 +24,12 @@ angles tracked continuously (:func:`unwrapped`, for wrapped data) and the names 
 from __future__ import annotations
 
 import math
-import re
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 
 from ..errors import ModelError
+from .skeleton import _positions, _structure, _Structure
 
 __all__ = ["LINK_COLORS", "Frame", "pose_frames", "polygon_area", "hull_order", "unit_vector", "plot_vars",
            "unwrapped", "mode_label"]
@@ -129,233 +123,6 @@ def unwrapped(values: np.ndarray, unit: str) -> np.ndarray:
 
 
 # ------------------------------------------------------------------------- diagram geometry
-class _Nodes:
-    """Union-find over vector ends: ``("tail", v)``, ``("head", v)`` and ``"origin"``."""
-
-    def __init__(self):
-        self.parent: dict = {}
-
-    def find(self, k):
-        self.parent.setdefault(k, k)
-        while self.parent[k] != k:
-            self.parent[k] = self.parent[self.parent[k]]
-            k = self.parent[k]
-        return k
-
-    def union(self, a, b):
-        ra, rb = self.find(a), self.find(b)
-        if ra != rb:
-            # keep "origin" as the representative when present
-            if rb == "origin":
-                ra, rb = rb, ra
-            self.parent[rb] = ra
-
-
-def _walk_sequence(loop) -> tuple[tuple[int, str], ...]:
-    """The closed path of a loop: the left side forward, then the right side backward."""
-    if loop.rhs:
-        return tuple(loop.lhs) + tuple((-s, n) for s, n in reversed(loop.rhs))
-    return tuple(loop.terms)
-
-
-@dataclass
-class _Structure:
-    """Pose-independent structure of a mechanism's diagram (from its vectors and loops)."""
-
-    walks: list  # (start: "origin" | (vec, index in sequence), sequence, closing: bool, point name | None)
-    node_of: dict  # (end, vec) -> node id
-    kind: dict  # vec -> "ground" | "bar" | "slider" | "rslider" | "offset" | "moving"
-    link_of: dict  # vec -> link key (bars, rotating sliders)
-    fixed: set  # fixed node ids
-    point_node: dict  # point name -> node id
-    names: dict  # node id -> label
-    vectors: tuple  # placed vectors in compiled order
-    links: dict = field(default_factory=dict)  # link key -> list of node ids (declared order)
-    blocks: list = field(default_factory=list)  # (slider vec, node id of the block)
-
-
-def _structure(ck) -> _Structure:
-    from ..model.expr import names as expr_names
-
-    mech = ck.mechanism
-    variables = set(ck.variables)
-    nodes = _Nodes()
-    nodes.find("origin")
-    placed: set[str] = set()
-    walks = []
-    pending = list(mech.loops)
-    while pending:
-        pick, start = None, "origin"
-        for loop in pending:
-            seq = _walk_sequence(loop)
-            hit = next((i for i, (_, v) in enumerate(seq) if v in placed), None)
-            if hit is not None:
-                pick, start = loop, (seq[hit][1], hit)
-                break
-        if pick is None:
-            pick = pending[0]
-        pending.remove(pick)
-        seq = _walk_sequence(pick)
-        walks.append((start, seq, True, None))
-        cur = "origin" if start == "origin" else None
-        first = None
-        for sign, v in seq:
-            tail, head = ("tail", v), ("head", v)
-            enter, leave = (tail, head) if sign > 0 else (head, tail)
-            if cur is None:
-                first = enter
-            else:
-                nodes.union(cur, enter)
-            cur = leave
-            placed.add(v)
-        nodes.union(cur, "origin" if start == "origin" else first)
-    point_node = {}
-    for p in mech.points:
-        if not p.plain:  # a point with factors (a centre of mass) is not a walk along whole vectors
-            continue
-        cur = "origin"
-        for sign, v in p.terms:
-            tail, head = ("tail", v), ("head", v)
-            enter, leave = (tail, head) if sign > 0 else (head, tail)
-            nodes.union(cur, enter)
-            cur = leave
-        walks.append(("origin", tuple(p.terms), False, p.name))
-        placed.update(v for _, v in p.terms)
-        point_node[p.name] = cur
-    vectors = tuple(v for v in ck.vectors if v in placed)
-    node_of = {}
-    for v in vectors:
-        for end in ("tail", "head"):
-            node_of[(end, v)] = nodes.find((end, v))
-    point_node = {p: nodes.find(k) for p, k in point_node.items()}
-    origin = nodes.find("origin")
-
-    lvars, avars = {}, {}
-    for v in vectors:
-        vec = mech.vector(v)
-        if vec.cartesian:
-            deps = (expr_names(vec.x) | expr_names(vec.y)) & variables
-            lvars[v], avars[v] = deps, deps
-        else:
-            lvars[v] = expr_names(vec.length) & variables
-            avars[v] = (expr_names(vec.angle) | (expr_names(vec.offset) if vec.offset is not None else set())) \
-                & variables
-    # fixed nodes: the origin and everything reached from it through constant vectors
-    fixed = {origin}
-    changed = True
-    while changed:
-        changed = False
-        for v in vectors:
-            if lvars[v] or avars[v]:
-                continue
-            a, b = node_of[("tail", v)], node_of[("head", v)]
-            if (a in fixed) != (b in fixed):
-                fixed.update((a, b))
-                changed = True
-    kind, link_of, links = {}, {}, {}
-    for v in vectors:
-        a, b = node_of[("tail", v)], node_of[("head", v)]
-        if lvars[v]:
-            kind[v] = "rslider" if avars[v] else "slider"
-        elif avars[v]:
-            kind[v] = "moving" if mech.vector(v).cartesian else "bar"
-        else:
-            kind[v] = "ground" if a in fixed else "offset"
-        if kind[v] in ("bar", "rslider", "moving"):
-            key = frozenset(avars[v])
-            link_of[v] = key
-            members = links.setdefault(key, [])
-            for n in (a, b) if kind[v] != "rslider" else (a,):
-                if n not in members:
-                    members.append(n)
-    # block of each slider: at its tip, or further along constant offsets where a link is pinned
-    pinned = {n for key, members in links.items() for n in members}
-    blocks = []
-    offsets: dict = {}
-    for v in vectors:
-        if kind[v] == "offset":
-            a, b = node_of[("tail", v)], node_of[("head", v)]
-            offsets.setdefault(a, set()).add(b)
-            offsets.setdefault(b, set()).add(a)
-    for v in vectors:
-        if kind[v] not in ("slider", "rslider"):
-            continue
-        tip = node_of[("head", v)]
-        block = tip
-        if kind[v] == "slider" and tip not in pinned:
-            seen, frontier = {tip}, [tip]
-            while frontier:
-                n = frontier.pop(0)
-                if n in pinned:
-                    block = n
-                    break
-                for m in offsets.get(n, ()):
-                    if m not in seen:
-                        seen.add(m)
-                        frontier.append(m)
-        blocks.append((v, block))
-    names = _node_names(mech, vectors, node_of, point_node, kind, fixed, links)
-    return _Structure(walks, node_of, kind, link_of, fixed, point_node, names, vectors, links, blocks)
-
-
-def _node_names(mech, vectors, node_of, point_node, kind, fixed, links) -> dict:
-    """Labels: point names first, then names read off vector names (``rAB``: A→B, ``r2``: O2)."""
-    names: dict = {}
-    for p, n in point_node.items():
-        names.setdefault(n, p)
-    for v in vectors:
-        m = re.fullmatch(r"r_?([A-Z][0-9]*)([A-Z][0-9]*)", v)
-        if m:
-            names.setdefault(node_of[("tail", v)], m.group(1))
-            names.setdefault(node_of[("head", v)], m.group(2))
-    pivots = {n for key, members in links.items() for n in members} & fixed
-    taken = set(names.values())
-    for v in vectors:
-        if kind[v] not in ("bar", "rslider"):
-            continue
-        for end in ("tail", "head"):
-            n = node_of[(end, v)]
-            if n in pivots and n not in names:
-                m = re.fullmatch(r"[a-zA-Z]+_?([0-9]+[a-z]*)", v)
-                label = f"O{m.group(1)}" if m else f"O({v})"
-                if label not in taken:
-                    names[n] = label
-                    taken.add(label)
-    return names
-
-
-def _positions(st: _Structure, ck, z) -> dict:
-    """Node id → (x, y) at the pose ``z`` (internal units)."""
-    vv = ck.vector_values(0, z)
-    disp = {}
-    for v in st.vectors:
-        length, angle = vv[ck.vectors.index(v)]
-        disp[v] = np.array([length * math.cos(angle), length * math.sin(angle)])
-    tails: dict[str, np.ndarray] = {}
-    for start, seq, closing, _point in st.walks:
-        if start == "origin":
-            cur = np.zeros(2)
-        else:
-            anchor, hit = start
-            rel = np.zeros(2)
-            for sign, v in seq[:hit]:
-                rel = rel + sign * disp[v]
-            own = rel if seq[hit][0] > 0 else rel - disp[anchor]
-            cur = tails[anchor] - own
-        for sign, v in seq:
-            if sign > 0:
-                tails.setdefault(v, cur.copy())
-                cur = cur + disp[v]
-            else:
-                cur = cur - disp[v]
-                tails.setdefault(v, cur.copy())
-    pos = {}
-    for v in st.vectors:
-        pos.setdefault(st.node_of[("tail", v)], tails[v])
-        pos.setdefault(st.node_of[("head", v)], tails[v] + disp[v])
-    return pos, tails, disp
-
-
 @dataclass
 class Frame:
     """Everything drawn for one pose, in data coordinates (model length units).
@@ -435,24 +202,26 @@ def pose_frames(states, *, vectors: bool) -> tuple[list[Frame], _Structure]:
     >>> len(frames), sorted(name for _, _, name in frames[1].arrows)
     (2, ['r1', 'r2', 'r3', 'r4'])
     """
+    states = list(states)
     ck = states[0].compiled
-    st = _structure(ck)
+    st = _structure(ck, states)
     layout = _diagram_spec(ck.mechanism)
     frames = []
     for s in states:
-        pos, tails, disp = _positions(st, ck, s.z)
+        pos, disp = _positions(st, ck, s)
         frames.append(_frame_from_layout(layout, s, st, pos) if layout else _frame(st, ck, s, pos))
         if vectors:
+            tails = {v: pos[st.node_of[("tail", v)]] for v in st.vectors}
             frames[-1].arrows = [(tails[v], tails[v] + disp[v], v) for v in st.vectors
                                  if float(np.hypot(*disp[v])) > 0]
     return frames, st
 
 
 def _frame(st: _Structure, ck, s, pos) -> Frame:
-    links, pivots, blocks, guides, levers, joints, points, ground_lines = [], [], [], [], [], set(), [], []
+    at = np.asarray(s.points[0], dtype=float).reshape(-1, 2)
+    links, blocks, guides, levers, ground_lines = [], [], [], [], []
     for i, (key, members) in enumerate(st.links.items()):
         links.append((key, [pos[n] for n in members], i))
-        joints.update(members)
     vv = ck.vector_values(0, s.z)
     for v, block in st.blocks:
         length, angle = vv[ck.vectors.index(v)]
@@ -464,18 +233,21 @@ def _frame(st: _Structure, ck, s, pos) -> Frame:
             ground = st.node_of[("tail", v)] in st.fixed
             guides.append((v, pos[block], d, ground, tail))
         blocks.append((pos[block], angle))
-        joints.add(block)
-    for v in st.vectors:
-        if st.kind[v] == "ground":
-            ground_lines.append((pos[st.node_of[("tail", v)]], pos[st.node_of[("head", v)]]))
+    for v in st.ground:
+        ground_lines.append((pos[st.node_of[("tail", v)]], pos[st.node_of[("head", v)]]))
     # sets are walked in a fixed order, so a picture does not depend on the hash seed
-    pivot_nodes = sorted(joints & st.fixed, key=repr)
-    pivots = [(pos[n], n) for n in pivot_nodes]
-    point_nodes = set(st.point_node.values())
-    points = [(pos[n], n) for n in sorted(point_nodes - joints, key=repr)]
-    labels = {n: st.names[n] for n in sorted(joints | point_nodes, key=repr) if n in st.names}
-    return Frame(links, pivots, blocks, guides, levers, [pos[n] for n in sorted(joints, key=repr)], points,
-                 [(pos[n], text, n) for n, text in labels.items()], [], ground_lines)
+    joints = sorted(st.joints, key=repr)
+    pivots = [(pos[n], n) for n in joints if n in st.fixed]
+    # every named point that is not a joint: a tracer, at the solve's coordinates
+    points = [(at[j], name) for j, name in enumerate(ck.points) if st.point_node.get(name) not in st.joints]
+    here: dict = {}
+    for name, n in st.point_node.items():
+        if n in st.joints:
+            here.setdefault(n, []).append(name)
+    labels = [(pos[n], ", ".join(here[n]) if n in here else st.names[n], n) for n in joints
+              if n in here or n in st.names]
+    labels += [(xy, name, name) for xy, name in points]
+    return Frame(links, pivots, blocks, guides, levers, [pos[n] for n in joints], points, labels, [], ground_lines)
 
 
 def _frame_from_layout(layout, s, st: _Structure, pos) -> Frame:

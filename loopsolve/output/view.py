@@ -52,7 +52,7 @@ _GREEK = {"alpha": "α", "beta": "β", "gamma": "γ", "delta": "δ", "epsilon": 
           "theta": "θ", "iota": "ι", "kappa": "κ", "lambda": "λ", "mu": "μ", "nu": "ν", "xi": "ξ", "pi": "π",
           "rho": "ρ", "sigma": "σ", "tau": "τ", "upsilon": "υ", "phi": "φ", "chi": "χ", "psi": "ψ",
           "omega": "ω"}
-_DIGITS = 12  # significant digits of every number in the page (1e-12 relative: far below any drawing)
+_DIGITS = 12  # significant digits of the page's values and shapes (1e-12 relative); point paths are exact
 
 
 # ------------------------------------------------------------------------------ numbers
@@ -66,6 +66,12 @@ def _num(v) -> float | None:
 
 def _nums(a) -> list:
     return [_num(v) for v in np.asarray(a, dtype=float).ravel()]
+
+
+def _coords(a) -> list:
+    """Coordinates as they are (JSON keeps every bit of a float): the page draws every point and
+    joint at exactly the numbers the sweep holds, however far from the origin the model is."""
+    return [float(v) + 0.0 if math.isfinite(v) else None for v in np.asarray(a, dtype=float).ravel()]
 
 
 def _sort_key(a) -> tuple:
@@ -103,9 +109,9 @@ class _Table:
         xy = np.asarray(xy, dtype=float).reshape(-1, 2)
         good = np.isfinite(xy).all(axis=1)
         if good.any() and np.ptp(xy[good], axis=0).max() <= self.tol and good.all():
-            flat = _nums(xy[0])  # a fixed point: two numbers
+            flat = _coords(xy[0])  # a fixed point: two numbers
         else:
-            flat = _nums(xy)
+            flat = _coords(xy)
         key = tuple(flat)
         if key not in self.index:
             self.index[key] = len(self.items)

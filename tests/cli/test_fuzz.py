@@ -387,3 +387,21 @@ def test_hostile_command_line(capsys, workdir, tmp_path, name):
     if marker.exists():
         problems.append("injected code ran")
     _record("command-line", name, problems)
+
+
+# ---------------------------------------------------------------- limits that must themselves be sane
+
+@pytest.mark.parametrize("argv, option", [
+    (["sweep", "thesis_crank_rocker.toml", "--from", "0", "--to", "10", "--step", "1", "--max-rows", "-5"],
+     "--max-rows"),
+    (["sweep", "thesis_crank_rocker.toml", "--from", "0", "--to", "10", "--step", "1", "--max-rows", "0"],
+     "--max-rows"),
+    (["simulate", "thesis_crank_rocker_dynamics.toml", "--duration", "0.1", "--max-steps", "-1"], "--max-steps"),
+    (["simulate", "thesis_crank_rocker_dynamics.toml", "--duration", "0.1", "--max-steps", "0"], "--max-steps"),
+])
+def test_a_limit_below_one_is_refused_naming_it(argv, option, capsys):
+    """``--max-rows -5`` read as 'more than -5 rows'; ``--max-steps -1`` integrated one step and warned."""
+    argv = [argv[0], str(ls.models_dir() / argv[1])] + argv[2:]
+    assert main(argv) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and option in err[0] and "at least 1" in err[0]

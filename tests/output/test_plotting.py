@@ -24,7 +24,7 @@ import pytest
 
 import loopsolve as ls
 from loopsolve import cli
-from loopsolve.output import drawstyle, geometry, plotting
+from loopsolve.output import drawstyle, geometry, plotting, skeleton
 from loopsolve.errors import MissingDependencyError, ModelError
 from loopsolve.kinematics.results import Event, EventKind, Sweep
 
@@ -313,8 +313,8 @@ def test_draw_second_loop_anchored_on_shared_vector():
     }
     mech = ls.build_mechanism(spec)
     state = mech.solve(90)
-    st = geometry._structure(state.compiled)
-    pos, _, _ = geometry._positions(st, state.compiled, state.z)
+    st = skeleton._structure(state.compiled, [state])
+    pos, _ = skeleton._positions(st, state.compiled, state)
     for name, node in st.point_node.items():
         np.testing.assert_allclose(pos[node], [state[name + "_x"], state[name + "_y"]], atol=1e-9)
     assert st.point_node["F"] in st.fixed  # O4 + r6 is a ground pivot
@@ -326,12 +326,13 @@ def test_draw_second_loop_anchored_on_shared_vector():
 def test_geometry_matches_solved_points(model):
     mech = ls.load(model)
     state = mech.solve()
-    st = geometry._structure(state.compiled)
-    pos, tails, disp = geometry._positions(st, state.compiled, state.z)
+    st = skeleton._structure(state.compiled, [state])
+    pos, disp = skeleton._positions(st, state.compiled, state)
+    tails = {v: pos[st.node_of[("tail", v)]] for v in st.vectors}
     for name, node in st.point_node.items():
         np.testing.assert_allclose(pos[node], [state[name + "_x"], state[name + "_y"]], atol=1e-8)
     for loop in mech.loops:  # walking each loop from its start meets every vector where it was placed
-        seq = geometry._walk_sequence(loop)
+        seq = skeleton._walk_sequence(loop)
         sign, first = seq[0]
         start = tails[first] if sign > 0 else tails[first] + disp[first]
         cur = start.copy()
