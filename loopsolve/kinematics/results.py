@@ -41,7 +41,23 @@ class EventKind(enum.Enum):
 
 @dataclass(frozen=True, slots=True)
 class Event:
-    """An event at input value ``input`` (display units)."""
+    """An event at input value ``input`` (display units).
+
+    Parameters
+    ----------
+    kind : EventKind
+        ``limit``, ``singular``, ``not-assemblable`` or ``mode-change``.
+    input : float
+        Where it happened, in the input's display unit.
+    message : str
+        What happened, in words.
+
+    Examples
+    --------
+    >>> sw = ls.load(ls.models_dir() / "double_rocker.toml").sweep(60, 180, 10)
+    >>> [(e.kind.value, round(e.input, 4)) for e in sw.events]
+    [('limit', 71.79)]
+    """
 
     kind: EventKind
     input: float
@@ -196,6 +212,20 @@ class State:
 
     Indexing by name gives display units: ``state["theta3"]`` (degrees in a degree model),
     ``state["theta3_vel"]`` (rad/s), ``state["C_x"]``, ``state["C_y_acc"]``.
+
+    Parameters
+    ----------
+    compiled : CompiledKinematics
+        The compiled mechanism it belongs to.
+    z, z1, z2, z3 : ndarray
+        Joint variables and their derivatives (internal units); the other fields are the
+        solver's figures. Made by :func:`loopsolve.solve`, not by hand.
+
+    Examples
+    --------
+    >>> state = ls.load(ls.models_dir() / "thesis_crank_rocker.toml").solve(90)
+    >>> round(state["theta4"], 4), round(state["theta4_vel"], 6), round(state["C_x"], 4)
+    (80.7225, 0.618656, 67.2547)
     """
 
     compiled: object = field(repr=False)
@@ -293,6 +323,16 @@ class Sweep:
     the rows are not all in one mode, as through limits); ``states`` gives one :class:`State`
     per point (built on first use); ``events`` lists limits, singular points, mode changes;
     ``mode`` is the starting mode and ``method`` how the points were solved.
+
+    Made by :func:`loopsolve.sweep` (``mech.sweep``); columns and units: the docs' "Results".
+
+    Examples
+    --------
+    >>> sw = ls.load(ls.models_dir() / "thesis_crank_rocker.toml").sweep(0, 360, 90)
+    >>> [round(float(v), 4) for v in sw["theta4"]]
+    [58.4119, 80.7225, 124.6546, 125.9622, 58.4119]
+    >>> sw.units()["theta4_vel"]
+    'rad/s'
 
     ``Sweep(compiled, states, events, mode)`` builds one from states;
     :meth:`from_arrays` from arrays (what the sweeps do).

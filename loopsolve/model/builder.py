@@ -19,7 +19,7 @@ __all__ = ["MechanismBuilder"]
 
 
 class MechanismBuilder:
-    """Declare a mechanism from Python; :meth:`build` gives the same :class:`Mechanism` as a file.
+    """Declare a mechanism from Python; :meth:`~MechanismBuilder.build` gives the same :class:`Mechanism` as a file.
 
     Examples
     --------

@@ -105,6 +105,27 @@ def inverted_slider_crank(r2: float, d: float, *, theta2: float = 0.0, name: str
     Origin at O4; loop ``r1 + r2 = r4`` with r1 = O4→O2 (fixed, length d, 90°), r2 the crank
     (θ2, input) and r4 = O4→block (variable length ``s``, angle θ4). The block slides on the
     rotating lever, so its acceleration has a Coriolis part (see ``State.acceleration_components``).
+
+    Parameters
+    ----------
+    r2 : float
+        The crank's length.
+    d : float
+        The distance O4→O2 (greater than ``r2``).
+    theta2 : float, optional
+        The crank angle of the guesses (degrees).
+    name, length_unit, speed, accel : optional
+        The mechanism's name, length unit and the crank's speed and acceleration.
+
+    Returns
+    -------
+    Mechanism
+
+    Examples
+    --------
+    >>> qr = ls.inverted_slider_crank(50, 150, speed="30rpm")
+    >>> round(qr.solve(0)["theta4"], 4)
+    71.5651
     """
     if not d > r2 > 0:
         raise ModelError(f"{name}: need d > r2 > 0 for a crank and slotted lever (got r2={r2}, d={d})")

@@ -227,19 +227,19 @@ class Mechanism:
 
     # ----------------------------------------------------------- pipeline doors
     def derive(self, input: str | Sequence[str] | None = None):
-        """Symbolic derivation (sympy): see :func:`loopsolve.symbolic.derivation.derive`."""
+        """Symbolic derivation (sympy): see :func:`loopsolve.derive`."""
         from ..symbolic.derivation import derive
 
         return derive(self, input=input)
 
     def derive_dynamics(self, input: str | None = None):
-        """The equation of motion in symbols (M, M′, Q and their values): see :func:`loopsolve.dynamics.eom.derive_dynamics`."""
+        """The equation of motion in symbols (M, M′, Q and their values): see :func:`loopsolve.derive_dynamics`."""
         from ..dynamics.eom import derive_dynamics
 
         return derive_dynamics(self, input=input)
 
     def compile(self, input: str | Sequence[str] | None = None, *, cache: bool = True):
-        """Compiled numeric kinematics: see :func:`loopsolve.symbolic.compiled.compile_mechanism`."""
+        """Compiled numeric kinematics: see :func:`loopsolve.compile_mechanism`."""
         from ..symbolic.compiled import compile_mechanism
 
         ck = compile_mechanism(self, input=input, cache=cache)
@@ -251,25 +251,25 @@ class Mechanism:
         return ck
 
     def solve(self, at=None, **kwargs):
-        """Positions and rates at one input value: see :func:`loopsolve.solve.solve`."""
+        """Positions and rates at one input value: see :func:`loopsolve.solve`."""
         from ..kinematics.solve import solve
 
         return solve(self, at, **kwargs)
 
     def sweep(self, start, stop, step, **kwargs):
-        """Sweep the input: see :func:`loopsolve.sweep.sweep`."""
+        """Sweep the input: see :func:`loopsolve.sweep`."""
         from ..kinematics.sweep import sweep
 
         return sweep(self, start, stop, step, **kwargs)
 
     def forces(self, at=None, stop=None, step=None, **kwargs):
-        """Driving torque, joint forces, shaking force, energies: see :func:`loopsolve.dynamics.kinetostatics.forces`."""
+        """Driving torque, joint forces, shaking force, energies: see :func:`loopsolve.forces`."""
         from ..dynamics.kinetostatics import forces
 
         return forces(self, at, stop, step, **kwargs)
 
     def simulate(self, duration, **kwargs):
-        """Integrate the equation of motion: see :func:`loopsolve.dynamics.simulation.simulate`."""
+        """Integrate the equation of motion: see :func:`loopsolve.simulate`."""
         from ..dynamics.simulation import simulate
 
         return simulate(self, duration, **kwargs)

@@ -121,10 +121,26 @@ def models_dir() -> Path:
 def load(path: str | os.PathLike) -> Mechanism:
     """Read a model file.
 
+    Parameters
+    ----------
+    path : str or path-like
+        A TOML model file (a regular file of at most 1 MiB; format: the docs' "The model file format").
+
+    Returns
+    -------
+    Mechanism
+        The validated, frozen declaration.
+
     Raises
     ------
     ModelFileError
         Naming the file, the key and the offending text; every problem of the file at once.
+
+    Examples
+    --------
+    >>> mech = ls.load(ls.models_dir() / "thesis_crank_rocker.toml")
+    >>> mech.name, mech.inputs
+    ('Crank-rocker four-bar', ('theta2',))
     """
     from .files import read_regular
 
@@ -152,6 +168,38 @@ def loads(text: str, *, source: str = "<string>") -> Mechanism:
     A leading UTF-8 byte-order mark is ignored. Text the TOML reader would choke on (nesting
     deeper than :data:`MAX_DEPTH`, keys of more than :data:`MAX_KEY_PARTS` dotted parts, integers
     of more digits than a float can hold) is refused with a :class:`ModelFileError` at once.
+
+    Parameters
+    ----------
+    text : str
+        The model file's text.
+    source : str, optional
+        The name errors give for it.
+
+    Returns
+    -------
+    Mechanism
+        As :func:`load` gives.
+
+    Examples
+    --------
+    >>> mech = ls.loads('''
+    ... [parameters]
+    ... r2 = 25
+    ... r3 = 70
+    ... [variables]
+    ... theta2 = { input = true, guess = 30 }
+    ... theta3 = { guess = -10 }
+    ... x = { guess = 90 }
+    ... [vectors]
+    ... r1 = { length = "x", angle = 0 }
+    ... r2 = { length = "r2", angle = "theta2" }
+    ... r3 = { length = "r3", angle = "theta3" }
+    ... [[loops]]
+    ... equation = "r2 + r3 = r1"
+    ... ''')
+    >>> round(mech.solve(90)["x"], 4)
+    65.3835
     """
     if not isinstance(text, str):
         raise ModelFileError(f"{source}: model text must be a string, not {type(text).__name__}", path=source)

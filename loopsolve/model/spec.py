@@ -313,6 +313,29 @@ def build_mechanism(spec: Mapping[str, Any], *, source: str | None = None) -> Me
 
     Every problem is collected; one :class:`ModelError` (``ModelFileError`` when ``source``
     names a file) reports them all.
+
+    Parameters
+    ----------
+    spec : mapping
+        The model as a ``dict`` with the keys of a model file.
+    source : str, optional
+        The file it came from, named in errors.
+
+    Returns
+    -------
+    Mechanism
+
+    Examples
+    --------
+    >>> spec = {"parameters": {"r2": 25, "r3": 70},
+    ...         "variables": {"theta2": {"input": True, "guess": 30}, "theta3": {"guess": -10},
+    ...                       "x": {"guess": 90}},
+    ...         "vectors": {"r1": {"length": "x", "angle": 0}, "r2": {"length": "r2", "angle": "theta2"},
+    ...                     "r3": {"length": "r3", "angle": "theta3"}},
+    ...         "loops": [{"equation": "r2 + r3 = r1"}]}
+    >>> mech = ls.build_mechanism(spec)
+    >>> round(mech.solve(90)["x"], 4)
+    65.3835
     """
     problems = _Problems(source)
     if not isinstance(spec, Mapping):
