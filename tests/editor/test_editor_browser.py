@@ -173,6 +173,7 @@ def test_editor_in_chromium(browser, server, workdir):
 
     # ---- drag the ground pivot O4 with the pointer
     from selenium.webdriver.common.action_chains import ActionChains
+    from selenium.webdriver.support.ui import Select
 
     handle = d.find_element("css selector", '[data-joint="O4"]')
     sx, sy = screen_of(d, *at["O4"])
@@ -235,6 +236,16 @@ def test_editor_in_chromium(browser, server, workdir):
     chain.release().perform()
     drawn = d.find_element("id", "le-synth-points").get_attribute("value").strip().splitlines()
     assert len(drawn) >= len(rows)
+    # shape synthesis is the default for a drawn curve; this test picks the path method (points met in order, one
+    # seeded run: no atlas to build in the user's cache — the shape method is tested through the server and in
+    # test_synthpanel_shape.py with a small atlas)
+    method = d.find_element("id", "le-synth-method")
+    assert method.get_attribute("value") == "shape"
+    assert d.find_element("id", "le-synth-closed").is_displayed()
+    assert not d.find_element("id", "le-synth-n").is_displayed()
+    Select(method).select_by_value("path")
+    assert d.find_element("id", "le-synth-n").is_displayed()
+    assert not d.find_element("id", "le-synth-closed").is_displayed()
     n = d.find_element("id", "le-synth-n")
     n.clear()
     n.send_keys("5")
