@@ -44,6 +44,7 @@ from .kinematics import solve as _solve_module  # noqa: E402, F401
 from .kinematics import sweep as _sweep_module  # noqa: E402, F401
 from .design import freudenstein as _freudenstein_module  # noqa: E402, F401
 from .design import burmester as _burmester_module  # noqa: E402, F401
+from .design.atlas import build_atlas, open_atlas  # noqa: E402  (the implementation is the public door)
 
 
 def derive(mech, input=None):
@@ -129,7 +130,9 @@ def compile_mechanism(mech, input=None, *, cache=True):
     return _compile(mech, input=input, cache=cache)
 
 
-def solve(mech, at=None, **kwargs):
+def solve(mech: 'Mechanism', at=None, *, speed=None, accel=None, jerk=None, input: 'str | None' = None,
+          guess: 'dict | None' = None, mode: 'str | None' = None, compiled: 'CompiledKinematics | None' = None,
+          settings: 'Newton | None' = None) -> 'State':
     """Solve one position, with velocities, accelerations and jerks.
 
     The same as :meth:`Mechanism.solve`; the keyword arguments are those of the solver.
@@ -141,7 +144,7 @@ def solve(mech, at=None, **kwargs):
     at : float or str, optional
         The input value, in the model's unit or with a unit (``90``, ``"1.2rad"``); default the
         input's guess.
-    **kwargs
+    speed, accel, jerk, input, guess, mode, compiled, settings : optional
         ``speed``, ``accel``, ``jerk`` (the input's motion, default the model's, else 1 rad/s or 1
         length unit/s, 0, 0), ``input`` (drive another variable), ``mode`` (a signature or alias),
         ``guess`` (a dict of unknowns), ``compiled``, ``settings`` (Newton's tolerances).
@@ -166,7 +169,8 @@ def solve(mech, at=None, **kwargs):
     """
     from .kinematics.solve import solve as _solve
 
-    return _solve(mech, at, **kwargs)
+    return _solve(mech, at, speed=speed, accel=accel, jerk=jerk, input=input, guess=guess, mode=mode,
+                  compiled=compiled, settings=settings)
 
 
 def guessed_mode(mech, at=None, *, input=None, compiled=None):
@@ -204,7 +208,11 @@ def guessed_mode(mech, at=None, *, input=None, compiled=None):
     return _guessed(ck, x)
 
 
-def sweep(mech, start, stop, step, **kwargs):
+def sweep(mech, start, stop, step, *, speed=None, accel=None, jerk=None, input: 'str | None' = None,
+          mode: 'str | None' = None, guess: 'dict | None' = None, compiled=None, through_limits: 'bool' = False,
+          progress: 'bool | None' = None, method: 'str' = 'auto', derivatives: 'int' = 3,
+          control: 'StepControl | None' = None, settings: 'Newton | None' = None, max_rows: 'int' = 1000000,
+          limit_rows: 'bool' = False, engine: 'str | None' = None) -> 'Sweep':
     """Sweep the input over a grid, tracking the assembly mode.
 
     The same as :meth:`Mechanism.sweep`.
@@ -215,7 +223,7 @@ def sweep(mech, start, stop, step, **kwargs):
         The mechanism.
     start, stop, step : float or str
         Rows at ``start + k*step`` towards ``stop``, in the input's unit or with a unit.
-    **kwargs
+    speed, accel, jerk, input, mode, guess, compiled, through_limits, progress, method, derivatives, control, settings, max_rows, limit_rows, engine : optional
         ``speed``, ``accel``, ``jerk``, ``input``, ``mode``, ``guess``, ``compiled``,
         ``through_limits`` (continue around limit positions), ``limit_rows`` (a row at each limit),
         ``method`` (``"auto"``, ``"tracked"``, ``"batched"``), ``derivatives`` (0–3), ``engine``
@@ -236,10 +244,18 @@ def sweep(mech, start, stop, step, **kwargs):
     """
     from .kinematics.sweep import sweep as _sweep
 
-    return _sweep(mech, start, stop, step, **kwargs)
+    return _sweep(mech, start, stop, step, speed=speed, accel=accel, jerk=jerk, input=input, mode=mode, guess=guess,
+                  compiled=compiled, through_limits=through_limits, progress=progress, method=method,
+                  derivatives=derivatives, control=control, settings=settings, max_rows=max_rows,
+                  limit_rows=limit_rows, engine=engine)
 
 
-def study(mech, vary, start, stop, step, **kwargs):
+def study(mech, vary, start, stop, step, *, samples: 'int | None' = None, lhs: 'int | None' = None,
+          seed: 'int | None' = 0, metrics: 'Sequence[str] | Mapping[str, str]' = (), sensitivity: 'bool' = False,
+          speed=None, accel=None, jerk=None, mode: 'str | None' = None, derivatives: 'int' = 3,
+          chunk_size: 'int' = 256, client=None, workers: 'int | None' = None, scheduler: 'str | None' = None,
+          out=None, progress: 'bool | None' = None, method: 'str' = 'lockstep', max_designs: 'int' = 100000,
+          max_cells: 'int' = 5000000):
     """Sweep every design of a parameter grid or sample at once; an xarray Dataset back.
 
     Needs the ``study`` extra. Fields, statuses and units: :doc:`/reference/results`.
@@ -253,7 +269,7 @@ def study(mech, vary, start, stop, step, **kwargs):
         ``samples=`` or ``lhs=``.
     start, stop, step : float or str
         The input grid, as for :func:`sweep`.
-    **kwargs
+    samples, lhs, seed, metrics, sensitivity, speed, accel, jerk, mode, derivatives, chunk_size, client, workers, scheduler, out, progress, method, max_designs, max_cells : optional
         ``samples``, ``lhs``, ``seed``, ``metrics``, ``sensitivity``, ``speed``, ``accel``,
         ``jerk``, ``mode``, ``derivatives``, ``chunk_size``, ``client``, ``workers``,
         ``scheduler``, ``out``, ``progress``, ``method``, ``max_designs``, ``max_cells``.
@@ -272,24 +288,21 @@ def study(mech, vary, start, stop, step, **kwargs):
     """
     from .design.studies import study as _study
 
-    return _study(mech, vary, start, stop, step, **kwargs)
+    return _study(mech, vary, start, stop, step, samples=samples, lhs=lhs, seed=seed, metrics=metrics,
+                  sensitivity=sensitivity, speed=speed, accel=accel, jerk=jerk, mode=mode, derivatives=derivatives,
+                  chunk_size=chunk_size, client=client, workers=workers, scheduler=scheduler, out=out,
+                  progress=progress, method=method, max_designs=max_designs, max_cells=max_cells)
 
 
-def build_atlas(mech, **kwargs):
-    """An atlas of coupler curves for shape synthesis: see :func:`loopsolve.design.atlas.build_atlas`."""
-    from .design.atlas import build_atlas as _build_atlas
-
-    return _build_atlas(mech, **kwargs)
-
-
-def open_atlas(path, mech=None):
-    """Open an atlas (checked): see :func:`loopsolve.design.atlas.open_atlas`."""
-    from .design.atlas import open_atlas as _open_atlas
-
-    return _open_atlas(path, mech)
-
-
-def synthesize(mech, **kwargs):
+def synthesize(mech, *, path=None, function=None, motion=None, link=None, targets=None, inputs=None, vary=None,
+               crank: 'bool' = False, transmission=None, runs: 'int' = 1, seed: 'int' = 0,
+               mode: 'str | None' = 'any', popsize: 'int' = 15, maxiter: 'int' = 60, tol: 'float' = 0.001,
+               restarts: 'int' = 1, strategy: 'str' = 'best1bin', polish_candidates: 'int' = 6,
+               starts: 'int | None' = None, de_starts: 'int' = 10, lm_iters: 'int' = 60,
+               workers: 'int | None' = None, scheduler: 'str | None' = None, client=None,
+               progress: 'bool | None' = None, method: 'str' = 'general', input_range=None, desired=None,
+               max_cells: 'int | None' = None, max_targets: 'int | None' = None, shape=None, closed: 'bool' = True,
+               atlas=None, top: 'int' = 5):
     """Dimensional synthesis: the parameters that make a model generate a path, function or motion.
 
     Every reported design is certified by the tracker; the report's fields are in
@@ -299,7 +312,7 @@ def synthesize(mech, **kwargs):
     ----------
     mech : Mechanism
         The model; its parameters are the design variables.
-    **kwargs
+    path, function, motion, link, targets, inputs, vary, crank, transmission, runs, seed, mode, popsize, maxiter, tol, restarts, strategy, polish_candidates, starts, de_starts, lm_iters, workers, scheduler, client, progress, method, input_range, desired, max_cells, max_targets, shape, closed, atlas, top : optional
         The task: ``path="P"``, ``function="theta4"`` or ``motion="P"`` with ``link="theta3"``;
         ``targets`` (a CSV path or a dict of columns), ``inputs`` (prescribed timing), ``vary``
         (``{name: (low, high)}``), ``crank``, ``transmission``, ``runs``, ``seed``, ``mode``,
@@ -328,10 +341,17 @@ def synthesize(mech, **kwargs):
     """
     from .design.synthrun import synthesize as _synthesize
 
-    return _synthesize(mech, **kwargs)
+    return _synthesize(mech, path=path, function=function, motion=motion, link=link, targets=targets, inputs=inputs,
+                       vary=vary, crank=crank, transmission=transmission, runs=runs, seed=seed, mode=mode,
+                       popsize=popsize, maxiter=maxiter, tol=tol, restarts=restarts, strategy=strategy,
+                       polish_candidates=polish_candidates, starts=starts, de_starts=de_starts, lm_iters=lm_iters,
+                       workers=workers, scheduler=scheduler, client=client, progress=progress, method=method,
+                       input_range=input_range, desired=desired, max_cells=max_cells, max_targets=max_targets,
+                       shape=shape, closed=closed, atlas=atlas, top=top)
 
 
-def forces(mech, at=None, stop=None, step=None, **kwargs):
+def forces(mech, at=None, stop=None, step=None, *, speed=None, accel=None, input=None, mode=None,
+           through_limits: 'bool' = False, progress=False, method: 'str' = 'auto'):
     """Force and torque analysis: driving torque, joint forces, shaking force, energies.
 
     Derives the dynamics with sympy once per process. Columns, units and signs:
@@ -345,7 +365,7 @@ def forces(mech, at=None, stop=None, step=None, **kwargs):
         One input value; or the start of a sweep when ``stop`` and ``step`` are given.
     stop, step : float or str, optional
         The sweep's end and step.
-    **kwargs
+    speed, accel, input, mode, through_limits, progress, method : optional
         ``speed``, ``accel``, ``input``, ``mode``, ``through_limits``, ``progress``, ``method``.
 
     Returns
@@ -363,10 +383,13 @@ def forces(mech, at=None, stop=None, step=None, **kwargs):
     """
     from .dynamics.kinetostatics import forces as _forces
 
-    return _forces(mech, at, stop, step, **kwargs)
+    return _forces(mech, at, stop, step, speed=speed, accel=accel, input=input, mode=mode,
+                   through_limits=through_limits, progress=progress, method=method)
 
 
-def simulate(mech, duration, **kwargs):
+def simulate(mech, duration: 'float', *, step: 'float' = 0.01, torque=0.0, speed0=None, at=None, input=None,
+             mode=None, rtol: 'float' = 1e-11, atol: 'float' = 1e-12, method: 'str' = 'DOP853',
+             max_steps: 'int | None' = None) -> 'Simulation':
     """Integrate the one-degree-of-freedom equation of motion over time.
 
     Parameters
@@ -375,7 +398,7 @@ def simulate(mech, duration, **kwargs):
         A mechanism with ``[bodies]``.
     duration : float
         Seconds to simulate.
-    **kwargs
+    step, torque, speed0, at, input, mode, rtol, atol, method, max_steps : optional
         ``step`` (output step, s), ``torque`` (a number, a quantity, an SI expression of the input,
         ``<input>_vel`` and ``t``, or a callable ``f(t, x, xd)``), ``speed0``, ``at``, ``input``,
         ``mode``, ``rtol``, ``atol``, ``method``, ``max_steps``.
@@ -394,10 +417,16 @@ def simulate(mech, duration, **kwargs):
     """
     from .dynamics.simulation import simulate as _simulate
 
-    return _simulate(mech, duration, **kwargs)
+    return _simulate(mech, duration, step=step, torque=torque, speed0=speed0, at=at, input=input, mode=mode,
+                     rtol=rtol, atol=atol, method=method, max_steps=max_steps)
 
 
-def freudenstein(function, x_range, input_range, output_range, **kwargs):
+def freudenstein(function: 'Callable | None', x_range: 'Sequence[float]', input_range: 'Sequence[float]',
+                 output_range: 'Sequence[float]', *, points: 'int | Sequence[float]' = 3,
+                 spacing: 'str' = 'chebyshev', fit: 'str' = 'exact', free_offsets: 'bool' = False,
+                 ground: 'float' = 100.0, length_unit: 'str' = 'mm',
+                 name: 'str' = 'Freudenstein function generator', samples: 'int' = 1201,
+                 max_link_ratio: 'float | None' = None, starts: 'int' = 4) -> 'FunctionDesign':
     """Four-bar function generation by Freudenstein's equation, every design checked by the tracker.
 
     Parameters
@@ -408,7 +437,7 @@ def freudenstein(function, x_range, input_range, output_range, **kwargs):
         The range of x.
     input_range, output_range : (float, float)
         The input and output angles (degrees) that x and y map to.
-    **kwargs
+    points, spacing, fit, free_offsets, ground, length_unit, name, samples, max_link_ratio, starts : optional
         ``points`` (3, or the x values), ``spacing`` (``"chebyshev"``), ``fit`` (``"exact"``,
         ``"least-squares"``, ``"minimax"``), ``free_offsets``, ``ground``, ``length_unit``,
         ``name``, ``samples``, ``max_link_ratio``, ``starts``.
@@ -425,17 +454,20 @@ def freudenstein(function, x_range, input_range, output_range, **kwargs):
     >>> [round(k, 5) for k in d.K]
     [2.00276, -0.69862, 1.0842]
     """
-    return _freudenstein_module.freudenstein(function, x_range, input_range, output_range, **kwargs)
+    return _freudenstein_module.freudenstein(function, x_range, input_range, output_range, points=points,
+                                             spacing=spacing, fit=fit, free_offsets=free_offsets, ground=ground,
+                                             length_unit=length_unit, name=name, samples=samples,
+                                             max_link_ratio=max_link_ratio, starts=starts)
 
 
-def burmester(poses, **kwargs):
+def burmester(poses, *, length_unit: 'str' = 'mm', name: 'str' = 'Burmester four-bar') -> 'BurmesterResult':
     """Five-pose motion generation by Burmester theory, every four-bar checked by the tracker.
 
     Parameters
     ----------
     poses : sequence of (x, y, angle)
         Five poses of a coupler point and the coupler's angle (degrees).
-    **kwargs
+    length_unit, name : optional
         ``length_unit``, ``name``.
 
     Returns
@@ -454,17 +486,17 @@ def burmester(poses, **kwargs):
     >>> len(ls.burmester(poses).usable) >= 1
     True
     """
-    return _burmester_module.burmester(poses, **kwargs)
+    return _burmester_module.burmester(poses, length_unit=length_unit, name=name)
 
 
-def burmester_curves(poses, **kwargs):
+def burmester_curves(poses, *, samples: 'int' = 1440) -> 'BurmesterCurves':
     """Centre-point and circle-point curves of four poses (Burmester theory).
 
     Parameters
     ----------
     poses : sequence of (x, y, angle)
         Four poses of a coupler point and the coupler's angle (degrees).
-    **kwargs
+    samples : optional
         ``samples`` (angles of the lines through the pole, default 1440).
 
     Returns
@@ -479,10 +511,11 @@ def burmester_curves(poses, **kwargs):
     >>> curves.center.shape[1]
     2
     """
-    return _burmester_module.burmester_curves(poses, **kwargs)
+    return _burmester_module.burmester_curves(poses, samples=samples)
 
 
-def export_cad(mech, output, at=None, **kwargs):
+def export_cad(mech, output, at=None, *, input: 'str | None' = None, mode: 'str | None' = None,
+               curves: 'list[str] | None' = None, step=None, **solve_kwargs):
     """The linkage at one pose as a CAD drawing (``.dxf`` with ezdxf, or ``.svg``), layers by role.
 
     Parameters
@@ -493,9 +526,11 @@ def export_cad(mech, output, at=None, **kwargs):
         ``.dxf`` (needs the ``cad`` extra) or ``.svg``.
     at : float or str, optional
         The input value of the pose (default the input's guess).
-    **kwargs
-        ``input``, ``mode``, ``curves`` (points whose paths to draw), ``step``, and the keywords
-        of :func:`solve`.
+    input, mode, curves, step : optional
+        ``input``, ``mode``: as for :func:`solve`; ``curves``: the points whose paths to draw; ``step``: their
+        sweep's step.
+    **solve_kwargs
+        The other keywords of :func:`solve` (``speed``, ``guess``, ``settings``...).
 
     Returns
     -------
@@ -513,46 +548,59 @@ def export_cad(mech, output, at=None, **kwargs):
     """
     from .output.cad import export_cad as _export_cad
 
-    return _export_cad(mech, output, at, **kwargs)
+    return _export_cad(mech, output, at, input=input, mode=mode, curves=curves, step=step, **solve_kwargs)
 
 
-# The flat modules' names before the subpackages (issue 24, ARCHITECTURE.md): ``ls.classic`` and
-# ``from loopsolve import classic`` still give loopsolve.kinematics.classic, imported on first use
-# (so ``import loopsolve`` stays as light as before); ``model``, ``symbolic`` and ``dynamics`` are the
-# subpackages, which answer for the names of the module they replace. New code imports the new paths.
-_MOVED = {
-    "spec": "model.spec", "expr": "model.expr", "exprcheck": "model.exprcheck", "units": "model.units",
-    "unitlib": "model.unitlib", "files": "model.files", "modelfile": "model.modelfile",
-    "builder": "model.builder", "factories": "model.factories", "model": "model",
-    "topology": "model.topology", "diagram": "model.diagram", "diagrambodies": "model.diagrambodies",
-    "bodies": "model.bodies", "symbolic": "symbolic", "compiled": "symbolic.compiled",
-    "texprint": "symbolic.texprint", "newton": "kinematics.newton", "kernel": "kinematics.kernel",
-    "solve": "kinematics.solve", "modes": "kinematics.modes", "continuation": "kinematics.continuation",
-    "sweep": "kinematics.sweep", "batch": "kinematics.batch", "assemblable": "kinematics.assemblable",
-    "results": "kinematics.results", "export": "kinematics.export", "info": "kinematics.info",
-    "classic": "kinematics.classic", "declcheck": "dynamics.declcheck",
-    "kinetostatics": "dynamics.kinetostatics", "dynamics": "dynamics", "eom": "dynamics.eom",
-    "simulation": "dynamics.simulation", "forceresults": "dynamics.forceresults",
-    "designs": "design.designs", "lockstep": "design.lockstep", "studies": "design.studies",
-    "metrics": "design.metrics", "sensitivity": "design.sensitivity", "synthesis": "design.synthesis",
-    "synthbatch": "design.synthbatch", "certify": "design.certify", "synthrun": "design.synthrun",
-    "freudenstein": "design.freudenstein", "burmester": "design.burmester",
-    "classicsynth": "design.classicsynth", "linkcheck": "design.linkcheck", "structerr": "design.structerr",
-    "plotting": "output.plotting", "forceplots": "output.forceplots", "drawstyle": "output.drawstyle",
-    "geometry": "output.geometry", "view": "output.view", "cad": "output.cad", "latex": "output.latex",
-    "latex_dynamics": "output.latex_dynamics",
+#: The types users hold, importable from the top (``from loopsolve import ForceSweep``); each is
+#: imported on first use, so ``import loopsolve`` stays light (no sympy, xarray or matplotlib).
+_TYPES = {
+    "CompiledKinematics": "symbolic.compiled", "Kinematics": "symbolic.derivation",
+    "DynamicsDerivation": "dynamics.eom", "Newton": "kinematics.newton", "StepControl": "kinematics.continuation",
+    "Mode": "kinematics.modes", "ForceSweep": "dynamics.forceresults", "Flywheel": "dynamics.forceresults",
+    "Simulation": "dynamics.simulation", "SynthesisResult": "design.synthrun", "ShapeResult": "design.shape",
+    "FunctionDesign": "design.freudenstein", "BurmesterResult": "design.burmester",
+    "BurmesterCurves": "design.burmester", "Atlas": "design.atlas", "Page": "output.view",
 }
+
+# The flat modules' names before the subpackages (issue 24, ARCHITECTURE.md). ``ls.classic`` and
+# ``from loopsolve import classic`` still give loopsolve.kinematics.classic, with one
+# DeprecationWarning naming the new path; they are removed in loopsolve 0.3 (not before 2027-06-01).
+_MOVED = {
+    "spec": "model.spec", "exprcheck": "model.exprcheck", "unitlib": "model.unitlib", "files": "model.files",
+    "modelfile": "model.modelfile", "builder": "model.builder", "factories": "model.factories",
+    "diagrambodies": "model.diagrambodies", "compiled": "symbolic.compiled", "texprint": "symbolic.texprint",
+    "kernel": "kinematics.kernel", "modes": "kinematics.modes", "continuation": "kinematics.continuation",
+    "batch": "kinematics.batch", "assemblable": "kinematics.assemblable", "results": "kinematics.results",
+    "export": "kinematics.export", "info": "kinematics.info", "classic": "kinematics.classic",
+    "declcheck": "dynamics.declcheck", "kinetostatics": "dynamics.kinetostatics", "eom": "dynamics.eom",
+    "simulation": "dynamics.simulation", "forceresults": "dynamics.forceresults", "designs": "design.designs",
+    "lockstep": "design.lockstep", "studies": "design.studies", "metrics": "design.metrics",
+    "sensitivity": "design.sensitivity", "synthesis": "design.synthesis", "synthbatch": "design.synthbatch",
+    "certify": "design.certify", "synthrun": "design.synthrun", "classicsynth": "design.classicsynth",
+    "linkcheck": "design.linkcheck", "structerr": "design.structerr", "plotting": "output.plotting",
+    "forceplots": "output.forceplots", "drawstyle": "output.drawstyle", "geometry": "output.geometry",
+    "view": "output.view", "cad": "output.cad", "latex": "output.latex", "latex_dynamics": "output.latex_dynamics",
+}
+from .errors import COMPAT_REMOVAL  # noqa: E402
 
 
 def __getattr__(name):
-    path = _MOVED.get(name)
-    if path is None:
-        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
     import importlib
 
-    module = importlib.import_module(f".{path}", __name__)
-    globals()[name] = module
-    return module
+    if name in _TYPES:
+        value = getattr(importlib.import_module(f".{_TYPES[name]}", __name__), name)
+    elif name in ("model", "symbolic", "dynamics", "kinematics", "design", "output", "editor", "cli"):
+        value = importlib.import_module(f".{name}", __name__)  # the subpackages themselves
+    elif name in _MOVED:
+        import warnings
+
+        warnings.warn(f"loopsolve.{name} is loopsolve.{_MOVED[name]} now; the old name is removed in {COMPAT_REMOVAL}",
+                      DeprecationWarning, stacklevel=2)
+        return importlib.import_module(f".{_MOVED[name]}", __name__)  # not cached: every old use is told
+    else:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    globals()[name] = value
+    return value
 
 
 __all__ = [
@@ -601,4 +649,5 @@ __all__ = [
     "synthesize",
     "build_atlas",
     "open_atlas",
+    *_TYPES,
 ]

@@ -152,6 +152,11 @@ class MissingDependencyError(LoopsolveError, ImportError):
     exit_code = 2
 
 
+#: When the old names kept for compatibility (``loopsolve.classic``, ``loopsolve.model.Mechanism``...) go:
+#: until then each use gives one DeprecationWarning naming the new path.
+COMPAT_REMOVAL = "loopsolve 0.3 (not before 2027-06-01)"
+
+
 class LoopsolveWarning(UserWarning):
     """Warnings issued by loopsolve."""
 

@@ -247,6 +247,9 @@ def build_atlas(mech, *, point: str, vary, size: int, seed: int = 0, out=None, c
         Entries done on stderr (tqdm); default: on a terminal. A callable is called as
         ``progress(done, total)`` (designs) when the build starts and after every chunk (the
         editor's progress bar).
+    step_deg, curve_points, harmonics : optional
+        The tracer's input step (degrees), the points stored per curve (resampled by arc length)
+        and the elliptic Fourier harmonics of its shape descriptor.
 
     Returns
     -------
@@ -407,8 +410,31 @@ def _bar(total, progress, desc):
 def open_atlas(path, mech=None) -> Atlas:
     """Open the atlas at ``path`` (checked: see :mod:`loopsolve.design.atlasstore`); with ``mech``, it must be of it.
 
-    Raises :class:`~loopsolve.design.atlasstore.AtlasFileError` (a ``ModelError``, exit 2) for a
-    missing, foreign, unsafe, damaged or incomplete atlas, or one of another model.
+    Parameters
+    ----------
+    path : str or path
+        The atlas (a directory, ``.zarr``) that :func:`build_atlas` wrote.
+    mech : Mechanism, optional
+        When given, the atlas must be of this model's structure (:func:`~loopsolve.design.atlasstore.fingerprint`).
+
+    Returns
+    -------
+    Atlas
+
+    Raises
+    ------
+    AtlasFileError
+        (a ``ModelError``, exit 2) A missing, foreign, unsafe, damaged or incomplete atlas, or one of
+        another model.
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> mech = ls.load(ls.models_dir() / "fourbar_path_synthesis.toml")
+    >>> out = pathlib.Path(tempfile.mkdtemp()) / "small.zarr"
+    >>> _ = build_atlas(mech, point="P", vary={"r2": (0.5, 2)}, size=32, chunk=32, out=out, progress=False)
+    >>> open_atlas(out, mech).summary()["size"]
+    32
     """
     path = os.fspath(path)
     g, meta = _st.open_store(path)

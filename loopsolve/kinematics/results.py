@@ -501,29 +501,31 @@ class Sweep:
     def units(self) -> dict[str, str]:
         return column_units(self.compiled)
 
-    def to_json(self, **kwargs) -> str:
+    def to_json(self, *, indent: 'int | None' = 1) -> 'str':
         from .export import to_json
 
-        return to_json(self, **kwargs)
+        return to_json(self, indent=indent)
 
-    def to_csv(self, **kwargs) -> str:
+    def to_csv(self) -> 'str':
         from .export import to_csv
 
-        return to_csv(self, **kwargs)
+        return to_csv(self)
 
-    def plot(self, *args, **kwargs):
+    def plot(self, vars=None, *, output=None):
         """Stacked plots of the chosen variables: see :func:`loopsolve.output.plotting.plot_sweep`."""
         from ..output.plotting import plot_sweep
 
-        return plot_sweep(self, *args, **kwargs)
+        return plot_sweep(self, vars, output=output)
 
-    def animate(self, *args, **kwargs):
+    def animate(self, *, output, fps: 'float' = 20, progress=None, vectors: 'bool' = False, dpi: 'int' = 100,
+                max_frames: 'int | None' = 3600) -> 'Path':
         """Animation of the linkage over the sweep: see :func:`loopsolve.output.plotting.animate`."""
         from ..output.plotting import animate
 
-        return animate(self, *args, **kwargs)
+        return animate(self, output=output, fps=fps, progress=progress, vectors=vectors, dpi=dpi,
+                       max_frames=max_frames)
 
-    def to_html(self, vars=None, **kwargs) -> str:
+    def to_html(self, vars=None, *, extra_series=None, title=None) -> 'str':
         """The interactive page of this sweep (self-contained HTML): see :func:`loopsolve.output.view.to_html`.
 
         Examples
@@ -534,9 +536,9 @@ class Sweep:
         """
         from ..output.view import to_html
 
-        return to_html(self, vars, **kwargs)
+        return to_html(self, vars, extra_series=extra_series, title=title)
 
-    def view(self, vars=None, **kwargs):
+    def view(self, vars=None, *, extra_series=None, title=None):
         """The interactive page, shown inline by Jupyter (the cell's value): see :class:`loopsolve.output.view.Page`.
 
         Takes the arguments of :meth:`to_html`; ``display(sw.view())`` shows it from the middle of a
@@ -550,7 +552,7 @@ class Sweep:
         """
         from ..output.view import Page, to_html
 
-        return Page(to_html(self, vars, **kwargs))
+        return Page(to_html(self, vars, extra_series=extra_series, title=title))
 
     def _repr_html_(self):
         """Jupyter shows a sweep as its interactive page (its text repr when empty or longer than

@@ -475,7 +475,7 @@ def _coincide(ck, zs) -> bool:
 
 def solve(mech: Mechanism, at=None, *, speed=None, accel=None, jerk=None, input: str | None = None,
           guess: dict | None = None, mode: str | None = None, compiled: CompiledKinematics | None = None,
-          settings: Newton = Newton()) -> State:
+          settings: Newton | None = None) -> State:
     """Positions, velocities, accelerations and jerks at one input value.
 
     Parameters
@@ -494,6 +494,10 @@ def solve(mech: Mechanism, at=None, *, speed=None, accel=None, jerk=None, input:
     mode : str, optional
         Assembly-mode signature (``"+"``, ``"-+"``...) or alias (``"open"``/``"crossed"``) to
         solve in, whatever the guesses say.
+    compiled : CompiledKinematics, optional
+        The mechanism compiled for ``input`` (default: compiled on demand, cached).
+    settings : Newton, optional
+        Newton's tolerances (default ``Newton()``).
 
     Returns
     -------
@@ -521,6 +525,7 @@ def solve(mech: Mechanism, at=None, *, speed=None, accel=None, jerk=None, input:
     else:
         x = input_value(ck, at, name)
     disp = display_value(ck, x, name)
+    settings = Newton() if settings is None else settings
     z, residual, n_iter = start_position(ck, x, mode=mode, guess=guess, settings=settings)
     sig = ck.signature(z)
     try:

@@ -238,7 +238,7 @@ def _make_grid(x0, x1, h, kind, through_limits, deg=None, max_rows=MAX_ROWS) -> 
 def sweep(mech, start, stop, step, *, speed=None, accel=None, jerk=None, input: str | None = None,
           mode: str | None = None, guess: dict | None = None, compiled=None,
           through_limits: bool = False, progress: bool | None = None, method: str = "auto",
-          derivatives: int = 3, control: StepControl = StepControl(), settings: Newton = Newton(),
+          derivatives: int = 3, control: StepControl | None = None, settings: Newton | None = None,
           max_rows: int = MAX_ROWS, limit_rows: bool = False, engine: str | None = None) -> Sweep:
     """Sweep the input from ``start`` to ``stop`` by ``step`` (display units), tracking the mode.
 
@@ -273,8 +273,10 @@ def sweep(mech, start, stop, step, *, speed=None, accel=None, jerk=None, input: 
         Highest time derivative computed: velocities, accelerations, jerks (default). The
         unknowns' higher rates are NaN (empty in CSV, null in JSON); for speed when they are
         not needed.
-    control : StepControl
-        Internal step control.
+    control : StepControl, optional
+        The tracker's step control (default ``StepControl()``).
+    settings : Newton, optional
+        Newton's tolerances (default ``Newton()``).
     max_rows : int
         Refuse (``ModelError``, before any work) a grid of more rows than this (default 10⁶).
     limit_rows : bool
@@ -319,6 +321,8 @@ def sweep(mech, start, stop, step, *, speed=None, accel=None, jerk=None, input: 
     """
     if method not in ("auto", "tracked", "batched"):
         raise ModelError(f"method {method!r}: expected 'auto', 'tracked' or 'batched'")
+    control = StepControl() if control is None else control
+    settings = Newton() if settings is None else settings
     if derivatives not in (1, 2, 3):
         raise ModelError(f"derivatives={derivatives!r}: expected 1 (velocities), 2 (accelerations) or 3 (jerks)")
     fast = numbakin.use_numba(engine)

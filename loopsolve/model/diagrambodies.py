@@ -50,7 +50,7 @@ def parse_bodies(bspec, links: list[Link], joints: list, length: Callable, probl
     >>> from loopsolve.model.spec import _Problems
     >>> from loopsolve.model.topology import Link
     >>> links = [Link("ground", ("O2", "O4")), Link("crank", ("O2", "B"))]
-    >>> ls.diagrambodies.parse_bodies({"crank": {"mass": 1, "at": [0, 5]}}, links, [],
+    >>> ls.model.diagrambodies.parse_bodies({"crank": {"mass": 1, "at": [0, 5]}}, links, [],
     ...                               lambda v, key: float(v), _Problems(None))
     [('crank', {'mass': 1}, (0.0, 5.0))]
     """
@@ -143,7 +143,7 @@ def body_specs(bodies, top: Topology, theta_of, where: str) -> dict[str, dict[st
     Examples
     --------
     >>> top = ls.diagram.topology_of(ls.load(ls.models_dir() / "thesis_crank_rocker_diagram.toml"))
-    >>> ls.diagrambodies.body_specs([("rocker", {"mass": 1, "inertia": 0}, "C")], top,
+    >>> ls.model.diagrambodies.body_specs([("rocker", {"mass": 1, "inertia": 0}, "C")], top,
     ...                             lambda link: None if link == "ground" else f"theta_{link}", "")
     {'rocker': {'mass': 1, 'inertia': 0, 'com': 'C', 'angle': 'theta_rocker', 'joints': ['C', 'O4']}}
     """

@@ -35,6 +35,21 @@ def fourbar(r1: float, r2: float, r3: float, r4: float, *, theta2: float = 90.0,
     signature ``"-"``) or ``"crossed"`` (signature ``"+"``); both names are aliases of the
     signatures for ``--mode``. Points: B (crank pin) and C (coupler–rocker pin).
 
+    Parameters
+    ----------
+    r1, r2, r3, r4 : float
+        Ground, crank, coupler and rocker lengths (``length_unit``).
+    theta2 : float, optional
+        The crank angle of the guesses (degrees).
+    mode : {"open", "crossed"}, optional
+        The assembly mode the guesses are in.
+    name, length_unit, speed, accel : optional
+        The mechanism's name, length unit and the crank's speed and acceleration.
+
+    Returns
+    -------
+    Mechanism
+
     Examples
     --------
     >>> s = ls.fourbar(60, 25, 70, 45).solve(90)
@@ -72,6 +87,23 @@ def slider_crank(r2: float, r3: float, *, offset: float = 0.0, theta2: float = 4
     r2 = crank (θ2, input), r3 = connecting rod (θ3), r1 = slider position ``x`` along +x,
     r4 = the offset ``e`` perpendicular to the line of sliding. ``mode`` ``"right"`` puts the
     slider on the +x side of the crank pin. Points: B (crank pin) and C (slider).
+
+    Parameters
+    ----------
+    r2, r3 : float
+        Crank and connecting-rod lengths (``length_unit``).
+    offset : float, optional
+        The offset ``e`` of the line of sliding from the crank pivot.
+    theta2 : float, optional
+        The crank angle of the guesses (degrees).
+    mode : {"right", "left"}, optional
+        The side of the crank pin the slider is on.
+    name, length_unit, speed, accel : optional
+        The mechanism's name, length unit and the crank's speed and acceleration.
+
+    Returns
+    -------
+    Mechanism
 
     Examples
     --------

@@ -250,53 +250,69 @@ class Mechanism:
                                  f"has {len(ck.blocks)} sign(s), one per diagonal block of the Jacobian")
         return ck
 
-    def solve(self, at=None, **kwargs):
+    def solve(self, at=None, *, speed=None, accel=None, jerk=None, input: 'str | None' = None,
+              guess: 'dict | None' = None, mode: 'str | None' = None, compiled: 'CompiledKinematics | None' = None,
+              settings: 'Newton | None' = None) -> 'State':
         """Positions and rates at one input value: see :func:`loopsolve.solve`."""
         from ..kinematics.solve import solve
 
-        return solve(self, at, **kwargs)
+        return solve(self, at, speed=speed, accel=accel, jerk=jerk, input=input, guess=guess, mode=mode,
+                     compiled=compiled, settings=settings)
 
-    def sweep(self, start, stop, step, **kwargs):
+    def sweep(self, start, stop, step, *, speed=None, accel=None, jerk=None, input: 'str | None' = None,
+              mode: 'str | None' = None, guess: 'dict | None' = None, compiled=None, through_limits: 'bool' = False,
+              progress: 'bool | None' = None, method: 'str' = 'auto', derivatives: 'int' = 3,
+              control: 'StepControl | None' = None, settings: 'Newton | None' = None, max_rows: 'int' = 1000000,
+              limit_rows: 'bool' = False, engine: 'str | None' = None) -> 'Sweep':
         """Sweep the input: see :func:`loopsolve.sweep`."""
         from ..kinematics.sweep import sweep
 
-        return sweep(self, start, stop, step, **kwargs)
+        return sweep(self, start, stop, step, speed=speed, accel=accel, jerk=jerk, input=input, mode=mode,
+                     guess=guess, compiled=compiled, through_limits=through_limits, progress=progress,
+                     method=method, derivatives=derivatives, control=control, settings=settings, max_rows=max_rows,
+                     limit_rows=limit_rows, engine=engine)
 
-    def forces(self, at=None, stop=None, step=None, **kwargs):
+    def forces(self, at=None, stop=None, step=None, *, speed=None, accel=None, input=None, mode=None,
+               through_limits: 'bool' = False, progress=False, method: 'str' = 'auto'):
         """Driving torque, joint forces, shaking force, energies: see :func:`loopsolve.forces`."""
         from ..dynamics.kinetostatics import forces
 
-        return forces(self, at, stop, step, **kwargs)
+        return forces(self, at, stop, step, speed=speed, accel=accel, input=input, mode=mode,
+                      through_limits=through_limits, progress=progress, method=method)
 
-    def simulate(self, duration, **kwargs):
+    def simulate(self, duration: 'float', *, step: 'float' = 0.01, torque=0.0, speed0=None, at=None, input=None,
+                 mode=None, rtol: 'float' = 1e-11, atol: 'float' = 1e-12, method: 'str' = 'DOP853',
+                 max_steps: 'int | None' = None) -> 'Simulation':
         """Integrate the equation of motion: see :func:`loopsolve.simulate`."""
         from ..dynamics.simulation import simulate
 
-        return simulate(self, duration, **kwargs)
+        return simulate(self, duration, step=step, torque=torque, speed0=speed0, at=at, input=input, mode=mode,
+                        rtol=rtol, atol=atol, method=method, max_steps=max_steps)
 
-    def modes(self, at=None, **kwargs):
+    def modes(self, at=None, *, input: 'str | None' = None, compiled=None) -> 'tuple[Mode, ...]':
         """Every real assembly mode at one input: see :func:`loopsolve.kinematics.modes.assembly_modes`."""
         from ..kinematics.modes import assembly_modes
 
-        return assembly_modes(self, at, **kwargs)
+        return assembly_modes(self, at, input=input, compiled=compiled)
 
-    def to_latex(self, **kwargs) -> str:
+    def to_latex(self, *, input: 'str | Sequence[str] | None' = None, at=None, snippet: 'bool' = False,
+                 inline: 'bool' = False) -> 'str':
         """The derivation as a LaTeX document: see :func:`loopsolve.output.latex.to_latex`."""
         from ..output.latex import to_latex
 
-        return to_latex(self, **kwargs)
+        return to_latex(self, input=input, at=at, snippet=snippet, inline=inline)
 
-    def info(self, **kwargs) -> dict:
+    def info(self, *, input=None, reach: 'bool' = True) -> 'dict':
         """Structure summary (mobility, loops, blocks...): see :func:`loopsolve.kinematics.info.info`."""
         from ..kinematics.info import info
 
-        return info(self, **kwargs)
+        return info(self, input=input, reach=reach)
 
-    def draw(self, at=None, **kwargs):
+    def draw(self, at=None, *, input=None, mode=None, vectors=False, output=None, ax=None, **solve_kwargs):
         """The kinematic diagram at one input: see :func:`loopsolve.output.plotting.draw`."""
         from ..output.plotting import draw
 
-        return draw(self, at, **kwargs)
+        return draw(self, at, input=input, mode=mode, vectors=vectors, output=output, ax=ax, **solve_kwargs)
 
     def with_parameters(self, **values: float) -> "Mechanism":
         """A copy with some parameter values replaced (numbers in the model's units)."""

@@ -97,6 +97,11 @@ def _check_numbers(value: Any, source: str, where: tuple) -> None:
 def models_dir() -> Path:
     """The directory of the shipped reference models (``models/`` of the source tree).
 
+    Returns
+    -------
+    pathlib.Path
+        In a source checkout ``models/``; in an installed wheel the copy shipped inside the package.
+
     Examples
     --------
     >>> "thesis_crank_rocker.toml" in {p.name for p in ls.models_dir().glob("*.toml")}
@@ -328,6 +333,16 @@ def dumps(mech_or_spec: Mechanism | Mapping[str, Any]) -> str:
     kinematic-diagram layout (``[joints]`` and ``[links]``, no ``[vectors]``) is written in that
     layout. Either way a ``dict`` read from a model file comes back key for key and value for
     value (``tomllib.loads(dumps(d)) == d``): keys loopsolve does not know are written too.
+
+    Parameters
+    ----------
+    mech_or_spec : Mechanism or dict
+        A mechanism, or a model ``dict`` (as ``tomllib`` reads a model file).
+
+    Returns
+    -------
+    str
+        TOML text that :func:`loads` reads back.
 
     Examples
     --------

@@ -531,7 +531,7 @@ def to_latex(mech: Mechanism, *, input: str | Sequence[str] | None = None, at=No
     >>> tex = mech.to_latex()
     >>> tex.startswith("\\\\documentclass") and r"\\vec{r}_{2} + \\vec{r}_{3} &= \\vec{r}_{1} + \\vec{r}_{4}" in tex
     True
-    >>> snippet = ls.latex.to_latex(mech, snippet=True)
+    >>> snippet = ls.output.latex.to_latex(mech, snippet=True)
     >>> print(next(line for line in snippet.splitlines() if "cos" in line))
     r_{2} \\cos\\theta_{2} + r_{3} \\cos\\theta_{3} &= r_{1} + r_{4} \\cos\\theta_{4} \\\\
     """

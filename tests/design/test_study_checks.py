@@ -254,7 +254,7 @@ def test_sensitivity_variables_have_units(tmp_path):
     ds = ls.study(ls.load(THESIS), {"r2": [20.0, 25.0]}, 0, 360, 30, sensitivity=True, progress=False)
     assert ds["d_theta4_d_r2"].attrs["units"] == "deg/mm"
     assert ds["d_theta3_d_r2"].attrs["units"] == "deg/mm"
-    ls.studies.write(ds, tmp_path / "s.nc")
+    ls.design.studies.write(ds, tmp_path / "s.nc")
     with xr.open_dataset(tmp_path / "s.nc") as back:
         assert back["d_theta4_d_r2"].attrs["units"] == "deg/mm"
         assert back["theta4_vel"].attrs["units"] == "rad/s"
