@@ -149,9 +149,9 @@ class FunctionDesign:
     ``precision`` holds the wanted values ``(x, y, input angle, output angle)`` of each point (never
     the linkage's), ``outputs`` the linkage's output angle at each point's input (degrees, within
     half a turn of the wanted one; None where it cannot be assembled); ``root`` the sign of the
-    closed-form output (:func:`fourbar_output`) the design follows.
-    ``max_error`` is the largest |θ4 − θ4_desired| over the reachable part of the input range
-    (degrees of output; from precision points alone: the largest |output − wanted| at them),
+    closed-form output (:func:`~loopsolve.design.freudenstein.fourbar_output`) the design follows.
+    ``max_error`` is the largest ``|θ4 − θ4_desired|`` over the reachable part of the input range
+    (degrees of output; from precision points alone: the largest ``|output − wanted|`` at them),
     ``max_error_y`` the same in the function's units (``max_error`` times the function units per
     output degree); ``error_input``/``error`` the curve it comes from (input angle, signed error
     design − wanted, degrees).

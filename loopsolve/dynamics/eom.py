@@ -91,7 +91,7 @@ class DynamicsDerivation:
     latex_names : dict
         symbol → LaTeX for the named constants and coefficients.
     groups : dict
-        ``"M"``, ``"dM"``, ``"Q"`` → the :class:`EomGroup` sums the compact forms are made of.
+        ``"M"``, ``"dM"``, ``"Q"`` → the :class:`~loopsolve.dynamics.eom.EomGroup` sums the compact forms are made of.
     mass, inertia : dict
         body name → its mass symbol (``m_crank``) and inertia symbol (``I_crank``; bodies without
         an angle or with zero inertia have none).

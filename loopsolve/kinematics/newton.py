@@ -33,7 +33,7 @@ class NewtonStatus(enum.Enum):
 
 @dataclass(frozen=True, slots=True)
 class Newton:
-    """Settings of :func:`newton`.
+    """Settings of :func:`~loopsolve.kinematics.newton.newton` (``settings=`` of :func:`loopsolve.solve` and :func:`loopsolve.sweep`).
 
     ``atol`` is relative to the system's length scale (the residual of a loop is a length);
     ``rtol`` bounds the final step relative to ``1 + |x|``.

@@ -515,9 +515,9 @@ def check_output(output) -> None:
 
 
 class Page:
-    """A page shown inline by Jupyter (in an isolated frame), or saved with :meth:`save`.
+    """A page shown inline by Jupyter (in an isolated frame), or saved with :meth:`~loopsolve.output.view.Page.save`.
 
-    ``html`` is the whole document (:func:`to_html`).
+    ``html`` is the whole document (:func:`~loopsolve.output.view.to_html`).
 
     Examples
     --------
