@@ -70,3 +70,59 @@ def both_engines(request):
             os.environ.pop("LOOPSOLVE_ENGINE", None)
         else:
             os.environ["LOOPSOLVE_ENGINE"] = old
+
+
+# ------------------------------------------------------------------ headless Chromium, one recipe
+_BASE_ARGS = ("--headless=new", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
+              "--disable-background-networking", "--disable-component-update", "--disable-sync",
+              "--disable-extensions")
+
+
+@pytest.fixture(scope="session")
+def chromium(tmp_path_factory):
+    """Start headless Chromium (Debian's ``chromium`` and ``chromium-driver``, driven by selenium).
+
+    ``with chromium(window=(1280, 860), offline=True, performance=True) as driver:`` gives a driver
+    with its own empty profile, the browser's console log kept (``performance``: the network log
+    too, to prove a page made no request), and with ``offline`` the network switched off through
+    the DevTools protocol. Without the browser, the driver or selenium the test is skipped, or
+    fails when ``LOOPSOLVE_REQUIRE_BROWSER`` is set (CI sets it).
+    """
+    import contextlib
+    import shutil
+
+    @contextlib.contextmanager
+    def start(*, window=(1280, 860), offline=False, performance=False, file_access=False, script_timeout=None):
+        binary = shutil.which("chromium") or shutil.which("chromium-browser")
+        driver_path = shutil.which("chromedriver")
+        missing = [name for name, found in (("chromium", binary), ("chromedriver", driver_path)) if not found]
+        try:
+            from selenium import webdriver
+            from selenium.webdriver.chrome.service import Service
+        except ImportError:
+            missing.append("selenium (pip install 'loopsolve[test]')")
+        if missing:
+            if os.environ.get("LOOPSOLVE_REQUIRE_BROWSER"):
+                pytest.fail(f"{', '.join(missing)} not found but LOOPSOLVE_REQUIRE_BROWSER is set")
+            pytest.skip(f"{', '.join(missing)} not found (apt install chromium chromium-driver); "
+                        "set LOOPSOLVE_REQUIRE_BROWSER=1 to make this a failure")
+        opts = webdriver.ChromeOptions()
+        opts.binary_location = binary
+        extra = ["--allow-file-access-from-files"] if file_access else []
+        for arg in (*_BASE_ARGS, *extra, f"--window-size={window[0]},{window[1]}",
+                    f"--user-data-dir={tmp_path_factory.mktemp('chromium-profile')}"):
+            opts.add_argument(arg)
+        opts.set_capability("goog:loggingPrefs", {"browser": "ALL", **({"performance": "ALL"} if performance else {})})
+        driver = webdriver.Chrome(service=Service(driver_path), options=opts)
+        try:
+            if script_timeout is not None:
+                driver.set_script_timeout(script_timeout)
+            if offline:
+                driver.execute_cdp_cmd("Network.enable", {})
+                driver.execute_cdp_cmd("Network.emulateNetworkConditions", {
+                    "offline": True, "latency": 0, "downloadThroughput": -1, "uploadThroughput": -1})
+            yield driver
+        finally:
+            driver.quit()
+
+    return start

@@ -30,8 +30,6 @@ import pytest
 import loopsolve as ls
 
 ROOT = Path(__file__).resolve().parents[2]
-CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
-CHROMEDRIVER = shutil.which("chromedriver")
 
 
 def _missing(what: str):
@@ -145,33 +143,9 @@ def test_cli_reference_has_every_command_and_option(site):
 
 # ------------------------------------------------------------------ in the browser
 @pytest.fixture(scope="module")
-def browser(tmp_path_factory):
-    missing = [name for name, found in (("chromium", CHROMIUM), ("chromedriver", CHROMEDRIVER)) if not found]
-    try:
-        from selenium import webdriver
-        from selenium.webdriver.chrome.service import Service
-    except ImportError:
-        missing.append("selenium (pip install 'loopsolve[test]')")
-    if missing:
-        if os.environ.get("LOOPSOLVE_REQUIRE_BROWSER"):
-            pytest.fail(f"{', '.join(missing)} not found but LOOPSOLVE_REQUIRE_BROWSER is set")
-        pytest.skip(f"{', '.join(missing)} not found (apt install chromium chromium-driver)")
-    opts = webdriver.ChromeOptions()
-    opts.binary_location = CHROMIUM
-    for arg in ("--headless=new", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
-                "--disable-background-networking", "--disable-component-update", "--disable-sync",
-                "--disable-extensions", "--window-size=1280,900", "--allow-file-access-from-files",
-                f"--user-data-dir={tmp_path_factory.mktemp('chromium-profile')}"):
-        opts.add_argument(arg)
-    opts.set_capability("goog:loggingPrefs", {"browser": "ALL", "performance": "ALL"})
-    driver = webdriver.Chrome(service=Service(CHROMEDRIVER), options=opts)
-    try:
-        driver.execute_cdp_cmd("Network.enable", {})
-        driver.execute_cdp_cmd("Network.emulateNetworkConditions", {
-            "offline": True, "latency": 0, "downloadThroughput": -1, "uploadThroughput": -1})
+def browser(chromium):
+    with chromium(window=(1280, 900), offline=True, performance=True, file_access=True) as driver:
         yield driver
-    finally:
-        driver.quit()
 
 
 def _requests(driver) -> list[str]:

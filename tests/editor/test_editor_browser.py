@@ -14,7 +14,6 @@ and the file compared with the expected TOML; the share URL is opened in the sam
 from __future__ import annotations
 
 import math
-import os
 import shutil
 import time
 import tomllib
@@ -29,36 +28,13 @@ from editorserver import EditorServer
 from test_page_values import js_fmt
 
 pytest.importorskip("starlette")
-CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
-CHROMEDRIVER = shutil.which("chromedriver")
 MODEL = ls.models_dir() / "thesis_crank_rocker_diagram.toml"
 
 
 @pytest.fixture(scope="module")
-def browser(tmp_path_factory):
-    missing = [name for name, found in (("chromium", CHROMIUM), ("chromedriver", CHROMEDRIVER)) if not found]
-    try:
-        from selenium import webdriver
-        from selenium.webdriver.chrome.service import Service
-    except ImportError:
-        missing.append("selenium")
-    if missing:
-        if os.environ.get("LOOPSOLVE_REQUIRE_BROWSER"):
-            pytest.fail(f"{', '.join(missing)} not found but LOOPSOLVE_REQUIRE_BROWSER is set")
-        pytest.skip(f"{', '.join(missing)} not found (apt install chromium chromium-driver)")
-    opts = webdriver.ChromeOptions()
-    opts.binary_location = CHROMIUM
-    for arg in ("--headless=new", "--no-sandbox", "--disable-gpu", "--no-first-run", "--disable-extensions",
-                "--disable-background-networking", "--window-size=1400,950",
-                f"--user-data-dir={tmp_path_factory.mktemp('chromium-editor')}"):
-        opts.add_argument(arg)
-    opts.set_capability("goog:loggingPrefs", {"browser": "ALL"})
-    driver = webdriver.Chrome(service=Service(CHROMEDRIVER), options=opts)
-    driver.set_script_timeout(60)
-    try:
+def browser(chromium):
+    with chromium(window=(1400, 950), script_timeout=60) as driver:
         yield driver
-    finally:
-        driver.quit()
 
 
 @pytest.fixture(scope="module")

@@ -14,9 +14,7 @@
 from __future__ import annotations
 
 import math
-import os
 import re
-import shutil
 from decimal import ROUND_HALF_UP, Decimal
 
 import numpy as np
@@ -25,8 +23,6 @@ import pytest
 import loopsolve as ls
 from loopsolve.output.view import page_data
 
-CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
-CHROMEDRIVER = shutil.which("chromedriver")
 
 
 def page_number(v):
@@ -143,29 +139,9 @@ def test_event_rows_are_the_nearest_rows(model, rng, through):
 
 # ------------------------------------------------------------------------------ in a browser
 @pytest.fixture(scope="module")
-def browser(tmp_path_factory):
-    missing = [name for name, found in (("chromium", CHROMIUM), ("chromedriver", CHROMEDRIVER)) if not found]
-    try:
-        from selenium import webdriver
-        from selenium.webdriver.chrome.service import Service
-    except ImportError:
-        missing.append("selenium")
-    if missing:
-        if os.environ.get("LOOPSOLVE_REQUIRE_BROWSER"):
-            pytest.fail(f"{', '.join(missing)} not found but LOOPSOLVE_REQUIRE_BROWSER is set")
-        pytest.skip(f"{', '.join(missing)} not found (apt install chromium chromium-driver)")
-    opts = webdriver.ChromeOptions()
-    opts.binary_location = CHROMIUM
-    for arg in ("--headless=new", "--no-sandbox", "--disable-gpu", "--no-first-run", "--disable-extensions",
-                "--disable-background-networking", "--window-size=1280,860",
-                f"--user-data-dir={tmp_path_factory.mktemp('chromium-profile')}"):
-        opts.add_argument(arg)
-    opts.set_capability("goog:loggingPrefs", {"browser": "ALL"})
-    driver = webdriver.Chrome(service=Service(CHROMEDRIVER), options=opts)
-    try:
+def browser(chromium):
+    with chromium(window=(1280, 860)) as driver:
         yield driver
-    finally:
-        driver.quit()
 
 
 def _open(driver, sw, tmp_path, name):
