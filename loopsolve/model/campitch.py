@@ -239,41 +239,83 @@ def _displacement(pts, kind, contact, offset, pivot, arm, side, n):
     return theta, gam, float(r.min())
 
 
-def build(pts: np.ndarray, *, kind: str, contact: str, roller: float, offset: float, pivot: float, arm: float,
-          side: int, file: str, pieces: int | None = None) -> ProfileLaw:
-    """The :class:`ProfileLaw` of a cam whose pitch curve (profile for a flat face) passes through ``pts``."""
+def _periodic(theta, s):
+    """The periodic quintic interpolating spline of ``s`` at ``theta`` (one turn), as a PPoly on [0, 2π]."""
     from scipy.interpolate import PPoly, make_interp_spline
 
-    m = int(pieces or min(max(len(pts), 180), 720))
-    theta, s, rp = _displacement(pts, kind, contact, offset, pivot, arm, side, m)
-    base = rp - roller
-    if base <= 0:
-        raise ProfileError(f"the pitch curve comes within {rp:.6g} of the cam centre, not more than the roller "
-                           f"({roller:g}): no cam profile fits inside")
-    if kind == "oscillating":
-        from .camgeometry import CamNumbers
-        from .camlaws import Law
-
-        cn = CamNumbers(kind, contact, Law(0.0, (2 * math.pi,), (0.0,), (None,)), base, roller, 0.0, pivot, arm,
-                        side)
-        try:
-            g0, sigma = cn.arm_start()
-        except ValueError as exc:
-            raise ProfileError(f"{exc} (pivot {pivot:g}, arm {arm:g}, the curve's least radius {rp:.6g})") from None
-        s = sigma * (s - g0)
-        s = s - 2 * math.pi * np.round(s.min() / (2 * math.pi))
-        if s.min() < -1e-6 * max(1.0, float(np.ptp(s))):
-            raise ProfileError("the arm does not rest on the curve's nearest point to the cam centre")
     closed_th = np.concatenate([theta, [2 * math.pi]])
     closed_s = np.concatenate([s, s[:1]])
     pp = PPoly.from_spline(make_interp_spline(closed_th, closed_s, k=5, bc_type="periodic"))
-    inside = (pp.x[:-1] < pp.x[1:])
+    inside = pp.x[:-1] < pp.x[1:]
     x = np.concatenate([pp.x[:-1][inside], [pp.x[-1]]])
     c = pp.c[:, inside]
     lo = np.searchsorted(x, 0.0, side="right") - 1
     hi = np.searchsorted(x, 2 * math.pi, side="left")
-    x, c = x[lo:hi + 1], c[:, lo:hi]
+    x, c = x[lo:hi + 1].copy(), c[:, lo:hi]
+    if abs(x[0]) > 1e-12 or abs(x[-1] - 2 * math.pi) > 1e-12:  # the data sites are knots of the spline
+        raise ProfileError("internal: the spline's pieces do not start at cam angle 0")
     x[0], x[-1] = 0.0, 2 * math.pi
+    return PPoly(c, x, extrapolate="periodic")
+
+
+def _least(pp) -> float:
+    """The least value of a periodic PPoly over a turn (dense samples refined by Newton steps)."""
+    th = np.linspace(0.0, 2 * math.pi, 16 * (len(pp.x) - 1), endpoint=False)
+    t = th[int(np.argmin(pp(th)))]
+    h = 2 * math.pi / len(th)
+    for _ in range(_NEWTON):
+        d2 = float(pp(t, 2))
+        if d2 <= 0:
+            break
+        t -= float(np.clip(pp(t, 1) / d2, -h, h))
+    return float(min(pp(t), pp(th).min()))
+
+
+def build(pts: np.ndarray, *, kind: str, contact: str, roller: float, offset: float, pivot: float, arm: float,
+          side: int, file: str, pieces: int | None = None) -> ProfileLaw:
+    """The :class:`ProfileLaw` of a cam whose pitch curve (profile for a flat face) passes through ``pts``."""
+    m = int(pieces or min(max(len(pts), 180), 720))
+    theta, s, rp = _displacement(pts, kind, contact, offset, pivot, arm, side, m)
+    base = rp - roller
+    pp = _periodic(theta, s)
+    low = _least(pp)
+    if kind == "oscillating":  # s is the arm's angle γ: zero lift where σγ is least (nearest the centre)
+        from .camgeometry import CamNumbers
+        from .camlaws import Law
+
+        def numbers(b):
+            return CamNumbers(kind, contact, Law(0.0, (2 * math.pi,), (0.0,), (None,)), b, roller, 0.0, pivot, arm,
+                              side)
+
+        try:
+            _, sigma = numbers(base).arm_start()
+        except ValueError as exc:
+            raise ProfileError(f"{exc} (pivot {pivot:g}, arm {arm:g}, the curve's least radius {rp:.6g})") from None
+        pp = _periodic(theta, sigma * s)
+        low = _least(pp)
+        g0 = sigma * low
+        rp = math.hypot(pivot + arm * math.cos(g0), arm * math.sin(g0))
+        base = rp - roller
+        try:
+            g_check, _ = numbers(base).arm_start()
+        except ValueError as exc:
+            raise ProfileError(f"{exc} (pivot {pivot:g}, arm {arm:g}, the curve's least radius {rp:.6g})") from None
+        if abs(math.remainder(g_check - g0, 2 * math.pi)) > 1e-6:
+            raise ProfileError("the arm does not rest on the curve on its `side` of the line from the cam centre "
+                               "to the pivot")
+    elif contact == "flat":
+        base = rp + low
+        rp = base
+    else:
+        y0 = math.sqrt(max(rp**2 - offset**2, 0.0)) + low
+        rp = math.hypot(y0, offset)
+        base = rp - roller
+    if base <= 0:
+        raise ProfileError(f"the pitch curve comes within {rp:.6g} of the cam centre, not more than the roller "
+                           f"({roller:g}): no cam profile fits inside")
+    c = np.array(pp.c)
+    c[-1] -= low
+    x = np.asarray(pp.x)
     digest = hashlib.sha256(np.ascontiguousarray(x).tobytes() + np.ascontiguousarray(c).tobytes()).hexdigest()[:16]
     return ProfileLaw(file, digest, float(base), float(rp), tuple(map(float, x)),
                       tuple(tuple(map(float, row)) for row in c))
