@@ -22,6 +22,10 @@ cam centre to its pivot), ``arm`` (pivot to roller centre, knife edge) and ``sid
 ``axis`` (the translating follower's direction, default 90°) or ``pivot_angle`` (the direction of the
 pivot, default 0°) place the cam in the mechanism for drawings and forces.
 
+Instead of ``law``, ``profile = "pitch.csv"`` gives the points of the pitch curve (a CSV file ``x,y`` next
+to the model file; see :mod:`loopsolve.model.campitch`): the displacement is then computed from the curve
+and ``base`` and ``start`` are not given.
+
 Checked here: the segments cover one turn, the law closes (the rises add up to zero) with continuous
 velocity, the geometry exists (offset inside the pitch base circle, an arm that reaches it). Checked
 when the mechanism is compiled (:func:`check_cams`): the profile is not undercut.
