@@ -6,10 +6,11 @@ written as points; the cam declared by those points must move its follower as th
 Tolerances. The displacement is interpolated through the points (spacing δθ = 1° of cam angle) by a
 smooth (quintic) spline, so where the law itself is smooth the error is far below any drawing
 tolerance; but the jerk of the law below jumps at every join (by 4π²h/β³ at the cycloidal rise's ends,
-60h/β³ at the 3-4-5 return's), and no smooth interpolant follows a jump: near a join near it the acceleration may be off by a fraction of ΔJ·δθ (the jump
-spread over one spacing), the velocity by ΔJ·δθ² and the displacement by ΔJ·δθ³. The checks allow a
-quarter of those near the joins (within six spacings: an interpolating spline's response to a jump decays
-by about a factor three per spacing) and 1e-4 of the peak value elsewhere.
+60h/β³ at the 3-4-5 return's; ΔJ below is the larger), and no smooth interpolant follows a jump: near
+a join the acceleration may be off by a fraction of ΔJ·δθ (the jump spread over one spacing), the
+velocity by ΔJ·δθ² and the displacement by ΔJ·δθ³. The checks allow a quarter of those near the joins
+(within six spacings: an interpolating spline's response to a jump decays by about a factor three per
+spacing) and 1e-4 of the peak value elsewhere.
 """
 
 import math
