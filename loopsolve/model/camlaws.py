@@ -113,12 +113,15 @@ def curve(name: str, u, ops=NUMERIC) -> tuple:
 @dataclass(frozen=True)
 class Law:
     """A law over one turn, in numbers: segment ends (radians, increasing, the last ``start`` + 2π), rises
-    (0 for a dwell; length or radians), curves (``None`` for a dwell) and the angle ``start`` of the first."""
+    (0 for a dwell; length or radians), curves (``None`` for a dwell) and the angle ``start`` of the first.
+    A cam declared by its pitch curve has one segment and ``table``, its
+    :class:`~loopsolve.model.campitch.ProfileLaw` (a smooth periodic displacement: no joins)."""
 
     start: float
     ends: tuple[float, ...]
     rises: tuple[float, ...]
     curves: tuple
+    table: object = None
 
     @property
     def levels(self) -> tuple[float, ...]:
@@ -132,6 +135,10 @@ class Law:
 
 def law_values(law: Law, theta) -> tuple[np.ndarray, ...]:
     """``(s, s′, s″, s‴)`` of a law at cam angles ``theta`` (radians; derivatives per radian)."""
+    if law.table is not None:
+        from .campitch import ppoly_values
+
+        return ppoly_values(law.table, theta)
     th = np.asarray(theta, dtype=float)
     w = law.start + np.mod(th - law.start, 2 * math.pi)
     out = [np.zeros_like(w) for _ in range(4)]
@@ -157,6 +164,8 @@ def joins(law: Law) -> list[dict]:
     Each entry: ``{"angle": radians, "position": jump, "velocity": jump, "acceleration": jump}``
     (right value minus left value, per radian).
     """
+    if law.table is not None:  # a periodic quintic spline: s, s′, s″ (and s‴) continuous everywhere
+        return []
     n = len(law.ends)
     ends_left = []
     for i in range(n):

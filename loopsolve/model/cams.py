@@ -22,6 +22,10 @@ cam centre to its pivot), ``arm`` (pivot to roller centre, knife edge) and ``sid
 ``axis`` (the translating follower's direction, default 90°) or ``pivot_angle`` (the direction of the
 pivot, default 0°) place the cam in the mechanism for drawings and forces.
 
+Instead of ``law``, ``profile = "pitch.csv"`` gives the points of the pitch curve (a CSV file ``x,y`` next
+to the model file; see :mod:`loopsolve.model.campitch`): the displacement is then computed from the curve
+and ``base`` and ``start`` are not given.
+
 Checked here: the segments cover one turn, the law closes (the rises add up to zero) with continuous
 velocity, the geometry exists (offset inside the pitch base circle, an arm that reaches it). Checked
 when the mechanism is compiled (:func:`check_cams`): the profile is not undercut.
@@ -30,6 +34,7 @@ when the mechanism is compiled (:func:`check_cams`): the profile is not undercut
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass
@@ -45,8 +50,8 @@ __all__ = ["Cam", "CamSegment", "parse", "kind_hints", "names_used", "numbers", 
 
 KINDS = ("translating", "oscillating")
 CONTACTS = ("knife", "roller", "flat")
-_KEYS = {"cam", "follower", "kind", "contact", "roller", "base", "offset", "law", "start", "center", "axis",
-         "pivot", "pivot_angle", "arm", "side"}
+_KEYS = {"cam", "follower", "kind", "contact", "roller", "base", "offset", "law", "profile", "start", "center",
+         "axis", "pivot", "pivot_angle", "arm", "side"}
 _SEG_KEYS = {"to", "rise", "return", "dwell", "curve"}
 _EXAMPLE = '{ cam = "theta2", follower = "s", kind = "translating", contact = "roller", ... }'
 #: samples of the cycle for the undercut check and the extremes
@@ -87,6 +92,7 @@ class Cam:
     arm: object
     side: int
     text: str
+    profile: object = None
 
 
 def _table(spec) -> Mapping:
@@ -148,10 +154,23 @@ def _choice(ctx, d, key, field, options, default):
 def _parse_cam(ctx, name, key, d) -> Cam | None:
     p = ctx.problems
     n_before = len(p.items)
-    for k in ("cam", "follower", "base", "law"):
+    for k in ("cam", "follower"):
         if k not in d:
             p.add(key, f"missing key {k!r}; a cam is {_EXAMPLE}")
             return None
+    if ("law" in d) == ("profile" in d):
+        p.add(key, "give exactly one of `law` (segments of the cam angle) and `profile` (a CSV file x,y of the "
+              "pitch curve)" + (", not both" if "law" in d else ""))
+        return None
+    if "profile" in d:
+        for k in ("base", "start"):
+            if k in d:
+                what = "the base circle follows from the curve" if k == "base" else "angle 0 is the curve's frame"
+                p.add(f"{key}.{k}", f"a cam declared by its `profile` has no `{k}` ({what})")
+                return None
+    elif "base" not in d:
+        p.add(key, f"missing key 'base'; a cam is {_EXAMPLE}")
+        return None
     kind = _choice(ctx, d, key, "kind", KINDS, "translating")
     contact = _choice(ctx, d, key, "contact", CONTACTS, "roller")
     if kind is None or contact is None:
@@ -164,7 +183,8 @@ def _parse_cam(ctx, name, key, d) -> Cam | None:
         p.add(f"{key}.follower", "the follower must be another variable than the cam")
         return None
     lift = Kind.LENGTH if kind == "translating" else Kind.ANGLE
-    base = ctx.quantity(d["base"], f"{key}.base", Kind.LENGTH, positive=True, allow_zero=False)
+    base = (ctx.quantity(d["base"], f"{key}.base", Kind.LENGTH, positive=True, allow_zero=False) if "base" in d
+            else None)
     roller = None
     if contact == "roller":
         if "roller" not in d:
@@ -200,11 +220,20 @@ def _parse_cam(ctx, name, key, d) -> Cam | None:
                 return None
         axis = ctx.quantity(d["axis"], f"{key}.axis", Kind.ANGLE) if "axis" in d else None
     center = ctx.point(d["center"], f"{key}.center") if "center" in d else None
-    segments = _segments(ctx, d["law"], f"{key}.law", lift)
+    profile = None
+    if "profile" in d:
+        if len(p.items) > n_before:
+            return None
+        segments = ()
+        profile = _profile(ctx, key, d["profile"], kind, contact, roller, offset, pivot, arm, side)
+        if profile is None:
+            return None
+    else:
+        segments = _segments(ctx, d["law"], f"{key}.law", lift)
     if segments is None or len(p.items) > n_before:
         return None
     c = Cam(name, key, cam, follower, kind, contact, roller, base, offset, segments, start, center, axis, pivot,
-            pivot_angle, arm, side, "")
+            pivot_angle, arm, side, "", profile)
     c = dataclasses.replace(c, text=_describe(c))
     if not _check_numbers(ctx, c):
         return None
@@ -256,13 +285,66 @@ def _segments(ctx, raw, key, lift) -> tuple | None:
     return tuple(out)
 
 
+def _profile(ctx, key, raw, kind, contact, roller, offset, pivot, arm, side):
+    """The :class:`~loopsolve.model.campitch.ProfileLaw` of ``profile = "file.csv"`` (a problem otherwise)."""
+    import os
+
+    from . import campitch
+
+    p = ctx.problems
+    if not isinstance(raw, str) or not raw.strip():
+        p.add(f"{key}.profile", f"expected the path of a CSV file (header x,y) of the pitch curve, got {raw!r}")
+        return None
+    geometry = {}
+    for k, node in (("roller", roller), ("offset", offset), ("pivot", pivot), ("arm", arm)):
+        if node is None:
+            geometry[k] = 0.0
+            continue
+        if _expr.names(node):
+            p.add(f"{key}.{k}", "a cam declared by its `profile` takes a number here, not a parameter (its "
+                  "displacement is computed from the curve once, when the model is read)")
+            return None
+        val = ctx.value(node, Kind.LENGTH)
+        if val is None:
+            return None
+        geometry[k] = float(val)
+    source = getattr(p, "source", None)
+    folder = os.path.dirname(os.path.abspath(source)) if source and os.path.exists(source) else os.getcwd()
+    path = os.path.join(folder, raw)
+    try:
+        st = os.stat(path)
+        stamp = (st.st_mtime_ns, st.st_size)
+    except OSError:
+        stamp = None
+    try:
+        return _profile_law(os.path.abspath(path), stamp, raw, kind, contact, side, tuple(sorted(geometry.items())))
+    except campitch.ProfileError as exc:
+        p.add(f"{key}.profile", f"{raw}: {exc}")
+        return None
+
+
+@functools.lru_cache(maxsize=32)
+def _profile_law(path, stamp, raw, kind, contact, side, geometry):
+    """Read and build a profile once per file version and geometry (a model is rebuilt for new parameters)."""
+    from . import campitch
+
+    g = dict(geometry)
+    pts = campitch.read_points(path)
+    return campitch.build(pts, kind=kind, contact=contact, roller=g["roller"], offset=g["offset"],
+                          pivot=g["pivot"], arm=g["arm"], side=side, file=raw)
+
+
 def _describe(c: Cam) -> str:
+    if c.profile is not None:
+        return f"{c.kind} {c.contact} follower {c.follower} of cam {c.cam}, profile {c.profile.file}"
     return (f"{c.kind} {c.contact} follower {c.follower} of cam {c.cam}, "
             + ", ".join(f"{s.curve or 'dwell'}" for s in c.segments))
 
 
 def law_of(c: Cam, values) -> Law:
     """The law in numbers (radians; rises in the length unit or radians), ``values(node, kind)`` evaluating."""
+    if c.profile is not None:
+        return Law(0.0, (2 * math.pi,), (0.0,), (None,), table=c.profile)
     lift = Kind.LENGTH if c.kind == "translating" else Kind.ANGLE
     start = values(c.start, Kind.ANGLE) if c.start is not None else 0.0
     return Law(start, tuple(values(s.end, Kind.ANGLE) for s in c.segments),
@@ -277,7 +359,8 @@ def numbers(c: Cam, values) -> CamNumbers:
 
     frame = (v(c.axis, Kind.ANGLE, math.pi / 2) - math.pi / 2 if c.kind == "translating"
              else v(c.pivot_angle, Kind.ANGLE))
-    return CamNumbers(c.kind, c.contact, law_of(c, values), v(c.base, Kind.LENGTH), v(c.roller, Kind.LENGTH),
+    base = c.profile.base if c.profile is not None else v(c.base, Kind.LENGTH)
+    return CamNumbers(c.kind, c.contact, law_of(c, values), base, v(c.roller, Kind.LENGTH),
                       v(c.offset, Kind.LENGTH), v(c.pivot, Kind.LENGTH), v(c.arm, Kind.LENGTH), c.side, frame)
 
 
@@ -296,6 +379,8 @@ def _check_numbers(ctx, c: Cam) -> bool:
         cn = numbers(c, values)
     except ValueError:
         return False
+    if c.profile is not None:  # closed, smooth and met once per angle: checked when it was built
+        return True
     unit = ctx.angle_unit
     shown = (lambda r: math.degrees(r)) if unit == "deg" else (lambda r: r)
     lo = law.start

@@ -130,6 +130,8 @@ def cam_law(ps: PairSymbols, c) -> sp.Expr:
     displacement: model length unit, or radians for an oscillating follower)."""
     from ..model.camlaws import pieces
 
+    if c.profile is not None:
+        return profile_function(c.profile, c.name)(TurnAngle(ps.var[c.cam]))
     to_rad = lambda node: ps.conv(node) * ps.k  # noqa: E731  (angles of the model file in radians)
     lift = (lambda node: ps.conv(node)) if c.kind == "translating" else to_rad
     start = to_rad(c.start) if c.start is not None else sp.Integer(0)
@@ -152,6 +154,70 @@ def cam_law(ps: PairSymbols, c) -> sp.Expr:
         lo, level = end, level + h
     branches[-1] = (branches[-1][0], True)
     return sp.Piecewise(*branches)
+
+
+class _ProfileFunction(sp.Function):
+    """The displacement of a cam declared by its pitch curve (or a derivative of it), a function of the cam
+    angle reduced to one turn: a periodic piecewise quintic (:class:`~loopsolve.model.campitch.ProfileLaw`).
+    Printed to code as a binary tree of comparisons over its pieces (plain ``math``, ``numpy.where``)."""
+
+    nargs = 1
+    table = None
+    order = 0
+    label = ""
+
+    def fdiff(self, argindex=1):
+        if self.order >= 5:  # quintic pieces
+            return sp.Integer(0)
+        return profile_function(self.table, self.label, self.order + 1)(self.args[0])
+
+    def _code(self, printer, vectorized):
+        w = "(%s)" % printer._print(self.args[0])
+        c = self.table.derivative_coeffs(self.order)
+        x = self.table.breaks
+
+        def leaf(i):
+            u = "(%s - %r)" % (w, x[i])
+            out = repr(float(c[i, -1]))
+            for a in c[i, -2::-1]:
+                out = "(%s*%s + %r)" % (out, u, float(a))
+            return out
+
+        def tree(lo, hi):
+            if hi - lo == 1:
+                return leaf(lo)
+            mid = (lo + hi) // 2
+            if vectorized:
+                return "numpy.where(%s < %r, %s, %s)" % (w, x[mid], tree(lo, mid), tree(mid, hi))
+            return "(%s if %s < %r else %s)" % (tree(lo, mid), w, x[mid], tree(mid, hi))
+
+        return tree(0, len(x) - 1)
+
+    def _pythoncode(self, printer):
+        return self._code(printer, False)
+
+    def _numpycode(self, printer):
+        return self._code(printer, True)
+
+    def _latex(self, printer, exp=None):
+        d = "" if self.order == 0 else "^{(%d)}" % self.order
+        tex = r"s_{\mathrm{%s}}%s\left(%s\right)" % (self.label.replace("_", r"\_"), d,
+                                                      printer._print(self.args[0]))
+        return tex if exp is None else r"\left(%s\right)^{%s}" % (tex, exp)
+
+
+_PROFILE_FUNCTIONS: dict = {}
+
+
+def profile_function(table, label: str, order: int = 0):
+    """The sympy function of a profile cam's displacement (``order``: its derivative in the cam angle)."""
+    key = (table.digest, label, order)
+    fn = _PROFILE_FUNCTIONS.get(key)
+    if fn is None:
+        fn = type(f"camprofile_{label}_{table.digest}_{order}", (_ProfileFunction,),
+                  {"table": table, "order": order, "label": label})
+        _PROFILE_FUNCTIONS[key] = fn
+    return fn
 
 
 def gear_ratio(ps: PairSymbols, g) -> sp.Expr:
