@@ -136,8 +136,6 @@ class Law:
 def law_values(law: Law, theta) -> tuple[np.ndarray, ...]:
     """``(s, s′, s″, s‴)`` of a law at cam angles ``theta`` (radians; derivatives per radian)."""
     if law.table is not None:
-        from .campitch import ppoly_values
-
         return ppoly_values(law.table, theta)
     th = np.asarray(theta, dtype=float)
     w = law.start + np.mod(th - law.start, 2 * math.pi)
@@ -188,3 +186,13 @@ def joins(law: Law) -> list[dict]:
         out.append({"angle": angle, "position": nxt[0] - left[0], "velocity": nxt[1] - left[1],
                     "acceleration": nxt[2] - left[2]})
     return out
+
+
+def ppoly_values(law, theta) -> tuple[np.ndarray, ...]:
+    """``(s, s′, s″, s‴)`` of a profile law (:class:`~loopsolve.model.campitch.ProfileLaw`: its ``breaks`` and
+    ``coeffs``) at cam angles ``theta`` (radians)."""
+    from scipy.interpolate import PPoly
+
+    pp = PPoly(np.asarray(law.coeffs, dtype=float), np.asarray(law.breaks, dtype=float), extrapolate="periodic")
+    th = np.asarray(theta, dtype=float)
+    return tuple(np.asarray(pp(th, nu=k), dtype=float) for k in range(4))

@@ -32,7 +32,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-__all__ = ["ProfileLaw", "read_points", "build", "MAX_BYTES", "MAX_POINTS", "MIN_POINTS", "ppoly_values"]
+__all__ = ["ProfileLaw", "read_points", "build", "MAX_BYTES", "MAX_POINTS", "MIN_POINTS"]
 
 MAX_BYTES = 4 << 20
 MAX_POINTS = 50_000
@@ -70,15 +70,6 @@ class ProfileLaw:
             k = np.arange(1, c.shape[1])
             c = c[:, 1:] * k if c.shape[1] > 1 else np.zeros((c.shape[0], 1))
         return c
-
-
-def ppoly_values(law: ProfileLaw, theta) -> tuple[np.ndarray, ...]:
-    """``(s, s′, s″, s‴)`` of a profile law at cam angles ``theta`` (radians)."""
-    from scipy.interpolate import PPoly
-
-    pp = PPoly(np.asarray(law.coeffs, dtype=float), np.asarray(law.breaks, dtype=float), extrapolate="periodic")
-    th = np.asarray(theta, dtype=float)
-    return tuple(np.asarray(pp(th, nu=k), dtype=float) for k in range(4))
 
 
 def read_points(path: str) -> np.ndarray:
