@@ -243,8 +243,10 @@ def build_atlas(mech, *, point: str, vary, size: int, seed: int = 0, out=None, c
         at ``scheduler``, or ``client``); the result is the same as built here.
     max_size : int
         Refuse a ``size`` above this before any work.
-    progress : bool, optional
-        Entries done on stderr (tqdm); default: on a terminal.
+    progress : bool or callable, optional
+        Entries done on stderr (tqdm); default: on a terminal. A callable is called as
+        ``progress(done, total)`` (designs) when the build starts and after every chunk (the
+        editor's progress bar).
 
     Returns
     -------
@@ -372,7 +374,24 @@ def _run_dask(client, todo, text, source, meta, g, size, bar):
             ac.add(submit(pending.pop(0)))
 
 
+class _CallbackBar:
+    """tqdm's ``update``/``close`` for a ``progress(done, total)`` callable."""
+
+    def __init__(self, total, fn):
+        self.total, self.done, self.fn = int(total), 0, fn
+        fn(0, self.total)
+
+    def update(self, n):
+        self.done += int(n)
+        self.fn(self.done, self.total)
+
+    def close(self):
+        pass
+
+
 def _bar(total, progress, desc):
+    if callable(progress):
+        return _CallbackBar(total, progress)
     if progress is None:
         progress = sys.stderr.isatty()
     if not progress:

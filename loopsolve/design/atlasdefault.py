@@ -148,6 +148,8 @@ def default_atlas(mech, point, *, progress=None, seed: int = 0, workers: int | N
     """The default atlas of ``mech``'s ``point``: opened from the cache, or built there first (see the module docstring).
 
     ``workers``: build on a local Dask cluster of that many processes (default ``LOOPSOLVE_ATLAS_WORKERS``).
+    ``progress``: a bar on stderr (``True``; default on a terminal), none (``False``), or a callable
+    ``progress(done, total)`` called as the designs are built (not called when the atlas is in the cache).
     """
     from .atlas import build_atlas, describe, open_atlas
 

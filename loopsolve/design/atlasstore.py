@@ -88,6 +88,13 @@ def _zarr():
         from ..errors import MissingDependencyError
 
         raise MissingDependencyError("atlases need zarr: pip install 'loopsolve[study]'") from None
+    major = zarr.__version__.split(".", 1)[0]
+    if not major.isdigit() or int(major) < 3:
+        from ..errors import MissingDependencyError
+
+        # an atlas is zarr format 3 (checksummed zstd chunks); zarr 2 cannot write or read it
+        raise MissingDependencyError(f"atlases need zarr 3 or newer (this environment has zarr {zarr.__version__}): "
+                                     "pip install -U 'zarr>=3'")
     return zarr
 
 

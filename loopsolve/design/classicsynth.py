@@ -10,7 +10,7 @@ and then written into the user's model (:func:`loopsolve.design.classicmap.trans
 names, points, vectors and loops; the parameter values, guesses and, where no parameter can
 give a link its direction, the link's ``offset`` changed), which is also what the certificate
 (:func:`loopsolve.design.certify.certify`, the general method's) is computed on. The report
-follows the synthesis contract (README, "Report reference") and adds ``method``, ``fit``, and the
+follows the synthesis contract (docs/reference/results.md, "Synthesis report") and adds ``method``, ``fit``, and the
 method's own numbers (``K`` and ``design``; Burmester's ``ranking`` and ``candidates``).
 """
 

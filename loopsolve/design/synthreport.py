@@ -1,5 +1,5 @@
 """Pieces of a synthesis report shared by the general and the classical methods: the per-target entries
-and the ``fit`` block, each in one unit and with one sign convention (README, "Report reference").
+and the ``fit`` block, each in one unit and with one sign convention (docs/reference/results.md, "Synthesis report").
 
 Per-target entries (``targets``), the design's values from its positions at the targets:
 

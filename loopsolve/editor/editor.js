@@ -503,16 +503,24 @@
     var f = h("div", {"class": "le-form"}, box);
     var ml = h("label", {}, f, "method ");
     var sel = h("select", {id: "le-synth-method"}, ml);
-    [["path", "path: coupler curve through drawn points (free timing)"], ["freudenstein", "function: three precision points (Freudenstein)"]].forEach(function (o) {
+    [["shape", "shape: coupler curve of the drawn shape (atlas; any place, size, timing)"], ["path", "path: coupler curve through drawn points (free timing)"], ["freudenstein", "function: three precision points (Freudenstein)"]].forEach(function (o) {
       h("option", {value: o[0]}, sel, o[1]);
     });
     var pathBox = h("div", {id: "le-synth-path"}, box);
-    h("p", {"class": "le-note"}, pathBox, "Draw a curve on the diagram with the mouse (press Draw, then drag), or paste points x, y (one per line, model units). The curve is resampled to N points met in order as the crank turns one way.");
+    h("p", {"class": "le-note", id: "le-synth-shape-note"}, pathBox, "Draw a curve on the diagram with the mouse (press Draw, then drag), or paste points x, y (one per line, model units). Shape: four-bars whose coupler curve has this shape, placed on it (a curve whose end is within 15 % of its size from its start is closed, else open); the first use builds the four-bar atlas into the cache (minutes, once).");
+    var pathNote = h("p", {"class": "le-note", id: "le-synth-path-note", hidden: ""}, pathBox, "Path: the curve is resampled to N points met in order as the crank turns one way.");
     var row1 = h("div", {"class": "le-form"}, pathBox);
     var db = h("button", {type: "button", id: "le-draw"}, row1, "Draw curve");
-    var nl = h("label", {}, row1, " N ");
+    var shapeOpts = h("span", {id: "le-synth-shape-opts"}, row1);
+    var kl = h("label", {}, shapeOpts, " curve ");
+    var kSel = h("select", {id: "le-synth-closed"}, kl);
+    [["auto", "auto"], ["closed", "closed"], ["open", "open"]].forEach(function (o) { h("option", {value: o[0]}, kSel, o[1]); });
+    var tl = h("label", {}, shapeOpts, " candidates ");
+    var tIn = h("input", {type: "number", min: "1", max: "10", value: "5", id: "le-synth-top", size: "3"}, tl);
+    var pathOpts = h("span", {id: "le-synth-path-opts", hidden: ""}, row1);
+    var nl = h("label", {}, pathOpts, " N ");
     var nIn = h("input", {type: "number", min: "3", max: "40", value: "8", id: "le-synth-n", size: "3"}, nl);
-    var rl = h("label", {}, row1, " runs ");
+    var rl = h("label", {}, pathOpts, " runs ");
     var rIn = h("input", {type: "number", min: "1", max: "10", value: "2", id: "le-synth-runs", size: "3"}, rl);
     var cl = h("label", {}, row1, " crank ");
     var cIn = h("input", {type: "checkbox", id: "le-synth-crank"}, cl);
@@ -521,7 +529,13 @@
     h("p", {"class": "le-note"}, fBox, "Precision points: input angle, output angle (degrees), one per line; three are met exactly.");
     var fta = h("textarea", {rows: "4", cols: "30", id: "le-synth-fpoints", spellcheck: "false"}, fBox);
     fta.value = "49.019, 153.441\n75, 201.633\n100.981, 222.57";
-    sel.addEventListener("change", function () { pathBox.hidden = sel.value !== "path"; fBox.hidden = sel.value === "path"; });
+    sel.addEventListener("change", function () {
+      var curve = sel.value !== "freudenstein";
+      pathBox.hidden = !curve;
+      fBox.hidden = curve;
+      shapeOpts.hidden = sel.value !== "shape";
+      pathOpts.hidden = pathNote.hidden = sel.value !== "path";
+    });
     var row2 = h("div", {"class": "le-form"}, box);
     var go = h("button", {type: "button", id: "le-synth-go"}, row2, "Find linkages");
     var cancel = h("button", {type: "button", id: "le-synth-cancel", disabled: ""}, row2, "Cancel");
@@ -536,7 +550,15 @@
     ta.addEventListener("change", function () { synthTargets = parsePoints(ta.value); drawSynthOverlay(); });
     go.addEventListener("click", function () {
       var method = sel.value, params;
-      if (method === "path") {
+      if (method === "shape") {
+        var spts = parsePoints(ta.value);
+        if (!spts || spts.length < 5) { message("draw a curve or paste at least five points", "error"); return; }
+        spts = spts.length > 40 ? resample(spts, 40) : spts;
+        synthTargets = spts;
+        drawSynthOverlay();
+        params = {points: spts, closed: kSel.value === "auto" ? "auto" : kSel.value === "closed",
+                  top: Math.max(1, Math.min(10, parseInt(tIn.value, 10) || 5)), crank: cIn.checked};
+      } else if (method === "path") {
         var pts = parsePoints(ta.value);
         if (!pts || pts.length < 3) { message("draw a curve or paste at least three points", "error"); return; }
         var n = Math.max(3, Math.min(40, parseInt(nIn.value, 10) || 8));

@@ -5,9 +5,16 @@ under the name the page sends: ``progress(fraction, text)`` reports how far it i
 nothing; the result holds ``candidates``, each a certified design as an editable
 kinematic-diagram model (``model``, its TOML ``toml``), its numbers (``objective``, ``rms``,
 ``max``, ``grashof``, ``transmission``, ``mode``, ``certificate``) and its ``curve`` (the traced
-path of the coupler point, for the preview). Another method (shape synthesis from an atlas)
-plugs in by adding an entry with the same signature.
+path of the coupler point, for the preview).
 
+* ``shape`` (the page's default for a drawn curve): shape synthesis (``loopsolve synthesize
+  --shape P``) of the four-bar of ``models/fourbar_path_synthesis.toml`` from its default atlas
+  — the coupler point traces the drawn shape anywhere, at any size, orientation and timing; the
+  ``top`` certified designs, best first. The curve is closed when the stroke ends near its start
+  (:func:`closed_rule`: the gap from the last point to the first at most
+  :data:`CLOSE_FRACTION` of the curve's size, the larger side of its bounding box), else open;
+  ``closed`` true/false overrides. The first use builds the default atlas into the cache
+  (minutes; the progress says so, and cancelling stops it — the next use resumes it);
 * ``path``: path generation with free timing (``loopsolve synthesize --path P`` without input
   values) on the four-bar of :func:`path_template` — ground pivot, ground angle, the four
   lengths and the coupler point all design variables, bounded by the size of the curve — one
@@ -31,11 +38,15 @@ import numpy as np
 from ..errors import ModelError, SynthesisError
 from .editing import diagram_from_positions
 
-__all__ = ["METHODS", "path_template", "run", "path_synthesis", "freudenstein_synthesis", "MAX_TARGETS",
-           "MAX_RUNS"]
+__all__ = ["METHODS", "path_template", "run", "path_synthesis", "shape_synthesis", "freudenstein_synthesis",
+           "closed_rule", "MAX_TARGETS", "MAX_SHAPE_TARGETS", "MAX_RUNS", "MAX_TOP", "CLOSE_FRACTION"]
 
 MAX_TARGETS = 40
+MAX_SHAPE_TARGETS = 200
 MAX_RUNS = 10
+MAX_TOP = 10
+#: a drawn curve is closed when its end is within this fraction of its size from its start
+CLOSE_FRACTION = 0.15
 
 _FOURBAR_LINKS = {"ground": ["O2", "O4"], "crank": ["O2", "A"], "coupler": ["A", "B", "P"], "rocker": ["O4", "B"]}
 
@@ -57,7 +68,7 @@ def path_template(units: Mapping[str, str] | None = None) -> dict:
     }
 
 
-def _targets(points) -> np.ndarray:
+def _targets(points, low: int = 3, high: int = MAX_TARGETS) -> np.ndarray:
     try:
         arr = np.array(points, dtype=float)
     except (TypeError, ValueError):
@@ -66,16 +77,18 @@ def _targets(points) -> np.ndarray:
         raise ModelError("targets: expected a list of [x, y] points")
     if not np.isfinite(arr).all():
         raise ModelError("targets: every coordinate must be a finite number")
-    if len(arr) < 3 or len(arr) > MAX_TARGETS:
-        raise ModelError(f"targets: {len(arr)} points; give 3 to {MAX_TARGETS}")
+    if len(arr) < low or len(arr) > high:
+        raise ModelError(f"targets: {len(arr)} points; give {low} to {high}")
     return arr
 
 
-def _diagram_of(mech, at, mode, names: Mapping[str, str], links, name: str, description: str) -> dict:
-    """A certified design drawn as a diagram at input ``at`` in ``mode`` (``names``: diagram joint ← model point)."""
+def _diagram_of(mech, at, mode, names: Mapping[str, str], links, name: str, description: str,
+                units: Mapping[str, str] | None = None) -> dict:
+    """A certified design drawn as a diagram at input ``at`` in ``mode`` (``names``: diagram joint ← model point;
+    ``units``: the diagram's, default the design's — the coordinates are written as they are)."""
     st = mech.solve(at, mode=mode)
     pos = {j: (float(st[f"{p}_x"]), float(st[f"{p}_y"])) for j, p in names.items()}
-    units = {"length": mech.units.length, "angle": mech.units.angle}
+    units = dict(units or {"length": mech.units.length, "angle": mech.units.angle})
     return diagram_from_positions(name, units, pos, links, "O2", description=description)
 
 
@@ -148,6 +161,83 @@ def path_synthesis(params: Mapping[str, Any], progress: Callable[[float, str], N
     return {"task": "path", "candidates": candidates, "notes": notes, "targets": pts.tolist()}
 
 
+def closed_rule(pts: np.ndarray) -> tuple[bool, float]:
+    """Is the drawn curve closed: ``(closed, gap)``, ``gap`` the distance from its last point to its first over
+    its size (the larger side of its bounding box); closed when ``gap <= CLOSE_FRACTION``."""
+    size = float(np.ptp(pts, axis=0).max())
+    gap = float(np.hypot(*(pts[-1] - pts[0]))) / size if size > 0 else 0.0
+    return gap <= CLOSE_FRACTION, gap
+
+
+def _flag(params: Mapping[str, Any], key: str):
+    v = params.get(key)
+    if v is None or v == "auto":
+        return None
+    if isinstance(v, bool):
+        return v
+    raise ModelError(f"{key}: {v!r}; give true, false or \"auto\"")
+
+
+def shape_synthesis(params: Mapping[str, Any], progress: Callable[[float, str], None], *, atlas=None) -> dict:
+    """Shape synthesis of a four-bar's coupler curve from the default atlas (see the module notes).
+
+    ``params``: ``points`` (5 to :data:`MAX_SHAPE_TARGETS` ``[x, y]`` in order along the curve), ``closed``
+    (true, false or ``"auto"``: :func:`closed_rule`), ``top`` (1 to :data:`MAX_TOP`, default 5), ``crank``,
+    ``units``. ``atlas`` (from Python only, never from the page): an atlas of the model's point ``P`` to use
+    instead of the default one.
+    """
+    from ..design.atlasdefault import default_atlas
+    from ..design.synthrun import synthesize
+    from ..model.modelfile import dumps, load, models_dir
+
+    pts = _targets(params.get("points"), 5, MAX_SHAPE_TARGETS)
+    top = params.get("top", 5)
+    if isinstance(top, bool) or not isinstance(top, int) or not 1 <= top <= MAX_TOP:
+        raise ModelError(f"top: {top!r}; give a whole number 1 to {MAX_TOP}")
+    crank = bool(params.get("crank", False))
+    units = params.get("units") or {"length": "mm", "angle": "deg"}
+    auto, gap = closed_rule(pts)
+    closed = _flag(params, "closed")
+    notes = [f"{'closed' if (auto if closed is None else closed) else 'open'} curve: "
+             + (f"its end is {gap:.0%} of its size from its start (closed at most {CLOSE_FRACTION:.0%})"
+                if closed is None else "as chosen")]
+    closed = auto if closed is None else closed
+    mech = load(models_dir() / "fourbar_path_synthesis.toml")
+    if atlas is None:
+        progress(0.0, "opening the default four-bar atlas")
+
+        def built(done: int, total: int) -> None:
+            progress(0.8 * done / max(total, 1), f"building the default four-bar atlas into the cache (once): "
+                     f"{done:,} of {total:,} designs")
+
+        atlas = default_atlas(mech, "P", progress=built)
+    summ = atlas.summary()
+    notes.append(f"atlas of {summ['size']:,} four-bars ({summ['certified']:,} certified)")
+    progress(0.8, f"matching the {'closed' if closed else 'open'} curve against {summ['size']:,} designs, "
+             "polishing and certifying")
+    res = synthesize(mech, shape="P", targets=pts, closed=closed, atlas=atlas, top=top, crank=crank)
+    names = {j: j for j in ("O2", "A", "B", "O4", "P")}
+    candidates = []
+    for k, (c, rep) in enumerate(zip(res.candidates, res.report["candidates"])):
+        progress(0.9 + 0.1 * k / len(res.candidates), f"drawing candidate {k + 1} of {len(res.candidates)}")
+        err = rep["shape_error"]
+        model = _diagram_of(c["mechanism"], rep["motion"][0], rep["mode"], names, _FOURBAR_LINKS,
+                            "Four-bar (shape synthesis)",
+                            f"Coupler point P traces the shape of {len(pts)} drawn points "
+                            f"({'closed' if closed else 'open'}; loopsolve edit, shape synthesis, candidate {k + 1}); "
+                            f"rms distance {err['rms']:.6g}, max {err['max']:.6g}", units=units)
+        curve, extra = _curve(model, "P")
+        candidates.append({"objective": rep["objective"], "rms": err["rms"], "max": err["max"], "mode": rep["mode"],
+                           "direction": rep["direction"], "certificate": rep["certificate"],
+                           "parameters": rep["parameters"], "placement": rep["placement"], "motion": rep["motion"],
+                           "model": model, "toml": dumps(model), "curve": curve,
+                           "grashof": extra["grashof"] or rep["grashof"],
+                           "transmission": extra["transmission"] or rep["transmission"]})
+    progress(1.0, f"{len(candidates)} certified candidate(s)")
+    return {"task": "shape", "closed": bool(closed), "candidates": candidates, "notes": notes,
+            "targets": pts.tolist()}
+
+
 def freudenstein_synthesis(params: Mapping[str, Any], progress: Callable[[float, str], None]) -> dict:
     """Function generation through precision points ``[[input, output], ...]`` (degrees), Freudenstein."""
     from ..design.classicsynth import classic_synthesize
@@ -194,8 +284,9 @@ def freudenstein_synthesis(params: Mapping[str, Any], progress: Callable[[float,
         "toml": dumps(model), "curve": curve, "structural_error": rep.get("structural_error"), **extra}]}
 
 
-#: the panel's methods by the name the page sends (a shape method plugs in here)
+#: the panel's methods by the name the page sends
 METHODS: dict[str, Callable[[Mapping[str, Any], Callable[[float, str], None]], dict]] = {
+    "shape": shape_synthesis,
     "path": path_synthesis,
     "freudenstein": freudenstein_synthesis,
 }

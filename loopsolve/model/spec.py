@@ -23,6 +23,7 @@ from ..errors import ModelError, ModelFileError
 from .exprcheck import _check_literals, _check_terms, _constant_size, _degree, _nesting, _TooLarge
 from .mechanism import Loop, Mechanism, Parameter, Point, Units, Variable, Vector, _deep_copy
 from . import pairs as _pairs
+from .vectorsum import NotLinear, linear_in_vectors
 from .units import MAX_MAGNITUDE, Kind, UnitError, parse_quantity, unit_kind, units_of_kind, validate_units
 
 __all__ = ["build_mechanism"]
@@ -127,8 +128,8 @@ def parse_point(pname: str, text: Any, key: str, problems: _Problems, *, vec_nam
     if node is None:
         return None
     try:
-        lin = _linear_in_vectors(node, frozenset(vec_names))
-    except _NotLinear as exc:
+        lin = linear_in_vectors(node, frozenset(vec_names))
+    except NotLinear as exc:
         problems.add(key, f"cannot read {text!r} as a point: {exc}; write a sum of vectors with "
                      "scalar factors such as \"r2 + 0.5*r3\" or \"r2 + k*r3 - r7\"")
         return None
@@ -169,58 +170,6 @@ def parse_point(pname: str, text: Any, key: str, problems: _Problems, *, vec_nam
 
 
 _TERM_SUM_RE = re.compile(r"^\s*[+-]?\s*[A-Za-z][A-Za-z0-9_]*(\s*[+-]\s*[A-Za-z][A-Za-z0-9_]*)*\s*$")
-
-
-class _NotLinear(Exception):
-    pass
-
-
-def _mul(a, b):
-    if a is None:
-        return b
-    if b is None:
-        return a
-    return _expr.Binary("*", a, b)
-
-
-def _neg(a):
-    return _expr.Unary("-", _expr.Num(1.0) if a is None else a)
-
-
-def _linear_in_vectors(node, vecs: frozenset) -> list:
-    """``[(vector, factor node or None), ...]`` for an expression linear in the vector names."""
-
-    def has_vec(n) -> bool:
-        return bool(_expr.names(n) & vecs)
-
-    def go(n) -> list:
-        if isinstance(n, _expr.Name) and n.id in vecs:
-            return [(n.id, None)]
-        if not has_vec(n):
-            raise _NotLinear(f"the term {_expr.to_text(n)!r} has no vector")
-        if isinstance(n, _expr.Unary):
-            inner = go(n.operand)
-            return inner if n.op == "+" else [(v, _neg(f)) for v, f in inner]
-        if isinstance(n, _expr.Binary):
-            if n.op in ("+", "-"):
-                right = go(n.right)
-                if n.op == "-":
-                    right = [(v, _neg(f)) for v, f in right]
-                return go(n.left) + right
-            if n.op == "*":
-                lv, rv = has_vec(n.left), has_vec(n.right)
-                if lv and rv:
-                    raise _NotLinear(f"{_expr.to_text(n)!r} multiplies two vectors")
-                vec_side, scalar = (n.left, n.right) if lv else (n.right, n.left)
-                return [(v, _mul(scalar, f) if f is not None else scalar) for v, f in go(vec_side)]
-            if n.op == "/":
-                if has_vec(n.right):
-                    raise _NotLinear(f"{_expr.to_text(n)!r} divides by a vector")
-                inv = _expr.Binary("/", _expr.Num(1.0), n.right)
-                return [(v, _mul(f, inv) if f is not None else inv) for v, f in go(n.left)]
-        raise _NotLinear(f"{_expr.to_text(n)!r} is not a sum of vectors with scalar factors")
-
-    return go(node)
 
 
 def _parse_expr(value: Any, key: str, problems: _Problems, moving: frozenset | None = None) -> _expr.Node | None:

@@ -288,3 +288,17 @@ def test_build_refuses_too_large_and_another_atlas_in_place(fourbar, small, tmp_
         build_atlas(fourbar, point="Q", vary=VARY, size=10)
     with pytest.raises(ls.ModelError, match="not a parameter"):
         build_atlas(fourbar, point="P", vary={"zz": (1, 2)}, size=10)
+
+
+def test_zarr_2_is_refused_with_what_to_install(fourbar, tmp_path, monkeypatch):
+    """An atlas is zarr format 3: with zarr 2 installed the build says which zarr is there and what to install,
+    before any design is traced, and writes nothing."""
+    import zarr
+
+    from loopsolve.errors import MissingDependencyError
+
+    monkeypatch.setattr(zarr, "__version__", "2.18.7")
+    out = tmp_path / "a.zarr"
+    with pytest.raises(MissingDependencyError, match=r"zarr 3 or newer \(this environment has zarr 2\.18\.7\).*zarr>=3"):
+        build_atlas(fourbar, point="P", vary=VARY, size=64, out=out, progress=False)
+    assert not out.exists()

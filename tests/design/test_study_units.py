@@ -2,7 +2,7 @@
 
 The expected unit of each variable is worked out here from the model file's declarations
 (which unknowns are angles, which lengths, which points exist) and the conventions of the
-README: positions in the model's units (deg, mm), rates in rad/s and mm/s (and their
+docs (docs/explanation/units.md): positions in the model's units (deg, mm), rates in rad/s and mm/s (and their
 derivatives), sensitivities ``d_<q>_d_<p>`` in q's unit per p's unit, the input coordinate,
 ``stop`` and the varied parameters in the model's units.
 """

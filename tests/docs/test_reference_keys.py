@@ -123,3 +123,35 @@ def test_body_keys():
 def test_load_keys():
     text = FOURBAR + BODIES + '[[loads]]\nbody = "rocker"\ntorque = "-2N*m"\nzzz = 1\n'
     assert documented("loads") == listed(refused(text), "a load's keys are")
+
+
+CAM = """
+[variables]
+theta2 = { input = true, guess = 0 }
+s = { guess = 0 }
+[cams.c1]
+cam = "theta2"
+follower = "s"
+kind = "translating"
+contact = "knife"
+base = "40mm"
+law = [ { to = 180, rise = "10mm", curve = "cycloidal" }, { to = 360, return = "10mm", curve = "cycloidal" } ]
+"""
+
+
+def test_higher_pair_keys():
+    pairs = {
+        "gears": '[gears]\ng1 = { gear = "theta2", mate = "theta4", teeth = [20, 30], zzz = 1 }\n',
+        "slots": '[slots]\ns1 = { point = "C", link = "theta4", line = "r4", zzz = 1 }\n',
+        "rolling": '[rolling]\nw = { angle = "theta2", radius = 5, on = "r1", zzz = 1 }\n',
+    }
+    for section, table in pairs.items():
+        assert documented(section) == listed(refused(FOURBAR + table), "allowed:"), section
+    friction = FOURBAR + BODIES + '[friction]\nO2 = { mu = 0.1, radius = "6mm", zzz = 1 }\n'
+    assert documented("friction") == listed(refused(friction), "allowed:")
+
+
+def test_cam_keys():
+    assert documented("cams") == listed(refused(CAM + "zzz = 1\n"), "allowed:")
+    segment = CAM.replace('curve = "cycloidal" },', 'curve = "cycloidal", zzz = 1 },', 1)
+    assert documented("cam-law") == listed(refused(segment), "allowed:")

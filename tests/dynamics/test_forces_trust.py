@@ -371,8 +371,8 @@ class TestMessages:
         body = neg.table().splitlines()[2:]
         assert not any(cell == "-0" for line in body for cell in line.split())
 
-    def test_readme_documents_the_bar_helper(self):
-        text = (Path(__file__).parents[2] / "README.md").read_text()
+    def test_docs_document_the_bar_helper(self):
+        text = (Path(__file__).parents[2] / "docs" / "explanation" / "forces.md").read_text()
         assert "I = m(L² + w²)/12" in text and "7850 kg/m³" in text
 
     def test_no_class_scoped_fixture_methods_in_test_forces(self):

@@ -173,6 +173,7 @@ def test_editor_in_chromium(browser, server, workdir):
 
     # ---- drag the ground pivot O4 with the pointer
     from selenium.webdriver.common.action_chains import ActionChains
+    from selenium.webdriver.support.ui import Select
 
     handle = d.find_element("css selector", '[data-joint="O4"]')
     sx, sy = screen_of(d, *at["O4"])
@@ -235,6 +236,16 @@ def test_editor_in_chromium(browser, server, workdir):
     chain.release().perform()
     drawn = d.find_element("id", "le-synth-points").get_attribute("value").strip().splitlines()
     assert len(drawn) >= len(rows)
+    # shape synthesis is the default for a drawn curve; this test picks the path method (points met in order, one
+    # seeded run: no atlas to build in the user's cache — the shape method is tested through the server and in
+    # test_synthpanel_shape.py with a small atlas)
+    method = d.find_element("id", "le-synth-method")
+    assert method.get_attribute("value") == "shape"
+    assert d.find_element("id", "le-synth-closed").is_displayed()
+    assert not d.find_element("id", "le-synth-n").is_displayed()
+    Select(method).select_by_value("path")
+    assert d.find_element("id", "le-synth-n").is_displayed()
+    assert not d.find_element("id", "le-synth-closed").is_displayed()
     n = d.find_element("id", "le-synth-n")
     n.clear()
     n.send_keys("5")
@@ -329,3 +340,56 @@ def WebDriverWait_dialog(d, timeout=60):
             return
         time.sleep(0.1)
     raise AssertionError("no dialog")
+
+
+def test_shape_synthesis_in_chromium(browser, workdir, tmp_path):
+    """The panel's default method on pasted points of a closed coupler curve (a known four-bar's, turned and
+    scaled): the first-use atlas build shows in the status line, the candidates are certified, and Use makes the
+    first the edited mechanism, whose coupler curve (solved here) passes through every pasted point. A small
+    default atlas in a fresh cache (LOOPSOLVE_ATLAS_SIZE, LOOPSOLVE_CACHE_DIR) keeps it quick."""
+    pytest.importorskip("zarr", reason="atlases need zarr (the study extra)")
+    from test_synthpanel_shape import candidate_curve, distance, traced
+
+    shutil.copy(MODEL, workdir / "shape.toml")
+    srv = EditorServer(workdir / "shape.toml", cwd=workdir,
+                       env={"LOOPSOLVE_CACHE_DIR": str(tmp_path / "cache"), "LOOPSOLVE_ATLAS_SIZE": "4096"})
+    try:
+        d = browser
+        d.get(srv.url)
+        wait_version(d, 0)
+        d.find_element("css selector", '#le-panels [data-panel="synthesis"]').click()
+        targets = traced(1.2, 4.5, 3.8, 1.0, 2.5, stop=354, step=6, turn=-40, scale=12.0, shift=(30.0, 90.0))
+        d.execute_script("var t = document.getElementById('le-synth-points'); t.value = arguments[0];"
+                         "t.dispatchEvent(new Event('change', {bubbles: true}));",
+                         "\n".join(f"{float(x)!r}, {float(y)!r}" for x, y in targets))
+        assert d.find_element("id", "le-synth-method").get_attribute("value") == "shape"
+        top = d.find_element("id", "le-synth-top")
+        top.clear()
+        top.send_keys("2")
+        d.find_element("id", "le-synth-go").click()
+        seen = set()
+        t0 = time.monotonic()
+        while time.monotonic() - t0 < 1500:
+            status = d.find_element("id", "le-synth-status")
+            st = status.get_attribute("data-state")
+            seen.add(status.text)
+            if st in ("done", "failed", "cancelled"):
+                break
+            assert st or time.monotonic() - t0 < 60, d.find_element("id", "le-message").text  # it never started
+            time.sleep(0.2)
+        assert st == "done", status.text
+        assert any("building the default four-bar atlas" in t for t in seen), seen
+        notes = [e.text for e in d.find_elements("css selector", "#le-candidates li.le-note")]
+        assert any(n.startswith("closed curve") for n in notes), notes
+        cands = d.find_elements("css selector", "#le-candidates li.le-candidate")
+        assert 1 <= len(cands) <= 2 and all("certified" in c.text and "defects" not in c.text for c in cands)
+        old = version(d)
+        cands[0].find_element("css selector", "button[data-use]").click()
+        wait_version(d, old)
+        chosen = srv.model()
+        assert set(chosen["joints"]) == {"O2", "A", "B", "O4", "P"}
+        dist = distance(targets, candidate_curve(dumps(chosen), True))
+        assert dist.max() < 5e-3 * float(np.ptp(targets, axis=0).max()), dist.max()
+        no_errors(d)
+    finally:
+        srv.stop()

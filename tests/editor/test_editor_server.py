@@ -19,6 +19,7 @@ import sys
 import time
 import tomllib
 
+import numpy as np
 import pytest
 
 import loopsolve as ls
@@ -243,6 +244,55 @@ def test_synthesis_cancelled_midway(server):
     assert status == 200
     final = server.wait_job(body["id"])
     assert final["state"] == "failed" and "3 to" in final["error"]
+
+
+def test_shape_synthesis_cancelled_while_the_atlas_builds_then_certified(workdir, tmp_path):
+    """The page's default method: the first use builds the default atlas (here a small one in a fresh cache) and
+    says so in the job's progress; cancelling stops it; the next run gives certified four-bars whose coupler
+    curves (solved here from each candidate's model) pass through the drawn curve of a known four-bar."""
+    from test_synthpanel_shape import candidate_curve, distance, traced
+
+    pytest.importorskip("zarr", reason="atlases need zarr (the study extra)")
+    srv = EditorServer(workdir / "crank_rocker.toml", cwd=workdir,
+                       env={"LOOPSOLVE_CACHE_DIR": str(tmp_path / "cache"), "LOOPSOLVE_ATLAS_SIZE": "4096"})
+    try:
+        before, on_disk = srv.model(), (workdir / "crank_rocker.toml").read_text()
+        targets = traced(0.8, 3.0, 3.2, 1.5, -1.0, stop=351, turn=120, scale=25.0, shift=(60.0, 40.0))
+        params = {"points": targets.tolist(), "top": 2}
+        status, body, _ = srv.post("/api/synthesis", {"method": "shape", "params": params})
+        assert status == 200 and body["state"] == "running", body
+        job = body["id"]
+        messages = []
+        while True:
+            st = srv.get(f"/api/synthesis/{job}")[1]
+            messages.append(st["message"])
+            if "building the default four-bar atlas" in st["message"] or st["state"] != "running":
+                break
+            time.sleep(0.1)
+        assert st["state"] == "running", messages
+        status, st, _ = srv.post(f"/api/synthesis/{job}/cancel")
+        assert status == 200 and st["state"] == "cancelled", st
+        assert srv.model() == before
+        status, body, _ = srv.post("/api/synthesis", {"method": "shape", "params": params})
+        assert status == 200, body
+        final = srv.wait_job(body["id"])
+        assert final["state"] == "done", final
+        res = final["result"]
+        assert res["task"] == "shape" and res["closed"] is True and 1 <= len(res["candidates"]) <= 2
+        size = float(np.ptp(targets, axis=0).max())
+        for c in res["candidates"]:
+            assert c["certificate"]["defects"] == []
+            dist = distance(targets, candidate_curve(c["toml"], True))
+            assert dist.max() < 5e-3 * size, (dist.max(), c["max"])  # half a percent of the drawing: on top of it
+            assert c["max"] == pytest.approx(dist.max(), abs=1e-3 * size)  # the page's number is the measured one
+        # the page's Use: the candidate becomes the edited mechanism
+        status, body, _ = srv.post("/api/edit", {"op": "replace", "toml": res["candidates"][0]["toml"],
+                                                 "source": "synthesis candidate 1"})
+        assert status == 200, body
+        assert set(srv.model()["joints"]) == {"O2", "A", "B", "O4", "P"}
+        assert (workdir / "crank_rocker.toml").read_text() == on_disk  # nothing saved behind the user
+    finally:
+        srv.stop()
 
 
 # ------------------------------------------------------------------------------ numbers

@@ -1,6 +1,6 @@
-"""Limits and change points are located as precisely as the README promises.
+"""Limits and change points are located as precisely as the docs promise.
 
-README: a sweep that reaches a limit position stops there "located to 1e-9 in the input", and
+docs/reference/limitations.md and docs/howto/limit_positions.md: a sweep that reaches a limit position stops there "located to 1e-9 in the input", and
 "change points are located to about 1e-8 in the input". The expected positions are written here in
 closed form: toggle positions from the law of cosines (the coupler and the output link, or the crank
 and the rod, in line), change points of Grashof linkages with S + L = P + Q (every pivot in line).

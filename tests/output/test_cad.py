@@ -1,7 +1,9 @@
 """CAD export: the DXF read back with ezdxf, the SVG read back as XML, coordinates equal to the solve's."""
 
+import json
 import math
 import xml.etree.ElementTree as ET
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -165,17 +167,23 @@ def test_cli_synthesized_design_file_draws_to_dxf_at_the_solve(tmp_path, capsys)
     # loopsolve synthesize ... -o design.toml, then loopsolve draw design.toml --at X -o design.dxf
     from test_synthesize_methods import G2, G4, L2, pose
 
+    # a four-bar model that can hold a Burmester design (the classical methods write into the user's
+    # model): its frame placement and coupler point are parameters
     base = tmp_path / "fourbar.toml"
-    base.write_text(ls.dumps(ls.fourbar(60, 25, 70, 45)))
+    base.write_text((Path(__file__).resolve().parents[2] / "models" / "fourbar_path_synthesis.toml").read_text())
     poses = tmp_path / "poses.csv"
     poses.write_text("x,y,angle\n" + "".join(f"{x!r},{y!r},{a!r}\n" for x, y, a in map(pose, (10, 70, 130, 190, 250))))
     design, out = tmp_path / "design.toml", tmp_path / "design.dxf"
-    status, _, err = call(capsys, "synthesize", base, "--method", "burmester", "--motion", "C", "--link", "theta3",
-                          "--targets", poses, "-o", design, "-q")
+    report = tmp_path / "report.json"
+    status, _, err = call(capsys, "synthesize", base, "--method", "burmester", "--motion", "P", "--link", "theta3",
+                          "--targets", poses, "-o", design, "--report", report, "-q")
     assert status == 0, err
-    status, _, err = call(capsys, "draw", design, "--at", "130", "-o", out)
+    # the model's input is the crank's angle from its ground line: the design's own input at the third pose
+    rep = json.loads(report.read_text())
+    at = rep["targets"][2]["input"]
+    status, _, err = call(capsys, "draw", design, "--at", repr(at), "-o", out)
     assert status == 0 and "wrote" in err
-    s = ls.load(design).solve(130)
+    s = ls.load(design).solve(at, mode=rep["mode"])
     xy = {n: (s[f"{n}_x"], s[f"{n}_y"]) for n in JOINTS + ("P",)}
     # the solve against the planted crank-rocker by hand: pivots, crank pin, the pose's coupler point
     assert near(xy["O2"], G2) and near(xy["O4"], G4)
