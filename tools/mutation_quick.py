@@ -41,7 +41,7 @@ C = "tests/output/test_cad.py::"
 #: the CAD export: read back from the written DXF/SVG (small selections: a mutant costs seconds, not minutes)
 CAD = [C + "test_dxf_round_trip", C + "test_svg_round_trip", C + "test_entities_read_as_a_summary",
        DW + "test_dxf_header_names_the_model_s_length_unit", DW + "test_dxf_circles_have_the_drawing_s_radius",
-       C + "test_cli_synthesized_design_file_draws_to_dxf_at_the_solve"]
+       C + "test_cli_synthesized_design_file_draws_to_dxf_at_the_solve", C + "test_dxf_without_ezdxf_is_a_one_line_error"]
 UNITS = ["tests/model/test_units.py", "tests/model/test_unit_registry.py"]
 SO = "tests/design/test_synthesis_outputs.py::"
 SM = "tests/design/test_synthesize_methods.py::"
