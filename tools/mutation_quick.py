@@ -31,6 +31,30 @@ STUDY = ["tests/design/test_study_angle_parameter.py", "tests/design/test_study_
 TRACKER = ["tests/kinematics/test_tracker_hand_values.py", "tests/kinematics/test_tracking.py",
            "tests/kinematics/test_location_precision.py"]
 FORCES = ["tests/dynamics/test_force_outputs.py", "tests/dynamics/test_body_quantities.py", "tests/dynamics/test_forces.py"]
+DW = "tests/output/test_drawn_where_solved.py::"
+PL = "tests/output/test_plotting.py::"
+#: the drawing: the pictures' places against the solve (the page's Chromium test and the every-model sweeps left out)
+DRAWING = [PL + "test_draw_fourbar", PL + "test_draw_slider_blocks_and_guides", PL + "test_geometry_matches_solved_points",
+           PL + "test_coupler_point_is_drawn_as_a_point_and_traced", PL + "test_watt1_vectors_tip_to_tail_on_the_joints",
+           DW + "test_slider_crank_coupler_point_is_a_tracer", DW + "test_dxf_circles_have_the_drawing_s_radius"]
+C = "tests/output/test_cad.py::"
+#: the CAD export: read back from the written DXF/SVG (small selections: a mutant costs seconds, not minutes)
+CAD = [C + "test_dxf_round_trip", C + "test_svg_round_trip", C + "test_entities_read_as_a_summary",
+       DW + "test_dxf_header_names_the_model_s_length_unit", DW + "test_dxf_circles_have_the_drawing_s_radius",
+       C + "test_cli_synthesized_design_file_draws_to_dxf_at_the_solve", C + "test_dxf_without_ezdxf_is_a_one_line_error"]
+UNITS = ["tests/model/test_units.py", "tests/model/test_unit_registry.py"]
+SO = "tests/design/test_synthesis_outputs.py::"
+SM = "tests/design/test_synthesize_methods.py::"
+SYNTH = [SO + "test_to_json_refuses_a_nan", SO + "test_freudenstein_report_values_are_the_written_designs"]
+CERT = [SO + "test_every_certificate_agrees_with_its_defects"]
+LM = ["tests/design/test_synthlm.py::test_batch_lm_crosses_the_periodic_bound_and_recovers_the_planted_design",
+      "tests/design/test_synthlm.py::test_reassemble_from_a_nearby_position_matches_the_closed_form"]
+STRUCT = [SM + "test_structural_error_of_the_freudenstein_design_against_the_closed_form"]
+CS = "tests/design/test_classicsynth.py::"
+CLASSIC = [CS + "test_freudenstein_door_meets_the_targets", SO + "test_freudenstein_report_values_are_the_written_designs",
+           SO + "test_freudenstein_design_is_the_users_model_with_its_names"]
+MOTION = [CS + "test_burmester_door_recovers_and_writes_a_loadable_model", SO + "test_burmester_design_is_the_users_model_with_its_names"]
+LATEX = ["tests/dynamics/test_eom.py::test_named_symbols_and_values", "tests/output/test_latex_at_tables.py"]
 #: the test files of each module, fast ones first (pytest -x stops at the first failure)
 TESTS = {"model.bodies": FORCES + ["tests/model/test_diagram_bodies.py"],
          "dynamics.derivation": FORCES + ["tests/model/test_diagram_bodies.py"],
@@ -38,7 +62,13 @@ TESTS = {"model.bodies": FORCES + ["tests/model/test_diagram_bodies.py"],
          "design.studies": STUDY + ["tests/design/test_study_progress.py"],
          "design.sensitivity": STUDY, "design.designs": STUDY, "design.metrics": STUDY,
          "output.view": ["tests/output/test_page_values.py", "tests/output/test_view.py"],
-         "kinematics.grid": TRACKER, "kinematics.reach": TRACKER, "kinematics.rows": TRACKER + ["tests/kinematics/test_batch.py"]}
+         "kinematics.grid": TRACKER, "kinematics.reach": TRACKER, "kinematics.rows": TRACKER + ["tests/kinematics/test_batch.py"],
+         "output.cad": CAD, "output.geometry": DRAWING, "output.skeleton": DRAWING,
+         "model.unitlib": UNITS, "model.units": UNITS,
+         "design.synthreport": SYNTH, "design.certify": CERT, "design.synthlm": LM, "design.structerr": STRUCT,
+         "design.classicsynth": CLASSIC, "design.classicmotion": MOTION, "design.classicmap": CLASSIC[2:] + MOTION[1:],
+         "design.freudenstein": CLASSIC, "design.burmester": MOTION,
+         "output.latex_dynamics": LATEX}
 
 
 def module_of(name: str) -> str:
@@ -73,8 +103,13 @@ def main(argv=None) -> int:
                 order.append(by[mod].pop(0))
     env = dict(os.environ, PYTHONPATH=str(root.resolve()), MPLBACKEND="Agg")
     env.pop("LOOPSOLVE_DEBUG", None)
-    log = (root / "quick.tsv").open("a", encoding="utf-8")
+    tsv = root / "quick.tsv"
+    done = {ln.split("\t")[0] for ln in tsv.read_text(encoding="utf-8").splitlines()
+            if ln.split("\t")[1:2] != ["None"]} if tsv.exists() else set()
+    log = tsv.open("a", encoding="utf-8")
     for name in order:
+        if name in done:  # a run cut short resumes where it stopped (timeouts are tried again)
+            continue
         if args.until and time.strftime("%H:%M", time.gmtime()) >= args.until:
             break
         mod = module_of(name)
