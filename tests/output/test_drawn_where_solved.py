@@ -31,8 +31,9 @@ import pytest
 
 import loopsolve as ls
 from loopsolve.cli import main
-from moved_models import move_xy, moved, moved_text
 
+from support.moved import move_xy, moved, moved_text
+from support.pages import cli_sweep, open_page
 ezdxf = pytest.importorskip("ezdxf")
 
 MODELS = sorted(ls.models_dir().glob("*.toml"))
@@ -413,7 +414,12 @@ def test_synthesis_plot_draws_the_design_where_it_is(tmp_path):
 
 
 # ------------------------------------------------------------------------------ the page in Chromium
-from test_view import browser, _open, cli_sweep  # noqa: E402,F401  (one browser for this module's pages)
+@pytest.fixture(scope="module")
+def browser(chromium):
+    """This module's headless Chromium, offline, its console and network logs kept (as test_view's)."""
+    with chromium(window=(1280, 860), offline=True, performance=True) as driver:
+        yield driver
+
 
 _PAGE_JS = """
 var s = document.getElementById('loopsolve-input');
@@ -443,7 +449,7 @@ def _page_rows(browser, tmp_path, model_path, name):
     sw = cli_sweep(model_path)
     page = tmp_path / f"{name}.html"
     page.write_text(sw.to_html(), encoding="utf-8")
-    _open(browser, page)
+    open_page(browser, page)
     n = len(sw)
     rows = sorted({0, n // 3, (2 * n) // 3, n - 1})
     return sw, {r: browser.execute_script(_PAGE_JS, r) for r in rows}
