@@ -1,7 +1,7 @@
 """The editor's server (DESIGN.md, "Editor"; issue 34): what it refuses and how, what it writes.
 
 Every test talks to a real ``loopsolve edit`` process over the loopback (started and stopped
-here, see ``editorserver.py``): requests without the token, with another Host or Origin, with
+here, see ``support/editor.py``): requests without the token, with another Host or Origin, with
 oversized or hostile model text, save names that leave the working directory, a synthesis
 cancelled midway — each refused or handled with a clear message, and the user's model (and
 files) untouched. The page's numbers are the command line's for the same model.

@@ -1,7 +1,7 @@
 """Every picture puts the linkage where ``solve`` puts it, wherever the model places its frame.
 
 For every shipped model and a copy of it translated by (137.25, −48.5) and turned by 33° (see
-``moved_models.py``: a frame vector in front of every point and every vector turned, or a
+``support/moved.py``: a frame vector in front of every point and every vector turned, or a
 diagram's joints moved, so any model can be moved, with or without frame parameters):
 
 * the DXF written by ``export_cad``/``loopsolve draw -o x.dxf`` and read back with ezdxf: every
