@@ -47,3 +47,21 @@ WITHIN_LAYER = (
     ("kinematics.results", "kinematics.export", "Sweep.to_csv/to_json: the tables of a result"),
     ("kinematics.classic", "kinematics.classic_limits", "the old names C.grashof, C.quick_return, ... still answer"),
 )
+
+# Every import cycle inside a layer, imports inside functions included (the strongly connected
+# components that tests/test_import_layers.py finds): (the modules, why they stay together). A cycle
+# not listed here fails the test; a listed one that is broken must leave the list.
+CYCLES = (
+    (("model.mechanism", "model.spec"),
+     "a Mechanism is built from a declaration, and its methods rebuild one through build_mechanism"),
+    (("model.diagram", "model.modelfile"),
+     "model files may be kinematic diagrams, and to_vector_model writes a diagram out as a model file"),
+    (("model.cams", "model.pairs"),
+     "pairs dispatches each section to its element module; the cam check evaluates parameters with pairs'"
+     " evaluator"),
+    (("kinematics.solve", "kinematics.modes", "kinematics.reach", "kinematics.continuation"),
+     "a solve starts in a mode (modes) and, when it fails, names the nearest assemblable inputs (reach, which"
+     " traces by continuation, whose trace starts with a solve)"),
+    (("kinematics.results", "kinematics.export"), "Sweep.to_csv/to_json are the tables of a result"),
+    (("kinematics.classic", "kinematics.classic_limits"), "the old names C.grashof, C.quick_return, ... still answer"),
+)

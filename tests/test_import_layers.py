@@ -14,7 +14,7 @@ import ast
 from pathlib import Path
 
 import loopsolve
-from loopsolve._facade import FACADE, LAYERS, WITHIN_LAYER
+from loopsolve._facade import CYCLES, FACADE, LAYERS, WITHIN_LAYER
 
 PACKAGE = Path(loopsolve.__file__).parent
 
@@ -46,6 +46,8 @@ def _imports(path: Path):
 
     def visit(node, scope):
         for child in ast.iter_child_nodes(node):
+            if isinstance(child, ast.If) and "TYPE_CHECKING" in ast.unparse(child.test):
+                continue  # annotations only: never imported when the code runs
             inner = scope
             if isinstance(child, (ast.FunctionDef, ast.AsyncFunctionDef, ast.ClassDef)):
                 inner = f"{scope}.{child.name}" if scope else child.name
@@ -140,3 +142,43 @@ def _back_references():
 def test_back_references_inside_a_layer_are_the_listed_ones():
     """No hidden import cycle inside a layer: each lazy import back is listed, with its reason."""
     assert _back_references() == {(m, t) for m, t, _ in WITHIN_LAYER}
+
+
+def _cycles():
+    """Every import cycle inside a layer, lazy imports (inside functions) included: the strongly connected
+    components of the graph module → module it imports, anywhere in its code."""
+    import networkx as nx
+
+    modules = {_module_name(p) for p in PACKAGE.rglob("*.py") if "__pycache__" not in p.parts}
+    graph = nx.DiGraph()
+    for path in sorted(PACKAGE.rglob("*.py")):
+        if "__pycache__" in path.parts:
+            continue
+        module, imports = _imports(path)
+        for _, target in imports:
+            if target in modules and target != module and target.count(".") >= 1 and module.count(".") >= 1 \
+                    and target.split(".")[1] == module.split(".")[1]:
+                graph.add_edge(module.removeprefix("loopsolve."), target.removeprefix("loopsolve."))
+    return {frozenset(c) for c in nx.strongly_connected_components(graph) if len(c) > 1}
+
+
+def test_import_cycles_inside_a_layer_are_the_listed_ones():
+    """A cycle, even through imports inside functions, is two modules that cannot be understood (or moved)
+    apart: each is listed in loopsolve._facade.CYCLES with its reason, and a broken one leaves the list."""
+    listed = {frozenset(c) for c, _ in CYCLES}
+    found = _cycles()
+    assert sorted(map(sorted, found - listed)) == [], "unlisted import cycles: break them or list them with a reason"
+    assert sorted(map(sorted, listed - found)) == [], "listed cycles that no longer exist: remove them from CYCLES"
+
+
+def test_the_cycle_check_sees_a_cycle_made_only_of_lazy_imports(tmp_path, monkeypatch):
+    """The check itself: two modules of one layer importing each other only inside functions form a cycle."""
+    pkg = tmp_path / "loopsolve"
+    (pkg / "design").mkdir(parents=True)
+    (pkg / "__init__.py").write_text("")
+    (pkg / "design" / "__init__.py").write_text("")
+    (pkg / "design" / "a.py").write_text("def f():\n    from .b import g\n    return g()\n")
+    (pkg / "design" / "b.py").write_text("def g():\n    from .a import f\n    return f\n")
+    (pkg / "design" / "c.py").write_text("from typing import TYPE_CHECKING\nif TYPE_CHECKING:\n    from .a import f\n")
+    monkeypatch.setitem(globals(), "PACKAGE", pkg)
+    assert _cycles() == {frozenset({"design.a", "design.b"})}

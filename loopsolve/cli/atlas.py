@@ -121,7 +121,7 @@ def cmd_shape(args) -> int:
     """``synthesize MODEL --shape P ...``."""
     from ..design.shape import synthesize_shape
     from ..errors import ModelError
-    from .synthesis import _synthesis_output
+    from .common import synthesis_output
 
     for flag, given in (("--function", args.function), ("--motion", args.motion), ("--link", args.link),
                         ("--inputs", args.inputs), ("--range", args.input_range), ("--runs", args.runs != 1),
@@ -136,7 +136,7 @@ def cmd_shape(args) -> int:
         check_tree(args.atlas)  # a one-line error naming what is wrong
     mech = _load(args.model)
     vary = parse_vary(args.vary, allow_fixed=True)
-    rep = _synthesis_output(args, lambda: synthesize_shape(
+    rep = synthesis_output(args, lambda: synthesize_shape(
         mech, shape=args.shape, targets=args.targets, closed=not args.open, atlas=args.atlas, top=args.top,
         crank=args.crank, transmission=args.transmission, vary=vary, seed=args.seed,
         progress=None if not args.quiet else False, max_targets=args.max_targets), "")

@@ -1,7 +1,5 @@
 """What every ``loopsolve`` command shares: the argument parser class, loading a model, writing
 an output (never over an input), rendering a result as text or JSON.
-
-Split from ``loopsolve/cli.py`` (the functions unchanged).
 """
 
 from __future__ import annotations
@@ -126,3 +124,27 @@ def _rate_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("--input", metavar="NAME", help="drive this variable instead of the declared input")
     p.add_argument("--mode", metavar="SIGNATURE", help="assembly mode to use: a signature such as + or -+, or "
                    "an alias declared by the model (open, crossed)")
+
+
+def synthesis_output(args, run, label: str):
+    """Run a synthesis, write its report (also the failed one's, then re-raise) and ``-o`` model;
+    print the report when no ``--report`` file is given. Returns the report when it went to a file."""
+    import json
+
+    from ..errors import SynthesisError
+
+    try:
+        res = run()
+    except SynthesisError as exc:
+        if args.report and exc.report is not None:
+            _write(json.dumps(exc.report, indent=2, allow_nan=False) + "\n", args.report)
+        raise
+    text = json.dumps(res.report, indent=2, allow_nan=False) + "\n"  # strict JSON: a NaN is a bug, not output
+    if args.report:
+        _write(text, args.report)
+    if args.output:
+        _write(res.to_toml(), args.output)
+    if not args.report:
+        sys.stdout.write(text)
+        return None
+    return res.report

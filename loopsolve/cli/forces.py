@@ -1,6 +1,4 @@
 """``loopsolve forces`` and ``loopsolve simulate``: their arguments and outputs.
-
-Split from ``loopsolve/cli.py`` (the functions unchanged).
 """
 
 from __future__ import annotations

@@ -1,6 +1,4 @@
 """``loopsolve synthesize``: its arguments, the general and classical methods, the report.
-
-Split from ``loopsolve/cli.py`` (the functions unchanged).
 """
 
 from __future__ import annotations
@@ -8,7 +6,7 @@ from __future__ import annotations
 import math
 import sys
 
-from .common import EXIT_OK, _check_output, _load, _write
+from .common import EXIT_OK, _check_output, _load, synthesis_output
 from .fileargs import file_argument
 
 
@@ -111,7 +109,7 @@ def cmd_synthesize(args) -> int:
         if name in vary:
             raise ModelError(f"--vary {name} given twice")
         vary[name] = (lo, hi)
-    rep = _synthesis_output(args, lambda: synthesize(
+    rep = synthesis_output(args, lambda: synthesize(
         mech, path=args.path, function=args.function, motion=args.motion, link=args.link,
         targets=args.targets, inputs=args.inputs, vary=vary, crank=args.crank,
         transmission=args.transmission, runs=args.runs, seed=args.seed, mode=args.mode,
@@ -146,31 +144,6 @@ def _parse_range(text):
 
 
 
-def _synthesis_output(args, run, label: str):
-    """Run a synthesis, write its report (also the failed one's, then re-raise) and ``-o`` model;
-    print the report when no ``--report`` file is given. Returns the report when it went to a file."""
-    import json
-
-    from ..errors import SynthesisError
-
-    try:
-        res = run()
-    except SynthesisError as exc:
-        if args.report and exc.report is not None:
-            _write(json.dumps(exc.report, indent=2, allow_nan=False) + "\n", args.report)
-        raise
-    text = json.dumps(res.report, indent=2, allow_nan=False) + "\n"  # strict JSON: a NaN is a bug, not output
-    if args.report:
-        _write(text, args.report)
-    if args.output:
-        _write(res.to_toml(), args.output)
-    if not args.report:
-        sys.stdout.write(text)
-        return None
-    return res.report
-
-
-
 def _classic_synthesize(args, input_range) -> int:
     """``synthesize --method freudenstein|burmester``: exit 3 (report still written) when not usable."""
     from ..errors import ModelError
@@ -181,7 +154,7 @@ def _classic_synthesize(args, input_range) -> int:
         if given is not None and given is not False:
             raise ModelError(f"{flag} is not used by --method {args.method} (it is for the general method)")
     mech = _load(args.model)
-    rep = _synthesis_output(args, lambda: synthesize(mech, method=args.method, targets=args.targets,
+    rep = synthesis_output(args, lambda: synthesize(mech, method=args.method, targets=args.targets,
                                                      function=args.function, motion=args.motion, link=args.link,
                                                      input_range=input_range, runs=args.runs, seed=args.seed,
                                                      popsize=args.popsize, maxiter=args.maxiter,

@@ -189,7 +189,7 @@ def _start_here(test, ck, P, x0, cols, last, sig0, ch, rates, derivatives):
     mode the guesses name, as :func:`loopsolve.solve.start_position` takes it (the unique root with that
     signature, angles in (−π, π]). Sets ``last`` to 0 and ``sig0`` to that mode where it is regular;
     returns those designs."""
-    from .lockstep import REGULAR_MIN, _fill_rows
+    from .designops import REGULAR_MIN, fill_rows
     from ..kinematics.solve import initial_z
 
     mech = ck.mechanism
@@ -217,7 +217,7 @@ def _start_here(test, ck, P, x0, cols, last, sig0, ch, rates, derivatives):
     if not good.any():
         return none
     cg = np.asarray(cols)[good]
-    _fill_rows(ck, ops, Z[:, good], P[:, cg], ch, np.zeros(len(cg), dtype=int), cg, rates, derivatives)
+    fill_rows(ck, ops, Z[:, good], P[:, cg], ch, np.zeros(len(cg), dtype=int), cg, rates, derivatives)
     last[cg] = 0
     sig0[:, cg] = req[:, good]
     return cg
@@ -232,14 +232,14 @@ def locate_limits(ck, P, xs, x_end, cand, last, irregular, sig0, ch, rates, deri
     ``(designs left for the single sweep, designs done here)``.
     """
     from ..kinematics.assemblable import AssemblyTest
-    from .lockstep import _fill_rows, _Ops, design_scale, display_value_of
+    from .designops import DesignOps, design_scale, display_value_of, fill_rows
     from ..kinematics.solve import _input_unit
 
     none = np.zeros(0, dtype=int)
     K = len(xs)
     if K < 2 or not len(cand):
         return cand, none
-    ops = _Ops(ck)
+    ops = DesignOps(ck)
     test = AssemblyTest(ck, ops, P, design_scale(ck, P))
     if not test.usable:
         return cand, none
@@ -319,7 +319,7 @@ def locate_limits(ck, P, xs, x_end, cand, last, irregular, sig0, ch, rates, deri
                 seq = np.concatenate([[ch.Z[0][i, int(last[j]), j]], Z[i, o:o + len(rws)]])
                 Z[i, o:o + len(rws)] = np.unwrap(seq)[1:]
             o += len(rws)
-        _fill_rows(ck, ops, Z, Pj, ch, rk, rj, rates, derivatives)
+        fill_rows(ck, ops, Z, Pj, ch, rk, rj, rates, derivatives)
     done = []
     for j, x_lim, rws, to_end in zip(c, xf, rows_of, reach):
         if int(j) in failed:

@@ -4,7 +4,7 @@ Why: Freudenstein and Burmester compute a four-bar as pivots and pins (their own
 their own names). A user who synthesizes with ``-o design.toml`` reads the design back with the
 names of the model they gave (``B_x`` is their coupler pin, not whatever the method calls B), so
 the design must be *their* model with values in it — as the general method writes it
-(:func:`loopsolve.design.synthrun.design_model`: the parameter values and, as guesses, the pose at
+(:func:`loopsolve.design.synthdesign.design_model`: the parameter values and, as guesses, the pose at
 the first target).
 
 How: :func:`fourbar_layout` finds the model's four-bar (the loop of four vectors of constant

@@ -30,7 +30,8 @@ def burmester_synthesize(mech, *, targets, motion, link, crank: bool = False, tr
     """Burmester motion generation on ``mech`` (see the module docstring); a ``ClassicSynthesis``."""
     from .burmsearch import RULE, candidate_dyads, screen
     from .classicmap import fourbar_layout
-    from .classicsynth import ClassicSynthesis, read_table
+    from .synthdesign import ClassicSynthesis
+    from .targets import read_table
 
     if motion is None or link is None:
         raise ModelError("--method burmester is for motion generation (--motion POINT --link VAR)")

@@ -17,111 +17,22 @@ method's own numbers (``K`` and ``design``; Burmester's ``ranking`` and ``candid
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
-from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 from ..errors import ModelError, SolveError
-from .targets import csv_records, read_text_file
+from .synthdesign import ClassicSynthesis
+from .targets import read_table
 from ..model.units import Kind
 
-__all__ = ["read_table", "ClassicSynthesis", "classic_synthesize", "METHODS", "parse_transmission"]
+__all__ = ["classic_synthesize", "METHODS", "parse_transmission"]
 
 METHODS = ("freudenstein", "burmester")
 
 
-def read_table(source, columns: tuple[str, ...], *, what: str = "targets") -> np.ndarray:
-    """Rows of the named numeric ``columns`` from a CSV file (or text) with a header line.
-
-    Errors name the file, the line and the column (:class:`ModelError`).
-
-    Examples
-    --------
-    >>> from loopsolve.design.classicsynth import read_table
-    >>> read_table("x,y,angle\\n1,2,30\\n3,4,45\\n", ("x", "y", "angle")).tolist()
-    [[1.0, 2.0, 30.0], [3.0, 4.0, 45.0]]
-    """
-    if isinstance(source, Mapping):  # columns by name, as the general method takes them
-        cols = {str(k).strip().lower(): v for k, v in source.items()}
-        missing = [c for c in columns if c not in cols]
-        if missing:
-            raise ModelError(f"{what}: missing column(s) {', '.join(missing)}; the columns are "
-                             f"{', '.join(cols) or 'none'} (expected {','.join(columns)})")
-        try:
-            source = np.column_stack([np.atleast_1d(np.asarray(cols[c], dtype=float)) for c in columns])
-        except (TypeError, ValueError):
-            raise ModelError(f"{what}: the columns {','.join(columns)} must be numbers of one length") from None
-    if not isinstance(source, (str, Path)):  # rows of numbers already (an array or a list of rows)
-        try:
-            arr = np.array(source, dtype=float)
-        except (TypeError, ValueError):
-            raise ModelError(f"{what}: expected a file, CSV text or rows of {len(columns)} numbers "
-                             f"({','.join(columns)})") from None
-        if arr.ndim != 2 or arr.shape[1] != len(columns) or len(arr) == 0:
-            raise ModelError(f"{what}: expected rows of {len(columns)} numbers ({','.join(columns)}), got shape "
-                             f"{arr.shape}")
-        if not np.isfinite(arr).all():
-            raise ModelError(f"{what}: every value must be a finite number")
-        return arr
-    if isinstance(source, Path) or (isinstance(source, str) and "\n" not in source and "," not in source):
-        where = str(source)
-        text = read_text_file(source, what=what)
-    else:
-        where, text = f"<{what}>", str(source)
-    rows = [(i, r) for i, r in csv_records(text, where) if r and any(c.strip() for c in r)]
-    rows = [(i, r) for i, r in rows if not r[0].lstrip().startswith("#")]
-    if not rows:
-        raise ModelError(f"{where}: empty {what} file; expected a header line {','.join(columns)} and rows")
-    line, header = rows[0]
-    names = [h.strip().lower() for h in header]
-    missing = [c for c in columns if c not in names]
-    if missing:
-        raise ModelError(f"{where}, line {line}: the header {','.join(h.strip() for h in header)!r} lacks the "
-                         f"column(s) {', '.join(missing)}; expected {','.join(columns)}")
-    idx = [names.index(c) for c in columns]
-    out = []
-    for line, r in rows[1:]:
-        if len(r) != len(header):
-            raise ModelError(f"{where}, line {line}: {len(r)} fields, the header has {len(header)}")
-        vals = []
-        for c, j in zip(columns, idx):
-            try:
-                v = float(r[j])
-            except ValueError:
-                raise ModelError(f"{where}, line {line}, column {c}: {r[j].strip()!r} is not a number") from None
-            if not math.isfinite(v):
-                raise ModelError(f"{where}, line {line}, column {c}: {r[j].strip()!r} is not a finite number")
-            vals.append(v)
-        out.append(vals)
-    if not out:
-        raise ModelError(f"{where}: no {what} rows after the header")
-    return np.array(out, dtype=float)
-
-
 def _where(source) -> str:
     return str(source) if isinstance(source, (str, Path)) and "\n" not in str(source) else "targets"
-
-
-
-@dataclass(frozen=True)
-class ClassicSynthesis:
-    """A classical synthesis run: ``mechanism`` (the user's model with the chosen design's values),
-    ``report`` (JSON-ready), ``design`` (the method's own result)."""
-
-    mechanism: object
-    report: dict
-    design: object
-
-    @property
-    def objective(self) -> float:
-        return self.report["objective"]
-
-    def to_toml(self) -> str:
-        from ..model.modelfile import dumps
-
-        return dumps(self.mechanism)
 
 
 def parse_transmission(transmission):
@@ -200,7 +111,7 @@ def classic_synthesize(mech, *, method: str, targets, function: str | None = Non
         ``structural_error`` covers it (against ``desired(x)``, model units, when given; else the
         PCHIP through the targets).
         ``polish``: a certified least-squares Freudenstein design (more than three targets) is
-        polished by the general method (:func:`loopsolve.design.synthrun.polish_design` on the
+        polished by the general method (:func:`loopsolve.design.synthdesign.polish_design` on the
         model's input, coupler and output lengths, the ground fixed) and replaced when the polished
         design is certified, better, and reaches as much of the input range; the report's
         ``polish`` says what happened.
@@ -361,7 +272,7 @@ def _polish(res: ClassicSynthesis, lay, rows, x_int, crank, transmission, input_
     """The general method's local polish of a least-squares design on the model's own link lengths."""
     from ..model import expr as _expr
     from .synthesis import define
-    from .synthrun import design_model, polish_design
+    from .synthdesign import design_model, polish_design
 
     rep = res.report
     M = res.mechanism
@@ -372,7 +283,7 @@ def _polish(res: ClassicSynthesis, lay, rows, x_int, crank, transmission, input_
         if isinstance(v.length, _expr.Name) and v.length.id in pnames:
             p0 = rep["parameters"][v.length.id]
             vary[v.length.id] = (0.2 * p0, 5.0 * p0)
-    info = {"method": "general (loopsolve.design.synthrun.polish_design)", "varied": sorted(vary),
+    info = {"method": "general (loopsolve.design.synthdesign.polish_design)", "varied": sorted(vary),
             "objective_before": rep["objective"], "objective": None, "used": False}
     out = res
     if not vary:

@@ -545,7 +545,7 @@ class ShapeResult:
 
 
 def _result(problem, frame, atlas, xy, closed, cands, top, stats, seconds):
-    from .synthrun import _clean, design_model
+    from .synthdesign import clean, design_model
 
     cands = cands[:top]
     report = {"task": "shape", "objective": None, "parameters": None, "runs": [], "seconds": [seconds],
@@ -556,7 +556,7 @@ def _result(problem, frame, atlas, xy, closed, cands, top, stats, seconds):
         why = "; ".join(f"rms {math.sqrt(r['objective'] / len(xy)):.3g}: {', '.join(r['defects'])}"
                         for r in rej[:4]) or "no start could be traced through the targets"
         raise SynthesisError(f"{problem.mech.source or problem.mech.name}: no certified design ({why}); try a larger "
-                             "atlas, relax --crank/--transmission, or check the curve", report=_clean(report))
+                             "atlas, relax --crank/--transmission, or check the curve", report=clean(report))
     out = []
     for c in cands:
         m = design_model(problem, [c["parameters"][n] for n in problem.names], c["_inputs"], c["_Z"])
@@ -572,5 +572,5 @@ def _result(problem, frame, atlas, xy, closed, cands, top, stats, seconds):
         "certificate": best["certificate"], "placement": out[0]["placement"], "shape_error": out[0]["shape_error"],
         "candidates": out,
     })
-    report = _clean(report)
+    report = clean(report)
     return ShapeResult(report, cands, xy, closed, problem)

@@ -37,7 +37,8 @@ import numpy as np
 
 from .designs import MAX_DESIGNS, design_count, designs_from
 from ..errors import MissingDependencyError, ModelError, warn
-from .lockstep import _Ops, sweep_chunk
+from .designops import DesignOps
+from .lockstep import sweep_chunk
 from .metrics import evaluate_metrics, parse_metric
 from ..kinematics.results import _display, angle_turns
 from ..model.units import Kind
@@ -144,7 +145,7 @@ def _chunk_task(mech, names, values, start, stop, step, opts):
                             method=opts["method"])
     from .lockstep import grid_values
 
-    ops = _Ops(ck)
+    ops = DesignOps(ck)
     cols = _display_columns(ch, ck, P, opts["derivatives"])
     xs, xs_disp = grid_values(ck, start, stop, step)
     out = {"columns": cols, "status": ch.status.astype(str), "stop": ch.stop, "events": ch.events.astype(str),

@@ -29,7 +29,7 @@ import math
 
 import numpy as np
 
-from .lockstep import _Ops, design_scale, param_matrix
+from .designops import DesignOps, design_scale, param_matrix
 from ..kinematics.solve import initial_z
 from ..model.units import Kind
 
@@ -74,7 +74,7 @@ class Batch:
         self.ck = ck
         self.mech = ck.mechanism
         self.names = tuple(names)
-        self.ops = _Ops(ck)
+        self.ops = DesignOps(ck)
         self.ops.fused = fused_module(ck)
         self.iu, self.ix = self.ops.iu, self.ops.ix
         self.nv = len(ck.variables)

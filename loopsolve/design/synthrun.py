@@ -13,7 +13,6 @@ runs use the seeds ``seed, seed + 1, ...`` and run one after the other, or as Da
 
 from __future__ import annotations
 
-import copy
 import json
 import math
 import sys
@@ -23,48 +22,10 @@ import numpy as np
 
 from ..errors import ModelError
 from ..errors import SynthesisError
-from .synthesis import define, evaluate, polish, search_many, _signature
+from .synthdesign import certify_design, clean, design_model
+from .synthesis import define, polish, search_many, _signature
 
-__all__ = ["synthesize", "SynthesisResult", "certify_design", "polish_design"]
-
-
-def _clean(v):
-    if isinstance(v, (float, np.floating)):
-        return float(v) if math.isfinite(v) else None
-    if isinstance(v, (np.integer,)):
-        return int(v)
-    if isinstance(v, dict):
-        return {k: _clean(x) for k, x in v.items()}
-    if isinstance(v, (list, tuple, np.ndarray)):
-        return [_clean(x) for x in v]
-    return v
-
-
-def design_model(problem, values, inputs, Z):
-    """The model with the found parameter values, its guesses the pose at the first target (so its mode)."""
-    from ..model.modelfile import loads, dumps
-    from ..model.units import Kind
-
-    mech = problem.mech
-    spec = copy.deepcopy(mech.spec)
-    params = spec.setdefault("parameters", {})
-    for n, v in zip(problem.names, values):
-        params[n] = float(v)
-    ck = problem.ck
-    deg = mech.units.angle == "deg"
-    variables = spec.get("variables", {})
-    if Z is not None:
-        for i, name in enumerate(ck.variables):
-            if name in variables:
-                val = float(Z[i, 0])
-                if ck.kinds[i] is Kind.ANGLE and deg:
-                    val = math.degrees(val)
-                entry = variables[name]
-                if isinstance(entry, dict):
-                    entry["guess"] = round(val, 12)
-                else:
-                    variables[name] = {"guess": round(val, 12)}
-    return loads(dumps(spec), source=mech.source or "<synthesized>")
+__all__ = ["synthesize", "SynthesisResult"]
 
 
 class SynthesisResult:
@@ -146,47 +107,6 @@ class SynthesisResult:
         if output is not None:
             fig.savefig(output, dpi=120, bbox_inches="tight")
         return fig
-
-
-def certify_design(problem, values, inputs=None, signs=None, poses=None) -> dict:
-    """Certificate of one parameter set (model units) on a problem: see :func:`loopsolve.design.certify.certify`.
-
-    Without ``inputs`` (free timing) or ``poses``, the positions are traced by the batch engine in
-    the mode ``signs`` (default: the problem's best mode for the design).
-    """
-    from .certify import certify
-
-    values = np.asarray(values, dtype=float)
-    b = problem.batch
-    P = b.params(values[None])
-    if poses is None:
-        if inputs is None or signs is None:
-            f, mi, di, X = evaluate(problem, values[None])
-            signs = problem.modes(P)[mi[0]][:, 0] if signs is None else np.asarray(signs, dtype=float)
-            inputs = X[:, 0] if inputs is None else inputs
-        with np.errstate(all="ignore"):
-            Zt, reached = problem.trace(P, np.asarray(inputs, dtype=float)[:, None],
-                                        np.asarray(signs, dtype=float)[:, None], singular_stop=False)
-        poses = Zt[:, :, 0] if reached[0] >= problem.T else None
-    mech = problem.mech.with_parameters(**{n: float(v) for n, v in zip(problem.names, values)})
-    inputs = problem.inputs if inputs is None else np.asarray(inputs, dtype=float)
-    if inputs is None:
-        return {"assembles": False, "one_circuit": False, "order": False, "crank": None, "transmission": None,
-                "grashof_margin": None, "defects": ["assembly"], "notes": ["no motion through the targets found"]}
-    return certify(mech, inputs, poses=poses, crank=problem.crank, transmission=problem.transmission,
-                   point=problem.point, targets=problem.targets)
-
-
-def polish_design(problem, values, *, inputs=None, signs=None, hmax=None):
-    """Polish one start (model units) and certify it: ``(polished dict, certificate)``.
-
-    ``hmax``: the trace's largest input step (internal units; default the engine's 5°).
-    """
-    p = polish(problem, values, inputs=inputs, signs=signs, **({} if hmax is None else {"hmax": hmax}))
-    if not math.isfinite(p.get("objective", math.inf)):
-        return p, {"defects": ["assembly"], "notes": ["the start cannot be traced through the targets"]}
-    cert = certify_design(problem, p["values"], p["inputs"], p["signs"], p["Z"])
-    return p, cert
 
 
 def _distinct(V, f, k, lo, hi):
@@ -692,7 +612,7 @@ def _result(problem, outs, input_range=None, desired=None) -> SynthesisResult:
             "no candidate could be traced through the targets in one motion"
         raise SynthesisError(f"{problem.mech.source or problem.mech.name}: no certified design in {len(outs)} run(s) "
                              f"({why}); widen the bounds, add runs (--runs) or relax --transmission/--crank",
-                             report=_clean(report))
+                             report=clean(report))
     from .synthreport import fit_block, target_entries, targets_scale
 
     ck = problem.ck
@@ -709,10 +629,10 @@ def _result(problem, outs, input_range=None, desired=None) -> SynthesisResult:
         "certificate": cert,
         "fit": fit_block([t["error"] for t in entries], targets_scale(problem.task, _shown_targets(problem))),
     })
-    report = _clean(report)
+    report = clean(report)
     mech = design_model(problem, best["values"], best["inputs"], best["Z"])
     if problem.task == "function":
-        report["structural_error"] = _clean(_function_structural_error(problem, mech, report, input_range,
+        report["structural_error"] = clean(_function_structural_error(problem, mech, report, input_range,
                                                                                  desired))
     return SynthesisResult(problem, mech, report, np.asarray(best["values"]), np.asarray(best["inputs"]),
                            best["Z"])

@@ -13,12 +13,13 @@ import io
 import math
 import os
 from collections.abc import Mapping
+from pathlib import Path
 
 import numpy as np
 
 from ..errors import ModelError
 
-__all__ = ["read_targets", "read_text_file", "csv_records"]
+__all__ = ["read_targets", "read_table", "read_text_file", "csv_records"]
 
 _TASK_COLUMNS = {"path": ("x", "y"), "function": ("input", "output"), "motion": ("x", "y", "angle")}
 
@@ -150,3 +151,71 @@ def _check_columns(cols, need, where):
         if not np.all(np.isfinite(v)):
             raise ModelError(f"{where}: column {c!r} holds a value that is not a finite number")
     return {c: np.asarray(v, dtype=float) for c, v in cols.items()}
+
+
+def read_table(source, columns: tuple[str, ...], *, what: str = "targets") -> np.ndarray:
+    """Rows of the named numeric ``columns`` from a CSV file (or text) with a header line.
+
+    Errors name the file, the line and the column (:class:`ModelError`).
+
+    Examples
+    --------
+    >>> from loopsolve.design.targets import read_table
+    >>> read_table("x,y,angle\\n1,2,30\\n3,4,45\\n", ("x", "y", "angle")).tolist()
+    [[1.0, 2.0, 30.0], [3.0, 4.0, 45.0]]
+    """
+    if isinstance(source, Mapping):  # columns by name, as the general method takes them
+        cols = {str(k).strip().lower(): v for k, v in source.items()}
+        missing = [c for c in columns if c not in cols]
+        if missing:
+            raise ModelError(f"{what}: missing column(s) {', '.join(missing)}; the columns are "
+                             f"{', '.join(cols) or 'none'} (expected {','.join(columns)})")
+        try:
+            source = np.column_stack([np.atleast_1d(np.asarray(cols[c], dtype=float)) for c in columns])
+        except (TypeError, ValueError):
+            raise ModelError(f"{what}: the columns {','.join(columns)} must be numbers of one length") from None
+    if not isinstance(source, (str, Path)):  # rows of numbers already (an array or a list of rows)
+        try:
+            arr = np.array(source, dtype=float)
+        except (TypeError, ValueError):
+            raise ModelError(f"{what}: expected a file, CSV text or rows of {len(columns)} numbers "
+                             f"({','.join(columns)})") from None
+        if arr.ndim != 2 or arr.shape[1] != len(columns) or len(arr) == 0:
+            raise ModelError(f"{what}: expected rows of {len(columns)} numbers ({','.join(columns)}), got shape "
+                             f"{arr.shape}")
+        if not np.isfinite(arr).all():
+            raise ModelError(f"{what}: every value must be a finite number")
+        return arr
+    if isinstance(source, Path) or (isinstance(source, str) and "\n" not in source and "," not in source):
+        where = str(source)
+        text = read_text_file(source, what=what)
+    else:
+        where, text = f"<{what}>", str(source)
+    rows = [(i, r) for i, r in csv_records(text, where) if r and any(c.strip() for c in r)]
+    rows = [(i, r) for i, r in rows if not r[0].lstrip().startswith("#")]
+    if not rows:
+        raise ModelError(f"{where}: empty {what} file; expected a header line {','.join(columns)} and rows")
+    line, header = rows[0]
+    names = [h.strip().lower() for h in header]
+    missing = [c for c in columns if c not in names]
+    if missing:
+        raise ModelError(f"{where}, line {line}: the header {','.join(h.strip() for h in header)!r} lacks the "
+                         f"column(s) {', '.join(missing)}; expected {','.join(columns)}")
+    idx = [names.index(c) for c in columns]
+    out = []
+    for line, r in rows[1:]:
+        if len(r) != len(header):
+            raise ModelError(f"{where}, line {line}: {len(r)} fields, the header has {len(header)}")
+        vals = []
+        for c, j in zip(columns, idx):
+            try:
+                v = float(r[j])
+            except ValueError:
+                raise ModelError(f"{where}, line {line}, column {c}: {r[j].strip()!r} is not a number") from None
+            if not math.isfinite(v):
+                raise ModelError(f"{where}, line {line}, column {c}: {r[j].strip()!r} is not a finite number")
+            vals.append(v)
+        out.append(vals)
+    if not out:
+        raise ModelError(f"{where}: no {what} rows after the header")
+    return np.array(out, dtype=float)

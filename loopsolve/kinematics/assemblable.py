@@ -39,16 +39,16 @@ _TWO_PI = 2 * math.pi
 class AssemblyTest:
     """The vectorized assembly test of one compiled model with per-column parameters.
 
-    ``ops`` is a :class:`loopsolve.design.lockstep._Ops` (not shared-input), ``P`` ``(npar, D)`` and
+    ``ops`` is a :class:`loopsolve.design.designops.DesignOps` (not shared-input), ``P`` ``(npar, D)`` and
     ``scale`` ``(D,)`` the designs' parameters and length scales. ``usable`` is False when the
     model's blocks are not of the recognized form (then nothing is decided here).
 
     Examples
     --------
-    >>> from loopsolve.design.lockstep import _Ops, param_matrix, design_scale
+    >>> from loopsolve.design.designops import DesignOps, param_matrix, design_scale
     >>> ck = ls.fourbar(60, 25, 70, 45).compile()
     >>> P = param_matrix(ck, ("r2",), np.array([[25.0], [50.0]]))
-    >>> t = AssemblyTest(ck, _Ops(ck), P, design_scale(ck, P))
+    >>> t = AssemblyTest(ck, DesignOps(ck), P, design_scale(ck, P))
     >>> ok, decided = t.at(np.array([0.0, 0.0]))
     >>> ok.tolist(), decided.tolist()
     ([True, False], [True, True])

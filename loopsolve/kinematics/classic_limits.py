@@ -2,9 +2,7 @@
 four-bar's input range and toggle positions, the transmission angle, Gruebler's mobility and
 the quick-return ratio.
 
-Split from :mod:`loopsolve.kinematics.classic` (the functions unchanged); ``classic`` still
-answers for these names (``from loopsolve.kinematics import classic as C; C.grashof(...)``).
-Same conventions as there: numpy broadcasting, radians, NaN where a linkage cannot be assembled.
+Conventions of :mod:`loopsolve.kinematics.classic`, which also answers for these names: numpy broadcasting, radians, NaN where a linkage cannot be assembled.
 """
 
 from __future__ import annotations

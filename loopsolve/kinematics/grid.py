@@ -1,6 +1,7 @@
 """The output grid of a sweep: the requested input values, exactly (no accumulated steps).
 
-Split from :mod:`loopsolve.kinematics.sweep` (the functions unchanged).
+A row is ``start + k*step`` computed from ``k``, so a grid value is the same number in every
+sweep, study and page that asks for it.
 """
 
 from __future__ import annotations

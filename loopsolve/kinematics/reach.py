@@ -1,8 +1,7 @@
 """Where a mechanism can be assembled: reachable ranges of the input, the nearest assemblable
 input values, the default sweep range, and the error for an input where it cannot be assembled.
 
-Split from :mod:`loopsolve.kinematics.sweep` (the functions unchanged); the sweep uses them to
-start and to stop, :mod:`loopsolve.kinematics.solve` to explain a failed solve.
+The sweep uses them to start and to stop, :mod:`loopsolve.kinematics.solve` to explain a failed solve.
 """
 
 from __future__ import annotations

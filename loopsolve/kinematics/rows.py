@@ -1,7 +1,5 @@
 """The output rows of a traced sweep: their solution (positions, mode codes, residuals,
 iterations), filled from the path's nodes where a row is one, solved by the tracer elsewhere.
-
-Split from :mod:`loopsolve.kinematics.continuation` (the functions unchanged), which re-exports them.
 """
 
 from __future__ import annotations

@@ -1,8 +1,7 @@
 """Reading a kinematic diagram (``[joints]``, ``[links]``, ``input``) into a checked
 :class:`Diagram`: every problem reported at once, by key.
 
-Split from :mod:`loopsolve.model.diagram` (the functions unchanged), which turns the
-:class:`Diagram` into vectors and loops and re-exports :func:`parse_diagram`.
+:mod:`loopsolve.model.diagram` turns the :class:`Diagram` into vectors and loops.
 """
 
 from __future__ import annotations

@@ -182,7 +182,7 @@ def drawing_entities(state, *, curves: dict | None = None) -> list[Entity]:
     for p, text, _ in frame.labels:
         q = np.asarray(p, dtype=float) + np.array([0.35, 0.35]) * size
         out.append(Entity("LABELS", "text", (_xy(q),), size=0.6 * size, text=str(text), name=str(text)))
-    from .pairdraw import pair_shapes, shape_entities
+    from .pairdraw import pair_shapes
 
     out += shape_entities(pair_shapes(state))  # gears as pitch circles, cams, followers, slots
     for name, xy in (curves or {}).items():
@@ -362,3 +362,18 @@ def export_cad(mech, output, at=None, *, input: str | None = None, mode: str | N
     title = f"{mech.name} at {state.input} = {state.input_value:.6g}"
     (write_dxf if fmt == "dxf" else write_svg)(ents, output, unit=unit, title=title)
     return ents
+
+
+def shape_entities(shapes) -> list:
+    """CAD entities of the shapes: gears and cams on ``LINKS``, followers on ``SLIDERS``, slots on ``LINKS``."""
+    out = []
+    for s in shapes:
+        layer = "SLIDERS" if s.role == "follower" else "LINKS"
+        if s.kind == "circle":
+            out.append(Entity(layer, "circle", (tuple(map(float, s.points)),), size=float(s.size), name=s.name))
+        elif s.kind == "polyline":
+            out.append(Entity(layer, "polyline", tuple((float(x), float(y)) for x, y in s.points), closed=s.closed,
+                              name=s.name))
+        else:
+            out.append(Entity(layer, "line", tuple((float(x), float(y)) for x, y in s.points), name=s.name))
+    return out

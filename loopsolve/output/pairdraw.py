@@ -4,7 +4,7 @@ follower, slots as slots — for the figures (:mod:`loopsolve.output.plotting`),
 
 :func:`pair_shapes` gives, for a solved :class:`~loopsolve.kinematics.results.State`, a list of
 :class:`Shape` in the model's coordinates (numbers only); :func:`draw_shapes` renders them with
-matplotlib, :func:`shape_entities` as CAD entities. A gear whose centre cannot be found (no bar of its
+matplotlib, :func:`loopsolve.output.cad.shape_entities` as CAD entities. A gear whose centre cannot be found (no bar of its
 link in the loops and no ``centers``) is not drawn; neither is a cam without a ``center`` point when
 the origin is not where the model puts it (the cam is drawn about its ``center``, the origin by
 default).
@@ -18,7 +18,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["Shape", "pair_shapes", "draw_shapes", "shape_entities", "cam_outline", "check_drawable"]
+__all__ = ["Shape", "pair_shapes", "draw_shapes", "cam_outline", "check_drawable"]
 
 _PROFILES: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()
 
@@ -217,23 +217,6 @@ def shape_extent(shapes):
     arr = np.array(pts, dtype=float)
     arr = arr[np.all(np.isfinite(arr), axis=1)]
     return (arr.min(axis=0), arr.max(axis=0)) if len(arr) else None
-
-
-def shape_entities(shapes) -> list:
-    """CAD entities of the shapes: gears and cams on ``LINKS``, followers on ``SLIDERS``, slots on ``LINKS``."""
-    from .cad import Entity
-
-    out = []
-    for s in shapes:
-        layer = "SLIDERS" if s.role == "follower" else "LINKS"
-        if s.kind == "circle":
-            out.append(Entity(layer, "circle", (tuple(map(float, s.points)),), size=float(s.size), name=s.name))
-        elif s.kind == "polyline":
-            out.append(Entity(layer, "polyline", tuple((float(x), float(y)) for x, y in s.points), closed=s.closed,
-                              name=s.name))
-        else:
-            out.append(Entity(layer, "line", tuple((float(x), float(y)) for x, y in s.points), name=s.name))
-    return out
 
 
 def widen(ax, shapes, pad: float) -> None:

@@ -19,7 +19,7 @@ import pytest
 import loopsolve as ls
 from loopsolve.design.certify import certify
 from loopsolve.design.synthesis import define, polish
-from loopsolve.design.synthrun import certify_design, polish_design
+from loopsolve.design.synthdesign import certify_design, polish_design
 
 from support.models import fourbar_angles, fourbar_point, PLANT_INPUTS, PLANTED, VARY6
 

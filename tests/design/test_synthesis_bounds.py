@@ -242,7 +242,7 @@ def test_a_byte_order_mark_is_accepted_by_the_general_method(capsys, files, tmp_
 
 
 def test_a_byte_order_mark_is_accepted_by_the_classical_reader(tmp_path):
-    from loopsolve.design.classicsynth import read_table
+    from loopsolve.design.targets import read_table
     from loopsolve.design.targets import read_targets
 
     p = tmp_path / "bom.csv"
