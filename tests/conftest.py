@@ -1,18 +1,16 @@
-"""Fixtures shared by the output and cache tests (a tiny file system that can be filled up) and by
-the tracker tests (both engines)."""
+"""Fixtures shared by the output and cache tests (a tiny file system that can be filled up), by
+the tracker tests (both engines) and by the browser tests (one headless-Chromium recipe).
+
+Test files import nothing from one another: what several of them share (models, references,
+page and LaTeX helpers) is in the ``tests/support/`` package, imported as ``support.<module>``.
+That works because pytest imports this file in its default ``prepend`` import mode, which puts
+its folder, tests/, first on ``sys.path``.
+"""
 
 import os
 import subprocess
-import sys
-from pathlib import Path
 
 import pytest
-
-# Tests take helpers from one another by module name (``from test_modes import watt_sixbar``):
-# every tests/<package>/ folder is on sys.path, as tests/ itself is (test file names are unique).
-for _folder in sorted(Path(__file__).parent.iterdir()):
-    if _folder.is_dir() and _folder.name not in ("data", "__pycache__") and str(_folder) not in sys.path:
-        sys.path.insert(0, str(_folder))
 
 
 @pytest.fixture

@@ -20,7 +20,8 @@ import pytest
 import loopsolve as ls
 from loopsolve.cli import main
 
-from test_modelfile import BAD, INJECTIONS, edit  # noqa: E402  (tests/ is on sys.path under pytest)
+from support.modelfiles import BAD, edit, INJECTIONS
+
 
 MODELS = sorted(ls.models_dir().glob("*.toml"))
 SUFFIXES = ("", "_vel", "_acc", "_jerk")

@@ -14,31 +14,7 @@ import pytest
 import loopsolve as ls
 from loopsolve.errors import ModelError
 
-O2 = np.array([1.0, 2.0])
-T1 = math.radians(10.0)
-R1, R2, R3, R4, RP, GP = 60.0, 25.0, 70.0, 45.0, 30.0, math.radians(40.0)
-O4 = O2 + R1 * np.array([math.cos(T1), math.sin(T1)])
-
-
-def circle_intersection(a, ra, b, rb, side):
-    """The intersection of circles (a, ra), (b, rb) on the left (side=+1) or right of a→b, or None."""
-    d = b - a
-    L = float(np.hypot(*d))
-    x = (ra * ra - rb * rb + L * L) / (2 * L)
-    h2 = ra * ra - x * x
-    if h2 < 0:
-        return None
-    h = math.sqrt(h2)
-    return a + x * d / L + side * h * np.array([-d[1], d[0]]) / L
-
-
-def planted_pose(t2_deg, side=1):
-    t2 = math.radians(t2_deg)
-    A = O2 + R2 * np.array([math.cos(t2), math.sin(t2)])
-    B = circle_intersection(A, R3, O4, R4, side)
-    th3 = math.atan2(B[1] - A[1], B[0] - A[0])
-    P = A + RP * np.array([math.cos(th3 + GP), math.sin(th3 + GP)])
-    return (float(P[0]), float(P[1]), math.degrees(th3)), A, B
+from support.models import circle_intersection, O2, O4, planted_pose, POSES5, R1, R2, R3, R4
 
 
 def rot(a):
@@ -46,7 +22,6 @@ def rot(a):
 
 
 POSES4 = [planted_pose(t)[0] for t in (20, 70, 120, 170)]
-POSES5 = [planted_pose(t)[0] for t in (20, 70, 120, 170, 220)]
 
 
 @pytest.fixture(scope="module")

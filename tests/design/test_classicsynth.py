@@ -10,8 +10,7 @@ from loopsolve.design.classicsynth import classic_synthesize
 from loopsolve.design.targets import read_table
 from loopsolve.errors import ModelError
 
-from test_burmester import R1, R2, R3, R4, planted_pose
-
+from support.models import planted_pose, R1, R2, R3, R4
 
 @pytest.fixture
 def poses_file(tmp_path):

@@ -14,6 +14,8 @@ import pytest
 import loopsolve as ls
 from loopsolve.design.designs import grid, latin_hypercube, parse_vary, sample
 
+from support.models import fan_model
+
 xr = pytest.importorskip("xarray", reason="the study extra (xarray) is not installed")
 
 THESIS = ls.models_dir() / "thesis_crank_rocker.toml"
@@ -507,13 +509,7 @@ def test_not_assemblable_designs_of_a_fan_of_dyads(tmp_path, monkeypatch):
     """A model of three independent dyads (a fan of four-bars on one crank): the designs that cannot be
     assembled at the start are decided in the chunk (never swept alone), with the nearest assemblable
     inputs of their own sweep."""
-    import sys
-    from pathlib import Path
-
     from loopsolve.design import lockstep
-
-    sys.path.insert(0, str(Path(__file__).parents[1]))  # tests/, where fanmodels.py is
-    from fanmodels import fan_model
 
     path = tmp_path / "fan.toml"
     path.write_text(fan_model(3), encoding="utf-8")

@@ -21,37 +21,11 @@ from loopsolve.design.certify import certify
 from loopsolve.design.synthesis import define, polish
 from loopsolve.design.synthdesign import certify_design, polish_design
 
+from support.models import fourbar_angles, fourbar_point, PLANT_INPUTS, PLANTED, VARY6
+
 MODELS = ls.models_dir()
 FOURBAR = MODELS / "fourbar_path_synthesis.toml"
 SLIDER = MODELS / "slider_crank_path_synthesis.toml"
-
-
-def fourbar_point(p, theta2_deg, sign):
-    """Coupler point P of the synthesis four-bar by circle intersection (independent of loopsolve).
-
-    ``sign`` is the model's mode: the sign of det Φ_q = r3 r4 sin(θ3 − θ4). Returns None when
-    the loop cannot close.
-    """
-    t0, ph = math.radians(p.get("theta0", 0.0)), math.radians(p.get("phi", 0.0))
-    O2 = np.array([p.get("x0", 0.0), p.get("y0", 0.0)])
-    O4 = O2 + p["r1"] * np.array([math.cos(t0), math.sin(t0)])
-    a = math.radians(theta2_deg) + ph + t0
-    A = O2 + p["r2"] * np.array([math.cos(a), math.sin(a)])
-    d = np.linalg.norm(O4 - A)
-    r3, r4 = p["r3"], p["r4"]
-    if d > r3 + r4 or d < abs(r3 - r4):
-        return None
-    u = (O4 - A) / d
-    along = (d * d + r3 * r3 - r4 * r4) / (2 * d)
-    h = math.sqrt(max(r3 * r3 - along * along, 0.0))
-    n = np.array([-u[1], u[0]])
-    for B in (A + along * u + h * n, A + along * u - h * n):
-        v3, v4 = B - A, B - O4  # coupler A->B, rocker O4->B
-        det = v3[1] * v4[0] - v3[0] * v4[1]  # r3 r4 sin(θ3 − θ4)
-        if np.sign(det) == sign:
-            e3 = v3 / r3
-            return A + p["rcx"] * e3 + p["rcy"] * np.array([-e3[1], e3[0]])
-    return None
 
 
 def slider_point(p, theta2_deg):
@@ -62,11 +36,6 @@ def slider_point(p, theta2_deg):
     c3 = math.sqrt(1 - s3 * s3)
     e3 = np.array([c3, s3])
     return A + p["rcx"] * e3 + p["rcy"] * np.array([-s3, c3])
-
-
-PLANTED = {"r1": 4.0, "r2": 1.5, "r3": 3.5, "r4": 3.2, "rcx": 1.2, "rcy": 0.8}
-PLANT_INPUTS = [20, 45, 70, 95, 120, 145]
-VARY6 = {"r1": (2, 6), "r2": (0.5, 3), "r3": (2, 6), "r4": (2, 6), "rcx": (-3, 3), "rcy": (-3, 3)}
 
 
 def planted_targets(sign=-1, inputs=PLANT_INPUTS, p=PLANTED):
@@ -438,22 +407,6 @@ def test_cli_writes_report_and_model(tmp_path):
 
 
 # ------------------------------------------------------------------------------------------- other tasks
-
-
-def fourbar_angles(p, theta2_deg, sign):
-    """(θ3, θ4) in degrees of the synthesis four-bar (θ0 = φ = 0) by circle intersection."""
-    t = math.radians(theta2_deg)
-    A = np.array([p["r2"] * math.cos(t), p["r2"] * math.sin(t)])
-    O4 = np.array([p["r1"], 0.0])
-    d = np.linalg.norm(O4 - A)
-    u = (O4 - A) / d
-    along = (d * d + p["r3"] ** 2 - p["r4"] ** 2) / (2 * d)
-    h = math.sqrt(p["r3"] ** 2 - along ** 2)
-    n = np.array([-u[1], u[0]])
-    for B in (A + along * u + h * n, A + along * u - h * n):
-        v3, v4 = B - A, B - O4
-        if np.sign(v3[1] * v4[0] - v3[0] * v4[1]) == sign:
-            return math.degrees(math.atan2(v3[1], v3[0])), math.degrees(math.atan2(v4[1], v4[0]))
 
 
 def test_function_generation_recovers_a_planted_four_bar(fourbar):

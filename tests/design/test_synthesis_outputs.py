@@ -18,9 +18,9 @@ import pytest
 import loopsolve as ls
 from loopsolve.errors import ModelError, SynthesisError
 
-from test_burmester import O2 as PO2, O4 as PO4, R1, R2, R3, R4, planted_pose
-from test_synthesis import fourbar_angles, fourbar_point
-from test_synthesize_methods import freudenstein_K, log10_targets, one_line_error, run
+from support.cli import one_line_error, run
+from support.models import fourbar_angles, fourbar_point, O2 as PO2, O4 as PO4, planted_pose
+from support.synthesis import freudenstein_K, log10_targets
 
 MODELS = ls.models_dir()
 PATHMODEL = MODELS / "fourbar_path_synthesis.toml"

@@ -7,9 +7,6 @@ the four-bar's closed form.
 
 import json
 import math
-import os
-import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -18,49 +15,16 @@ import pytest
 import loopsolve as ls
 from loopsolve.errors import ModelError, SynthesisError
 
+from support.cli import one_line_error, run
+from support.models import G2, G4, intersect, L1, L2, L3, L4, pose
+from support.synthesis import freudenstein_K, log10_targets
+
 MODELS = Path(__file__).resolve().parents[2] / "models"
 FOURBAR = MODELS / "prob1_fourbar.toml"
 PATHMODEL = MODELS / "fourbar_path_synthesis.toml"  # frame and coupler point are parameters: holds any four-bar
 
 
-def run(*args, cwd=None):
-    env = dict(os.environ)
-    return subprocess.run([sys.executable, "-m", "loopsolve.cli", *map(str, args)], capture_output=True,
-                          text=True, cwd=cwd, env=env)
-
-
-def one_line_error(p, code=2):
-    assert p.returncode == code, (p.returncode, p.stderr)
-    assert "Traceback" not in p.stderr
-    lines = [ln for ln in p.stderr.strip().splitlines() if not ln.startswith("wrote ")]  # the report's note
-    assert len(lines) == 1 and lines[0].startswith("loopsolve: "), p.stderr
-    return lines[0]
-
-
 # -- Freudenstein: y = log10 x on 1..10, input 45..105 deg, output 135..225 deg ---------------------------
-
-def log10_targets():
-    xs = [5.5 - 4.5 * math.cos(math.pi / 6), 5.5, 5.5 + 4.5 * math.cos(math.pi / 6)]  # Chebyshev, n = 3
-    return [(45 + 60 * (x - 1) / 9, 135 + 90 * math.log10(x)) for x in xs]
-
-
-def freudenstein_K(rows):
-    """K1 cos t4 - K2 cos t2 + K3 = cos(t2 - t4) through three points (Cramer's rule, written out)."""
-    A = [[math.cos(math.radians(b)), -math.cos(math.radians(a)), 1.0] for a, b in rows]
-    r = [math.cos(math.radians(a - b)) for a, b in rows]
-
-    def det(M):
-        return (M[0][0] * (M[1][1] * M[2][2] - M[1][2] * M[2][1]) - M[0][1] * (M[1][0] * M[2][2] - M[1][2] * M[2][0])
-                + M[0][2] * (M[1][0] * M[2][1] - M[1][1] * M[2][0]))
-
-    D = det(A)
-    out = []
-    for j in range(3):
-        M = [row[:] for row in A]
-        for i in range(3):
-            M[i][j] = r[i]
-        out.append(det(M) / D)
-    return out
 
 
 @pytest.fixture
@@ -112,28 +76,6 @@ def test_python_freudenstein_method_raises_with_the_report(log10_csv):
 
 
 # -- Burmester: five poses of a planted crank-rocker ----------------------------------------------------------
-
-G2 = np.array([-3.0, 5.0])
-GT = math.radians(-15.0)
-L1, L2, L3, L4, LP, GAMMA = 80.0, 30.0, 75.0, 60.0, 40.0, math.radians(30.0)
-G4 = G2 + L1 * np.array([math.cos(GT), math.sin(GT)])
-
-
-def intersect(a, ra, b, rb, side=1):
-    d = b - a
-    L = float(np.hypot(*d))
-    x = (ra * ra - rb * rb + L * L) / (2 * L)
-    h = math.sqrt(ra * ra - x * x)
-    return a + x * d / L + side * h * np.array([-d[1], d[0]]) / L
-
-
-def pose(t2_deg):
-    t = math.radians(t2_deg)
-    A = G2 + L2 * np.array([math.cos(t), math.sin(t)])
-    B = intersect(A, L3, G4, L4)
-    phi = math.atan2(B[1] - A[1], B[0] - A[0])
-    P = A + LP * np.array([math.cos(phi + GAMMA), math.sin(phi + GAMMA)])
-    return float(P[0]), float(P[1]), math.degrees(phi)
 
 
 INPUTS = (10, 70, 130, 190, 250)

@@ -16,7 +16,9 @@ from loopsolve.design.synthesis import define, periodic
 from loopsolve.design.synthlm import batch_lm, distinct, sample
 from loopsolve.design.synthrun import _polish_floor
 
-from test_synthesis import FOURBAR, PLANT_INPUTS, PLANTED, VARY6, fourbar_point  # tests/ is on sys.path
+from support.models import fourbar_point, PLANT_INPUTS, PLANTED, VARY6
+from support.synthesis import FOURBAR
+
 
 VARY_TURN = dict(VARY6, theta0=(0, 360), phi=(0, 360))
 

@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 import loopsolve as ls
-from test_slots_rolling import DISK, SLOTTED
 
+from support.models import DISK, SLOTTED
 BODIES = """
 [bodies]
 crank = { mass = "0.5kg", inertia = "1e-4kg*m^2", com = "O2", angle = "theta2", joints = ["O2", "A"] }

@@ -22,8 +22,9 @@ import loopsolve as ls
 from loopsolve.dynamics.derivation import compile_dynamics, kinematic_coefficients, mass_matrix_terms
 from loopsolve.dynamics.kinetostatics import generalized_force
 from loopsolve.output.latex import to_latex, write_pdf
-from test_forces import with_extra_loads  # noqa: E402  (tests/ is on sys.path under pytest)
-from test_latex import pdf_text, require  # noqa: E402
+
+from support.latex import pdf_text, require
+from support.models import with_extra_loads
 
 MODELS = [p for p in sorted(ls.models_dir().glob("*.toml")) if ls.load(p).dynamics is not None]
 THESIS = ls.models_dir() / "thesis_crank_rocker_dynamics.toml"

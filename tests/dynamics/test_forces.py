@@ -23,30 +23,10 @@ import loopsolve as ls
 from loopsolve.dynamics.derivation import compile_dynamics, kinematic_coefficients, mass_matrix_terms
 from loopsolve.dynamics.kinetostatics import generalized_force, inverse_dynamics, virtual_work_drive
 
+from support.models import with_extra_loads
+
 MODELS = [p for p in sorted(ls.models_dir().glob("*.toml")) if ls.load(p).dynamics is not None]
 G = 9.81
-
-
-def with_extra_loads(mech: ls.Mechanism) -> ls.Mechanism:
-    """The model plus a spring, a damper, a torsional spring and damper, and a rate-dependent torque."""
-    spec = ls.model.mechanism._deep_copy(mech.spec)
-    bodies = spec["bodies"]
-    names = list(bodies)
-    joints = [j for b in bodies.values() for j in b.get("joints", [])]
-    last = names[-1]
-    rot = [n for n, b in bodies.items() if "angle" in b]
-    inp = mech.inputs[0]
-    spec.setdefault("loads", [])
-    spec["loads"] += [
-        {"spring": [joints[1], joints[-1]], "stiffness": "300N/m", "free_length": 10,
-         "bodies": [next(n for n, b in bodies.items() if joints[1] in b.get("joints", [])), last]},
-        {"damper": [joints[1], joints[-1]], "damping": "2N*s/m",
-         "bodies": [next(n for n, b in bodies.items() if joints[1] in b.get("joints", [])), last]},
-        {"body": rot[-1], "stiffness": "0.4N*m/rad", "free_angle": 10, "damping": "0.01N*m*s/rad"},
-        {"body": rot[0], "torque": f"-0.002*{inp}_vel + 0.01*sin({inp})"},
-    ]
-    spec["gravity"] = ["0.7m/s^2", "-9.81m/s^2"]  # a plain number is ambiguous in a mm model
-    return ls.build_mechanism(spec)
 
 
 def sweep_rows(mech, speed, accel, n=12):

@@ -7,32 +7,7 @@ import pytest
 
 import loopsolve as ls
 
-TRAIN = """
-name = "gear train"
-units = {{ length = "mm", angle = "deg" }}
-[parameters]
-d = {d}
-[variables]
-theta2 = {{ input = true, guess = 0 }}
-theta5 = {{ guess = 0 }}
-[vectors]
-r0 = {{ x = "d", y = 0 }}
-r2 = {{ length = 10, angle = "theta2" }}
-r5 = {{ length = 10, angle = "theta5" }}
-[points]
-O2 = "0"
-O5 = "r0"
-A2 = "r2"
-A5 = "r0 + r5"
-[gears]
-g = {{ gear = "theta2", mate = "theta5", radii = [{rg}, {rm}], {extra} }}
-[bodies]
-gear2 = {{ mass = "0.2kg", inertia = "2e-4kg*m^2", com = "O2", angle = "theta2", joints = ["O2"] }}
-gear5 = {{ mass = "0.4kg", inertia = "6e-4kg*m^2", com = "O5", angle = "theta5", joints = ["O5"] }}
-[[loads]]
-body = "gear5"
-torque = "{load}N*m"
-"""
+from support.models import FIVEBAR, GEAR_TRAIN
 
 
 @pytest.mark.parametrize("internal", [False, True])
@@ -46,7 +21,7 @@ def test_tooth_force_from_the_power_and_moment_balance(internal, pa, load):
     """
     rg, rm = (12, 36) if internal else (12, 18)
     d = rm - rg if internal else rg + rm
-    mech = ls.loads(TRAIN.format(d=d, rg=rg, rm=rm, load=load,
+    mech = ls.loads(GEAR_TRAIN.format(d=d, rg=rg, rm=rm, load=load,
                                  extra=f"pressure_angle = {pa}" + (", internal = true" if internal else "")))
     w2, a2 = 10.0, 5.0
     ratio = rg / rm if internal else -rg / rm
@@ -68,7 +43,7 @@ def test_tooth_force_from_the_power_and_moment_balance(internal, pa, load):
 
 
 def test_tooth_force_along_a_sweep_and_on_the_pins():
-    mech = ls.loads(TRAIN.format(d=30, rg=12, rm=18, load=2.0, extra="pressure_angle = 20"))
+    mech = ls.loads(GEAR_TRAIN.format(d=30, rg=12, rm=18, load=2.0, extra="pressure_angle = 20"))
     f = ls.forces(mech, 0, 360, 30, speed=10.0)
     Wt = 2.0 / 0.018
     assert np.allclose(f["F_g"], Wt / math.cos(math.radians(20)))
@@ -132,8 +107,6 @@ force = [0, "-20N"]
 
 
 def _geared_fivebar():
-    from pairmodels import FIVEBAR
-
     text = FIVEBAR.format(extra='[gears]\ng = { gear = "theta2", mate = "theta5", radii = [12, 18] }'
                           + GEARED_FIVEBAR_BODIES)
     text = text.replace("r1 = 40", "r1 = 30").replace('P = "r2 + r3"', 'P = "r2 + r3"\nO1 = "0"\nO5 = "r1"')

@@ -24,8 +24,9 @@ import pytest
 import loopsolve as ls
 from loopsolve.model.modelfile import dumps
 
-from editorserver import EditorServer
-from test_page_values import js_fmt
+from support.editor import EditorServer
+from support.pages import js_fmt
+from support.synthesis import candidate_curve, distance, traced
 
 pytest.importorskip("starlette")
 MODEL = ls.models_dir() / "thesis_crank_rocker_diagram.toml"
@@ -324,8 +325,6 @@ def test_shape_synthesis_in_chromium(browser, workdir, tmp_path):
     first the edited mechanism, whose coupler curve (solved here) passes through every pasted point. A small
     default atlas in a fresh cache (LOOPSOLVE_ATLAS_SIZE, LOOPSOLVE_CACHE_DIR) keeps it quick."""
     pytest.importorskip("zarr", reason="atlases need zarr (the study extra)")
-    from test_synthpanel_shape import candidate_curve, distance, traced
-
     shutil.copy(MODEL, workdir / "shape.toml")
     srv = EditorServer(workdir / "shape.toml", cwd=workdir,
                        env={"LOOPSOLVE_CACHE_DIR": str(tmp_path / "cache"), "LOOPSOLVE_ATLAS_SIZE": "4096"})

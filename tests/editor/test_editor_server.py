@@ -1,7 +1,7 @@
 """The editor's server (DESIGN.md, "Editor"; issue 34): what it refuses and how, what it writes.
 
 Every test talks to a real ``loopsolve edit`` process over the loopback (started and stopped
-here, see ``editorserver.py``): requests without the token, with another Host or Origin, with
+here, see ``support/editor.py``): requests without the token, with another Host or Origin, with
 oversized or hostile model text, save names that leave the working directory, a synthesis
 cancelled midway — each refused or handled with a clear message, and the user's model (and
 files) untouched. The page's numbers are the command line's for the same model.
@@ -25,7 +25,8 @@ import pytest
 import loopsolve as ls
 from loopsolve.model.modelfile import dumps
 
-from editorserver import EditorServer
+from support.editor import EditorServer
+from support.synthesis import candidate_curve, distance, traced
 
 pytest.importorskip("starlette")
 pytest.importorskip("uvicorn")
@@ -250,8 +251,6 @@ def test_shape_synthesis_cancelled_while_the_atlas_builds_then_certified(workdir
     """The page's default method: the first use builds the default atlas (here a small one in a fresh cache) and
     says so in the job's progress; cancelling stops it; the next run gives certified four-bars whose coupler
     curves (solved here from each candidate's model) pass through the drawn curve of a known four-bar."""
-    from test_synthpanel_shape import candidate_curve, distance, traced
-
     pytest.importorskip("zarr", reason="atlases need zarr (the study extra)")
     srv = EditorServer(workdir / "crank_rocker.toml", cwd=workdir,
                        env={"LOOPSOLVE_CACHE_DIR": str(tmp_path / "cache"), "LOOPSOLVE_ATLAS_SIZE": "4096"})

@@ -12,6 +12,8 @@ from loopsolve.kinematics import batch
 from loopsolve.kinematics import classic as C
 from loopsolve.kinematics.sweep import AUTO_BATCH
 
+from support.models import watt_sixbar
+
 THESIS = ls.load(ls.models_dir() / "thesis_crank_rocker.toml")
 
 
@@ -64,8 +66,6 @@ class TestAgreement:
                     tol=1e-11)
 
     def test_sixbar_blocks(self):
-        from test_modes import watt_sixbar
-
         mech = watt_sixbar()
         assert_same(mech.sweep(60, 420, 0.5, method="batched"), mech.sweep(60, 420, 0.5, method="tracked"),
                     tol=1e-11)
@@ -110,8 +110,6 @@ class TestRates:
             assert cond[i] == pytest.approx(s.cond, rel=1e-9)
 
     def test_block_solve_general_blocks(self):
-        from test_modes import watt_sixbar
-
         ck = watt_sixbar().compile()
         s = watt_sixbar().solve(60)
         rng = np.random.default_rng(3)

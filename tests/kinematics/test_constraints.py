@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 
 import loopsolve as ls
-from pairmodels import fivebar
 
+from support.models import FIVEBAR, fivebar
 BELT = """
 name = "belt"
 units = { length = "mm", angle = "deg" }
@@ -151,8 +151,6 @@ def test_bad_constraints_name_the_key(text, key, words):
 def test_a_constraint_counts_in_the_mobility(tmp_path):
     """Two constraints on a one-input five-bar leave no motion: the count names them; exit 2, one line."""
     path = tmp_path / "over.toml"
-    from pairmodels import FIVEBAR
-
     path.write_text(FIVEBAR.format(extra='[constraints]\na = "theta5 = 180 - theta2"\nb = "theta3 = 60"'))
     proc = subprocess.run([sys.executable, "-m", "loopsolve", "info", str(path), "--format", "json"],
                           capture_output=True, text=True)

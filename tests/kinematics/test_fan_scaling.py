@@ -2,22 +2,20 @@
 
 The reachable range of the crank is found block by block (not over the 2^N combinations of
 assembly modes), and Newton evaluates only the structural non-zeros of Φ_q, so a 40-loop fan
-runs in seconds. Every value is compared with the law of cosines written here (fanmodels.py).
+runs in seconds. Every value is compared with the law of cosines written here (support/models.py).
 """
 
 from __future__ import annotations
 
 import math
-import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
 
 import loopsolve as ls
 
-sys.path.insert(0, str(Path(__file__).parents[1]))  # tests/, where fanmodels.py is
-from fanmodels import crank_range, fan_lengths, fan_model  # noqa: E402
+from support.models import crank_range, fan_lengths, fan_model
+
 
 N = 40
 
@@ -32,7 +30,7 @@ def _wrap(a):
 
 
 def _pose(g, c, o, t2):
-    """θ3, θ4 of one loop at crank angle t2, the branch with θ4 = φ + γ (independent of fanmodels)."""
+    """θ3, θ4 of one loop at crank angle t2, the branch with θ4 = φ + γ (independent of support/models.py)."""
     B = np.exp(1j * t2)
     D = g + 0j
     d = abs(B - D)

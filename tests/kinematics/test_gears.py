@@ -10,26 +10,8 @@ import pytest
 from scipy.optimize import fsolve
 
 import loopsolve as ls
-from pairmodels import fivebar
 
-PLANETARY = """
-name = "planetary stage"
-units = {{ length = "mm", angle = "deg" }}
-[parameters]
-Ns = 24
-Np = 36
-Nr = 96
-[variables]
-theta_s = {{ {s}guess = 10 }}
-theta_c = {{ {c}guess = 20 }}
-theta_p = {{ guess = -5 }}
-theta_r = {{ {r}guess = 30 }}
-[gears]
-sun_planet = {{ gear = "theta_s", mate = "theta_p", teeth = ["Ns", "Np"], carrier = "theta_c" }}
-ring_planet = {{ gear = "theta_r", mate = "theta_p", teeth = ["Nr", "Np"], internal = true, carrier = "theta_c" }}
-[constraints]
-held = "{held} = {value}"
-"""
+from support.models import FIVEBAR, fivebar, PLANETARY
 
 
 def planetary(drive: str, held: str) -> ls.Mechanism:
@@ -158,8 +140,6 @@ def test_gears_whose_centres_do_not_stay_in_mesh(extra, words):
 
 
 def test_drifting_centres_exit_2_on_one_line(tmp_path):
-    from pairmodels import FIVEBAR
-
     path = tmp_path / "drift.toml"
     path.write_text(FIVEBAR.format(extra='[gears]\ng = { gear = "theta2", mate = "theta3", teeth = [20, 30] }')
                     .replace("r1 = 40", "r1 = 30"))
@@ -182,8 +162,6 @@ def test_drifting_centres_exit_2_on_one_line(tmp_path):
     ('{ gear = "theta2", mate = "theta5", teeth = [30, 30], internal = true }', "gears.g.teeth", "more teeth"),
 ])
 def test_bad_gear_declarations_name_the_key(tmp_path, entry, key, words):
-    from pairmodels import FIVEBAR
-
     path = tmp_path / "bad.toml"
     path.write_text(FIVEBAR.format(extra=f"[gears]\ng = {entry}"))
     proc = subprocess.run([sys.executable, "-m", "loopsolve", "info", str(path)], capture_output=True, text=True)
@@ -193,8 +171,6 @@ def test_bad_gear_declarations_name_the_key(tmp_path, entry, key, words):
 
 
 def test_info_json_lists_the_pairs(tmp_path):
-    from pairmodels import FIVEBAR
-
     path = tmp_path / "g.toml"
     path.write_text(FIVEBAR.format(extra=GEARED).replace("r1 = 40", "r1 = 30"))
     proc = subprocess.run([sys.executable, "-m", "loopsolve", "info", str(path), "--format", "json"],

@@ -26,6 +26,8 @@ import pytest
 
 import loopsolve as ls
 
+from support.models import watt_sixbar
+
 REPRO = Path(__file__).resolve().parents[3] / "shared" / "repro" / "study_mode_98.toml"
 REPRO_TEXT = """
 name = "Crank-rocker four-bar"
@@ -280,8 +282,6 @@ def test_study_keeps_the_mode_the_guesses_name_for_every_design():
 
 
 def test_mode_that_does_not_exist_is_a_mode_error_exit_3(tmp_path, capsys):
-    from test_modes import watt_sixbar
-
     from loopsolve.cli import main
 
     mech = watt_sixbar().with_parameters(r5=40)  # at 60° only ++ and +- assemble

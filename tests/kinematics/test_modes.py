@@ -17,6 +17,8 @@ from loopsolve.kinematics.modes import (Mode, _dyad_roots, all_solutions, assemb
                              select_mode)
 from loopsolve.kinematics.solve import initial_z
 
+from support.models import watt_sixbar
+
 #: every test here runs with the pure-Python tracer and with the compiled fast lane (conftest.py)
 pytestmark = pytest.mark.usefixtures("both_engines")
 
@@ -25,23 +27,6 @@ TWO_PI = 2 * math.pi
 
 def wrap(a):
     return (np.asarray(a) + math.pi) % TWO_PI - math.pi
-
-
-def watt_sixbar(theta2=60.0):
-    """A Watt II six-bar (two four-bars in series on the ternary rocker): two 2x2 dyad blocks."""
-    b = ls.MechanismBuilder("Watt II six-bar")
-    for k, v in dict(r1=60, r2=25, r3=70, r4=45, r4c=25, r5=65, r6=55).items():
-        b.parameter(k, v)
-    b.variable("theta2", input=True, guess=theta2)
-    b.variable("theta3", guess=15.48).variable("theta4", guess=63.67)
-    b.variable("theta5", guess=77.76).variable("theta6", guess=-170.86)
-    b.vector("r1", length="r1", angle=0).vector("r2", length="r2", angle="theta2")
-    b.vector("r3", length="r3", angle="theta3").vector("r4", length="r4", angle="theta4")
-    b.vector("r4c", length="r4c", angle="theta4", offset=160).vector("r5", length="r5", angle="theta5")
-    b.vector("r6", length="r6", angle="theta6").vector("r7", x=50, y=55)
-    b.loop("r2 + r3 = r1 + r4").loop("r4c + r5 = r7 + r6")
-    b.point("B", "r2 + r3").point("D", "r7 + r6")
-    return b.build()
 
 
 THESIS = ls.load(ls.models_dir() / "thesis_crank_rocker.toml")

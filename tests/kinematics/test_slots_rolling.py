@@ -9,28 +9,7 @@ import pytest
 
 import loopsolve as ls
 
-SLOTTED = """
-name = "crank and slotted lever"
-units = { length = "mm", angle = "deg" }
-[parameters]
-d = 100
-r2 = 40
-L4 = 200
-[variables]
-theta2 = { input = true, guess = 0 }
-theta4 = { guess = 68 }
-[vectors]
-r1 = { length = "d", angle = 90 }
-r2 = { length = "r2", angle = "theta2" }
-r4 = { length = "L4", angle = "theta4" }
-[points]
-O4 = "0"
-O2 = "r1"
-A = "r1 + r2"
-D = "r4"
-[slots]
-s1 = { point = "A", link = "lever", line = "r4" }
-"""
+from support.models import DISK, SLOTTED
 
 
 def test_pin_in_the_slot_of_a_rotating_lever():
@@ -76,26 +55,6 @@ arc = { point = "P", link = "frame", arc = { center = "C", radius = "R" } }
         assert s["theta3"] == pytest.approx(f["theta3"], abs=1e-9)
         assert s["theta3_vel"] == pytest.approx(f["theta3_vel"], abs=1e-12)
         assert math.hypot(s["P_x"] - 60, s["P_y"]) == pytest.approx(45, abs=1e-10)
-
-
-DISK = """
-name = "rolling disk"
-units = { length = "mm", angle = "deg" }
-[parameters]
-r = 50
-[variables]
-theta = { input = true, guess = 0 }
-x = { guess = 0 }
-[vectors]
-rx = { length = "x", angle = 0 }
-ry = { length = "r", angle = 90 }
-rim = { length = "r", angle = "theta" }
-[points]
-C = "rx + ry"
-Q = "rx + ry + rim"
-[rolling]
-wheel = { angle = "theta", radius = "r", on = "x"SIDE }
-"""
 
 
 def test_rolling_disk():

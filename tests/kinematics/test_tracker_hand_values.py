@@ -18,6 +18,8 @@ import loopsolve as ls
 from loopsolve.kinematics import batch
 from loopsolve.kinematics.grid import grid
 
+from support.models import watt_sixbar
+
 MODELS = ls.models_dir()
 
 
@@ -289,8 +291,6 @@ def test_stalled_newton_error_keeps_the_partial_solution():
     Kills loopsolve.kinematics.reach.x_assembly_failure__mutmut_22 and loopsolve.kinematics.reach.x_assembly_failure__mutmut_32
     (``result`` dropped).
     """
-    from test_modes import watt_sixbar
-
     from loopsolve.kinematics.solve import initial_z, solve_position
     from loopsolve.kinematics.reach import assembly_failure
 

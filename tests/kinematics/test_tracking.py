@@ -19,6 +19,8 @@ from loopsolve.kinematics.sweep import StepControl, _progress
 from loopsolve.kinematics.reach import default_range, nearest_assemblable, reachable_ranges
 from loopsolve.kinematics.grid import grid
 
+from support.models import watt_sixbar
+
 #: every test here runs with the pure-Python tracer and with the compiled fast lane (conftest.py)
 pytestmark = pytest.mark.usefixtures("both_engines")
 
@@ -279,8 +281,6 @@ class TestOutsideTheRange:
     def test_bad_guesses_are_not_reported_as_unassemblable(self):
         # with r5 = 40 the second loop of this six-bar only closes on the first loop's crossed mode;
         # the guesses name the open one: no solution has their mode, and the error names those that exist
-        from test_modes import watt_sixbar
-
         mech = watt_sixbar().with_parameters(r5=40)
         with pytest.raises(ls.ModeError, match=r"named by the guesses.*assembles there only in mode\(s\) "
                                                r"\+\+, \+-.*--mode"):
@@ -347,8 +347,6 @@ class TestRanges:
 
 
 def test_sixbar_cycle_keeps_both_block_signs():
-    from test_modes import watt_sixbar
-
     mech = watt_sixbar()
     for sig in ("--", "+-", "-+", "++"):  # this Watt II six-bar turns fully in all four modes
         coarse = mech.sweep(60, 420, 45, mode=sig)

@@ -11,6 +11,8 @@ import pytest
 import loopsolve as ls
 from loopsolve.cli import main
 
+from support.models import G2, G4, L2, O2, O4, pose, POSES5
+
 ezdxf = pytest.importorskip("ezdxf")
 
 COUPLER = ls.models_dir() / "fourbar_coupler_curve.toml"
@@ -128,8 +130,6 @@ def test_cli_errors_one_line(capsys, tmp_path, argv, text):
 
 
 def test_burmester_design_dxf_passes_through_the_poses(tmp_path):
-    from test_burmester import O2, O4, POSES5
-
     res = ls.burmester(POSES5)
     [c] = [c for c in res.candidates if np.allclose(c.lengths, (60, 25, 70, 45), atol=1e-8)]
     out = tmp_path / "motion.dxf"
@@ -165,9 +165,6 @@ def test_entities_read_as_a_summary(tmp_path):
 
 def test_cli_synthesized_design_file_draws_to_dxf_at_the_solve(tmp_path, capsys):
     # loopsolve synthesize ... -o design.toml, then loopsolve draw design.toml --at X -o design.dxf
-    from test_synthesize_methods import G2, G4, L2, pose
-
-    # a four-bar model that can hold a Burmester design (the classical methods write into the user's
     # model): its frame placement and coupler point are parameters
     base = tmp_path / "fourbar.toml"
     base.write_text((Path(__file__).resolve().parents[2] / "models" / "fourbar_path_synthesis.toml").read_text())

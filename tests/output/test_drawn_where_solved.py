@@ -1,7 +1,7 @@
 """Every picture puts the linkage where ``solve`` puts it, wherever the model places its frame.
 
 For every shipped model and a copy of it translated by (137.25, −48.5) and turned by 33° (see
-``moved_models.py``: a frame vector in front of every point and every vector turned, or a
+``support/moved.py``: a frame vector in front of every point and every vector turned, or a
 diagram's joints moved, so any model can be moved, with or without frame parameters):
 
 * the DXF written by ``export_cad``/``loopsolve draw -o x.dxf`` and read back with ezdxf: every
@@ -31,8 +31,9 @@ import pytest
 
 import loopsolve as ls
 from loopsolve.cli import main
-from moved_models import move_xy, moved, moved_text
 
+from support.moved import move_xy, moved, moved_text
+from support.pages import cli_sweep, open_page
 ezdxf = pytest.importorskip("ezdxf")
 
 MODELS = sorted(ls.models_dir().glob("*.toml"))
@@ -413,7 +414,12 @@ def test_synthesis_plot_draws_the_design_where_it_is(tmp_path):
 
 
 # ------------------------------------------------------------------------------ the page in Chromium
-from test_view import browser, _open, cli_sweep  # noqa: E402,F401  (one browser for this module's pages)
+@pytest.fixture(scope="module")
+def browser(chromium):
+    """This module's headless Chromium, offline, its console and network logs kept (as test_view's)."""
+    with chromium(window=(1280, 860), offline=True, performance=True) as driver:
+        yield driver
+
 
 _PAGE_JS = """
 var s = document.getElementById('loopsolve-input');
@@ -443,7 +449,7 @@ def _page_rows(browser, tmp_path, model_path, name):
     sw = cli_sweep(model_path)
     page = tmp_path / f"{name}.html"
     page.write_text(sw.to_html(), encoding="utf-8")
-    _open(browser, page)
+    open_page(browser, page)
     n = len(sw)
     rows = sorted({0, n // 3, (2 * n) // 3, n - 1})
     return sw, {r: browser.execute_script(_PAGE_JS, r) for r in rows}

@@ -8,9 +8,7 @@ position, velocity, acceleration and jerk, summed over the loop. Documents of ev
 
 from __future__ import annotations
 
-import os
 import re
-import shutil
 import subprocess
 from pathlib import Path
 
@@ -22,23 +20,9 @@ from loopsolve import cli
 from loopsolve.errors import LoopsolveError, MissingDependencyError
 from loopsolve.output.latex import LatexPrinter, symbol_latex, to_latex, vector_latex, velocity_solution, write_pdf
 
+from support.latex import pdf_text, require
+
 MODELS = sorted(ls.models_dir().glob("*.toml"))
-
-
-def require(*programs: str) -> None:
-    """Skip when a program is missing, unless LOOPSOLVE_REQUIRE_TEX is set (CI): then fail."""
-    missing = [p for p in programs if shutil.which(p) is None]
-    if not missing:
-        return
-    if os.environ.get("LOOPSOLVE_REQUIRE_TEX"):
-        pytest.fail(f"{', '.join(missing)} not found but LOOPSOLVE_REQUIRE_TEX is set")
-    pytest.skip(f"{', '.join(missing)} not installed (TeX Live / poppler-utils); "
-                "set LOOPSOLVE_REQUIRE_TEX=1 to make this a failure")
-
-
-def pdf_text(pdf: Path) -> str:
-    out = subprocess.run(["pdftotext", "-layout", str(pdf), "-"], capture_output=True, check=True)
-    return re.sub(r"\s+", " ", out.stdout.decode("utf-8"))
 
 
 def read_pgm(path: Path) -> tuple[int, int, bytes]:

@@ -15,7 +15,6 @@ from __future__ import annotations
 
 import math
 import re
-from decimal import ROUND_HALF_UP, Decimal
 
 import numpy as np
 import pytest
@@ -23,35 +22,13 @@ import pytest
 import loopsolve as ls
 from loopsolve.output.view import page_data
 
+from support.pages import js_fmt
 
 
 def page_number(v):
     """A number as the page stores it: 12 significant digits, None for NaN."""
     v = float(v)
     return None if not math.isfinite(v) else float(format(v, ".12g"))
-
-
-def js_fmt(v, digits=6) -> str:
-    """view.js ``fmt(v, 6)``: toFixed to ``digits`` significant digits, trailing zeros cut;
-    toExponential(digits − 2) for |v| ≥ 1e6 or < 1e-4; '–' for a missing value."""
-    if v is None or not math.isfinite(v):
-        return "–"
-    if v == 0:
-        return "0"
-    a = abs(v)
-    sign = "-" if v < 0 else ""
-    if a >= 1e6 or a < 1e-4:
-        f = digits - 2
-        d = Decimal(a)
-        e = d.adjusted()
-        m = d.scaleb(-e).quantize(Decimal(1).scaleb(-f), ROUND_HALF_UP)
-        if m >= 10:
-            e += 1
-            m = d.scaleb(-e).quantize(Decimal(1).scaleb(-f), ROUND_HALF_UP)
-        return f"{sign}{m}e{'-' if e < 0 else ''}{abs(e)}"
-    f = max(0, digits - 1 - math.floor(math.log10(a)))
-    s = sign + str(Decimal(a).quantize(Decimal(1).scaleb(-f), ROUND_HALF_UP))
-    return s.rstrip("0").rstrip(".") if "." in s else s
 
 
 def test_js_fmt_examples():

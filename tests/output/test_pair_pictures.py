@@ -8,11 +8,11 @@ import numpy as np
 import pytest
 
 import loopsolve as ls
-from test_cam_forces import MODEL as CAM_MODEL
-from test_gear_forces import TRAIN
-from test_slots_rolling import SLOTTED
 
-GEARS = TRAIN.format(d=30, rg=12, rm=18, load=2.0, extra="pressure_angle = 20")
+from support.models import CAM_FOLLOWER, GEAR_TRAIN, PLANETARY, SLOTTED
+from support.pages import open_page
+
+GEARS = GEAR_TRAIN.format(d=30, rg=12, rm=18, load=2.0, extra="pressure_angle = 20")
 
 
 def _circles(ax):
@@ -31,7 +31,7 @@ def test_draw_shows_pitch_circles_cam_profile_and_slot():
     circles = _circles(fig.axes[0])
     assert ((0.0, 0.0), 12.0) in circles and ((30.0, 0.0), 18.0) in circles
 
-    cam = ls.loads(CAM_MODEL)
+    cam = ls.loads(CAM_FOLLOWER)
     fig = cam.draw(40)
     polys = [p for p in fig.axes[0].patches if isinstance(p, Polygon) and len(p.get_xy()) > 100]
     assert len(polys) == 1
@@ -65,7 +65,7 @@ def test_dxf_of_a_cam_pose(tmp_path):
     from loopsolve.output.cad import export_cad
 
     out = tmp_path / "cam.dxf"
-    export_cad(ls.loads(CAM_MODEL), out, 0, curves=[])
+    export_cad(ls.loads(CAM_FOLLOWER), out, 0, curves=[])
     msp = ezdxf.readfile(out).modelspace()
     profiles = [e for e in msp.query("LWPOLYLINE") if e.dxf.layer == "LINKS" and len(e) > 100]
     assert len(profiles) == 1
@@ -79,7 +79,7 @@ def test_animation_of_a_cam(tmp_path):
     pytest.importorskip("PIL")
     from PIL import Image
 
-    sw = ls.loads(CAM_MODEL).sweep(0, 360, 30)
+    sw = ls.loads(CAM_FOLLOWER).sweep(0, 360, 30)
     out = sw.animate(output=tmp_path / "cam.gif", fps=5)
     assert Image.open(out).n_frames == len(sw)
 
@@ -93,7 +93,7 @@ def test_page_carries_the_pairs():
     sw = ls.loads(GEARS).sweep(0, 90, 30)
     pairs = _scene(sw.to_html())["pairs"]
     assert sorted(p["r"] for p in pairs if p["k"] == "circle") == [12.0, 18.0]
-    sw = ls.loads(CAM_MODEL).sweep(0, 90, 30)
+    sw = ls.loads(CAM_FOLLOWER).sweep(0, 90, 30)
     scene = _scene(sw.to_html())
     (rot,) = [p for p in scene["pairs"] if p["k"] == "rot"]
     angles = scene["angles"][rot["a"]]
@@ -102,7 +102,12 @@ def test_page_carries_the_pairs():
     assert scene["extent"][2] >= reach  # the page's view holds the whole cam
 
 
-from test_view import _open, browser  # noqa: E402,F401  (the module's headless Chromium)
+@pytest.fixture(scope="module")
+def browser(chromium):
+    """This module's headless Chromium, offline, its console and network logs kept (as test_view's)."""
+    with chromium(window=(1280, 860), offline=True, performance=True) as driver:
+        yield driver
+
 
 _CAM_JS = """
 var s = document.getElementById('loopsolve-input');
@@ -113,12 +118,12 @@ return [p.getAttribute('points'), c.length ? [c[0].getAttribute('cx'), c[0].getA
 """
 
 
-def test_cam_page_in_a_browser(browser, tmp_path):  # noqa: F811
-    mech = ls.loads(CAM_MODEL)
+def test_cam_page_in_a_browser(browser, tmp_path):
+    mech = ls.loads(CAM_FOLLOWER)
     sw = mech.sweep(0, 90, 30)
     page = tmp_path / "cam.html"
     page.write_text(sw.to_html(), encoding="utf-8")
-    _open(browser, page)
+    open_page(browser, page)
     scene = _scene(page.read_text())
     (rot,) = [p for p in scene["pairs"] if p["k"] == "rot"]
     local = np.array(rot["p"]).reshape(-1, 2)
@@ -133,8 +138,6 @@ def test_cam_page_in_a_browser(browser, tmp_path):  # noqa: F811
 
 
 def test_a_model_of_angles_alone_has_nothing_to_draw():
-    from test_gears import PLANETARY
-
     mech = ls.loads(PLANETARY.format(held="theta_r", value=30, s="input = true, ", c="", r=""))
     with pytest.raises(ls.ModelError, match="nothing to draw"):
         mech.draw(10)

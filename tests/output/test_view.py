@@ -27,12 +27,9 @@ from loopsolve.cli import _sweep_for, build_parser
 from loopsolve.errors import ModelError
 from loopsolve.output.view import page_data, to_html
 
+from support.pages import cli_sweep, open_page
+
 MODELS = sorted(ls.models_dir().glob("*.toml"))
-
-
-def cli_sweep(path, *extra):
-    """The sweep ``loopsolve view PATH --step 10 ...`` makes (default range, through limits if needed)."""
-    return _sweep_for(build_parser().parse_args(["view", str(path), "--step", "10", "-q", "-o", "x.html", *extra]))
 
 
 _SWEEPS: dict = {}
@@ -181,15 +178,6 @@ def _requests(driver) -> list[str]:
     return urls
 
 
-def _open(driver, page_path):
-    driver.get_log("browser")
-    driver.get_log("performance")  # start both logs afresh
-    driver.get(page_path.as_uri())
-    errors = [e for e in driver.get_log("browser") if e["level"] in ("SEVERE", "WARNING")]
-    assert not errors, errors
-    assert driver.execute_script("return document.readyState") == "complete"
-
-
 _POINTS_JS = """
 var s = document.getElementById('loopsolve-input');
 s.value = arguments[0];
@@ -206,7 +194,7 @@ def test_page_in_browser(browser, tmp_path, path):
     sw = sweep_of(path)
     page = tmp_path / f"{path.stem}.html"
     page.write_text(sw.to_html(), encoding="utf-8")
-    _open(browser, page)
+    open_page(browser, page)
     assert _requests(browser) == [page.as_uri()]
     n = len(sw)
     names = sw.compiled.points
@@ -256,7 +244,7 @@ def test_keyboard_and_play(browser, tmp_path):
     page = tmp_path / "rocker.html"
     page.write_text(sw.to_html(extra_series={"input_torque [N*m]": np.sin(np.radians(sw["theta2"]))}),
                     encoding="utf-8")
-    _open(browser, page)
+    open_page(browser, page)
     body = browser.find_element(By.TAG_NAME, "body")
     body.send_keys(Keys.ARROW_RIGHT, Keys.ARROW_RIGHT, Keys.ARROW_RIGHT)
     assert browser.execute_script("return document.getElementById('loopsolve-input').value") == "3"
@@ -293,7 +281,7 @@ def test_three_thousand_rows_in_browser(browser, tmp_path):
     assert len(text.encode()) < 1_500_000  # about 180 bytes a row
     page = tmp_path / "dense.html"
     page.write_text(text, encoding="utf-8")
-    _open(browser, page)
+    open_page(browser, page)
     for r in (1, 1500, 2999, 3000):
         value, found = browser.execute_script(_POINTS_JS, r)
         assert value == str(r)

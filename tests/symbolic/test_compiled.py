@@ -20,6 +20,8 @@ import loopsolve as ls
 from loopsolve.kinematics import classic
 from loopsolve.symbolic.compiled import cache_dir, structure_key
 
+from support.probe import assert_is_a_closure, fourbar_positions, model, solve_rad
+
 MODELS = sorted(ls.models_dir().glob("*.toml"))
 THESIS = ls.models_dir() / "thesis_crank_rocker.toml"
 
@@ -216,13 +218,10 @@ def test_a_warm_disk_cache_is_used_without_deriving(tmp_path, monkeypatch):
     assert ck.points == ("B", "C") and ck.unknowns == ("theta3", "theta4")
 
 
-
 def test_angle_literals_with_a_unit_in_expressions():
     """loopsolve.symbolic.derivation.x_to_sympy__mutmut_12 / x__angle_const__mutmut_1 (no test used a literal
     such as ``30deg`` inside an expression): in a radian model ``theta2 + 30deg`` is theta2 + pi/6,
     in a degree model ``theta2 + 0.5rad`` is theta2 + 28.6479 deg."""
-    from test_cache_key import assert_is_a_closure, fourbar_positions, model, solve_rad
-
     deg = math.pi / 180
     rad_model = model(angle="rad", ab_angle="theta2 + 30deg", guesses=(0.7, 1.0, 1.7))
     assert_is_a_closure(*solve_rad(rad_model, 0.7), fourbar_positions(20, 66, 56, 80, 10.0, 0.7 + math.pi / 6))
