@@ -64,8 +64,8 @@ class DesignOps:
         self.is_len = np.array([ck.kinds[int(i)] is Kind.LENGTH for i in self.iu])
 
     def _bc(self, a, rows, N):
-        a = np.asarray(a, dtype=float)
-        return np.broadcast_to(a.reshape(rows, -1), (rows, N))
+        a = np.asarray(a, dtype=float).reshape(rows, -1)
+        return a if a.shape[1] == N else np.broadcast_to(a, (rows, N))
 
     def rows(self, Z):
         """``Z`` as the generated code takes it: with ``shared``, the inputs' rows as one value each."""
