@@ -11,8 +11,10 @@ For a model with ``[bodies]``, :func:`equation_of_motion` prints the derivation 
   unknowns;
 * M(x), M′(x) and Q(x) as sums over the bodies and the loads in those symbols, then the same
   sums with the numbers put in (λ stays a factor, a negative value is a minus sign: ``− 0.05 θ′₄``),
-  and the equation of motion M ẍ + ½ M′ ẋ² = Q + T;
-* with ``at``: the kinematic coefficients, M, M′, Q and the driving torque T at that input.
+  and the equation of motion M ẍ + ½ M′ ẋ² = Q + T (− Q_f with ``[friction]``: the friction's
+  generalized force, given by its lost power and solved with the joint forces, see :func:`_friction_items`);
+* with ``at``: the kinematic coefficients, M, M′, Q and the driving torque T at that input (with
+  friction: T, the lost power and Q_f from the exact force analysis).
 
 :mod:`loopsolve.output.latex` calls it with its builder (the printer, the mechanism, the input choice).
 """
@@ -21,6 +23,7 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
 import sympy as sp
 
 from ..symbolic.texprint import (_BUDGET, _GAP, LatexPrinter, _break_terms, _Eqs, _eq_lines, _escape, _join_terms, _number,
@@ -183,7 +186,8 @@ class _Writer:
             r"loads (SI).%s The equation of motion of the one-degree-of-freedom mechanism follows, where $T$ is the "
             r"driving %s on the input:" % (xt, xt, lam, force)))
         heads = (r"M(%s)" % xt, r"M'(%s)" % xt, r"Q(%s)" % q_args)
-        eom = r"M(%s)\,%s + \tfrac{1}{2} M'(%s)\,%s^2 &= Q + T" % (xt, xdd, xt, xd)
+        eom = r"M(%s)\,%s + \tfrac{1}{2} M'(%s)\,%s^2 &= Q + T%s" % (
+            xt, xdd, xt, xd, r" - Q_\mathrm{f}" if _frictions(d.mechanism) else "")
         for fmt in (self.symbolic, self.numeric):
             lines = []
             for head, key in zip(heads, ("M", "dM", "Q")):
@@ -234,10 +238,29 @@ def _at(builder, items):
     mu = r"\mathrm{kg\,m^{2}}" if angle else r"\mathrm{kg}"
     fu = r"\mathrm{N\,m}" if angle else r"\mathrm{N}"
     head = r"T = M\,%s + \tfrac{1}{2} M'\,%s^2 - Q" % (symbol_latex(name + "__d2"), symbol_latex(name + "__d1"))
-    items.append(_Eqs((r"M &= %s\,%s" % (_number(M[0]), mu),
-                       r"M' &= %s\,%s" % (_number(dM[0]), mu if angle else r"\mathrm{kg/m}"),
-                       r"Q &= %s\,%s" % (_number(Q[0]), fu),
-                       r"%s &= %s\,%s" % (head, _number(T[0]), fu))))
+    lines = [r"M &= %s\,%s" % (_number(M[0]), mu),
+             r"M' &= %s\,%s" % (_number(dM[0]), mu if angle else r"\mathrm{kg/m}"),
+             r"Q &= %s\,%s" % (_number(Q[0]), fu)]
+    if not _frictions(mech):
+        items.append(_Eqs(tuple(lines + [r"%s &= %s\,%s" % (head, _number(T[0]), fu)])))
+        return
+    # with friction T is the exact solution of the force analysis (its Q_f = P_lost / input rate)
+    from ..dynamics.kinetostatics import forces
+
+    fs = forces(mech, at=builder.at, input=builder.input)
+    drive = float(np.asarray(fs.drive, dtype=float).reshape(-1)[0])
+    lost = float(np.asarray(fs["power_lost"], dtype=float).reshape(-1)[0])
+    if not math.isfinite(drive):
+        items.append(_Eqs(tuple(lines)))
+        items.append(_Text(r"With its friction the mechanism self-locks here: no driving %s moves it "
+                           r"(\texttt{loopsolve forces} reports the event)." % ("torque" if angle else "force")))
+        return
+    lines.append(r"P_\mathrm{lost} &= %s\,\mathrm{W}" % _number(lost))
+    if xd != 0.0:
+        lines.append(r"Q_\mathrm{f} = P_\mathrm{lost} / %s &= %s\,%s" % (
+            symbol_latex(name + "__d1"), _number(lost / (xd * s)), fu))
+    lines.append(r"%s%s &= %s\,%s" % (head, r" + Q_\mathrm{f}" if xd != 0.0 else "", _number(drive), fu))
+    items.append(_Eqs(tuple(lines)))
 
 
 def _bracket_lines(lhs: str, groups, budget: float = 0.8 * _BUDGET) -> list[str]:
@@ -275,12 +298,71 @@ def equation_of_motion(builder) -> list:
     w.tables(items)
     w.coefficients(items)
     w.equations(items)
+    xd = symbol_latex(d.input + "__d1")
+    if _frictions(mech):
+        _friction_items(builder, items, xd, "torque" if d.input_kind is Kind.ANGLE else "force")
+        return items
     items.append(_Text(
         r"Newton--Euler for each moving body, $\sum \vec{F} = m\,\vec{a}_G$ and $\sum M_G = I_G\,\alpha$, is a "
         r"linear system in the joint forces, the guide reactions and $T$ (\texttt{loopsolve forces}); its $T$ "
         r"equals the one above, and the power balance $T%s = \dot{E}_k + \dot{V} - P_\mathrm{loads}$ "
-        r"is checked at every point." % symbol_latex(d.input + "__d1")))
+        r"is checked at every point." % xd))
     return items
+
+
+def _frictions(mech) -> tuple:
+    """The model's ``[friction]`` entries (:mod:`loopsolve.model.friction`), or ``()``."""
+    pairs = mech.pairs
+    return tuple(getattr(pairs, "friction", ()) or ()) if pairs is not None else ()
+
+
+_FRICTION_KIND = {"pin": "revolute (journal)", "guide": "prismatic guide", "slot": "pin in a slot",
+                  "cam": "cam contact"}
+
+
+def _friction_items(builder, items, xd: str, drive: str) -> None:
+    """The friction part of the equation of motion: the joints' coefficients and the term Q_f.
+
+    Coulomb friction is not a function of the motion alone: each joint's friction is proportional
+    to that joint's force, which the Newton--Euler system gives with T and the accelerations (and
+    its direction is the relative velocity's). So Q_f is written by its power, and its value is the
+    exact solution of ``loopsolve forces`` (:mod:`loopsolve.dynamics.friction`), not a sum of the
+    symbols above.
+    """
+    from ..model.pairs import evaluator
+
+    mech = builder.mech
+    values = evaluator(mech)
+    length = _escape(mech.units.length)
+    rows = []
+    for fr in _frictions(mech):
+        mu = _number(fr.mu)
+        if fr.kind == "pin":
+            r = values(fr.radius, Kind.LENGTH)
+            circle = r * fr.mu / math.sqrt(1.0 + fr.mu ** 2)
+            law = (r"c = r \sin\varphi = %s\,\mathrm{%s}\text{, torque } c\,|\vec{F}|"
+                   % (_number(circle), length))
+            radius = r"%s\,\mathrm{%s}" % (_number(r), length)
+        else:
+            law, radius = r"\text{force } \mu\,|N|", r"\text{--}"
+        rows.append((r"\mathrm{%s}" % _escape(fr.name), r"\text{%s}" % _FRICTION_KIND.get(fr.kind, fr.kind),
+                     mu, radius, law))
+    items.append(_Text(
+        r"Coulomb friction (\texttt{[friction]}): at a revolute joint of journal radius $r$ the friction circle "
+        r"$c = r \sin\varphi$ with $\tan\varphi = \mu$ gives the torque $c\,|\vec{F}|$ against the relative "
+        r"rotation, $\vec{F}$ the joint's force; at a sliding contact the force $\mu\,|N|$ against the "
+        r"relative sliding, $N$ its normal force:"))
+    items.append(_Table(("Joint", "Kind", r"$\mu$", "$r$", "Friction"), tuple(rows), "lllll"))
+    items.append(_Text(
+        r"$Q_\mathrm{f}$ is the friction's generalized force, given by the power it takes, "
+        r"$Q_\mathrm{f}\,%s = P_\mathrm{lost} = \sum_k c_k\,|\vec{F}_k|\,|\omega_k| + \sum_k \mu_k\,|N_k|\,|v_k| "
+        r"\ge 0$ ($\omega_k$, $v_k$ the relative rates at joint $k$). The joint forces $\vec{F}_k$, $N_k$ depend on "
+        r"$T$ and the accelerations, so the equation above is piecewise linear in them and is not a sum of the "
+        r"symbols above: Newton--Euler for each moving body with these friction forces (\texttt{loopsolve forces}) "
+        r"is solved exactly for the joint forces and $T$, and the power balance $T%s = \dot{E}_k + \dot{V} - "
+        r"P_\mathrm{loads} + P_\mathrm{lost}$ is checked at every point. Where no driving %s can move the "
+        r"mechanism it self-locks (an event of \texttt{loopsolve forces}, not a solution)." % (
+            xd, xd, drive)))
 
 
 def equation_of_motion_at(builder) -> list:

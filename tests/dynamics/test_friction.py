@@ -211,3 +211,55 @@ def test_simulation_spins_down_against_the_journal_friction():
     f = ls.forces(mech, 30, speed=10.0, accel=alpha)  # coasting: no driving torque, all lost in the bearing
     assert f["input_torque"] == pytest.approx(0.0, abs=1e-12)
     assert f["power_lost_O"] == pytest.approx(-alpha * 0.01 * 10.0, rel=1e-12)
+
+
+def _latex(tmp_path, text, at):
+    path = tmp_path / "m.toml"
+    path.write_text(text)
+    out = tmp_path / "m.tex"
+    proc = subprocess.run([sys.executable, "-m", "loopsolve", "latex", str(path), "--at", str(at), "-o", str(out)],
+                          capture_output=True, text=True)
+    assert proc.returncode == 0, proc.stderr
+    return out.read_text()
+
+
+def _value(tex, head):
+    """The number of the aligned line that starts with ``head`` (``head &= 0.0769\\,\\mathrm{N\\,m}``)."""
+    line = next(ln for ln in tex.splitlines() if ln.startswith(head) and "&=" in ln)
+    return float(line.split("&=")[1].split("\\,")[0].strip())
+
+
+def test_latex_equation_of_motion_carries_the_friction(tmp_path):
+    """With [friction] the printed equation of motion has the friction's generalized force Q_f and the
+    document's T at an input is the exact one with friction: for a wheel on its journal turning at
+    1 rad/s without acceleration, T = Q_f = r sin(atan μ) m g (the friction circle), not 0."""
+    from pathlib import Path
+
+    text = (Path(__file__).parents[1] / "data" / "journal_wheel.toml").read_text()
+    tex = _latex(tmp_path, text, 30)
+    c = 0.020 * 0.2 / math.sqrt(1 + 0.2**2)
+    assert r"&= Q + T - Q_\mathrm{f}" in tex
+    assert "revolute (journal)" in tex
+    assert _value(tex, r"P_\mathrm{lost}") == pytest.approx(c * 2 * 9.81, rel=1e-5)
+    assert _value(tex, r"Q_\mathrm{f}") == pytest.approx(c * 2 * 9.81, rel=1e-5)
+    assert _value(tex, r"T = M") == pytest.approx(c * 2 * 9.81, rel=1e-5)
+    # without friction neither the term nor the lost power is printed, and T is the frictionless one (0)
+    plain = _latex(tmp_path, text.split("[friction]")[0], 30)
+    assert "Q_\\mathrm{f}" not in plain and "P_\\mathrm{lost}" not in plain
+    assert _value(plain, r"T = M") == 0.0
+
+
+@pytest.mark.parametrize("alpha", [30, 80])
+def test_latex_friction_on_an_incline_and_its_self_locking(tmp_path, alpha):
+    """The wedge pushed up at 1 mm/s: P = W (sin α + μ cos α)/(cos α − μ sin α) below self-locking; above it
+    the document says the mechanism self-locks instead of printing a force."""
+    tex = _latex(tmp_path, WEDGE.replace("ALPHA", str(alpha)), 50)
+    a, W, mu = math.radians(alpha), 2 * 9.81, 0.3
+    assert "prismatic guide" in tex
+    if mu < 1 / math.tan(a):
+        assert _value(tex, r"T = M") == pytest.approx(
+            W * (math.sin(a) + mu * math.cos(a)) / (math.cos(a) - mu * math.sin(a)), rel=1e-6)
+        assert "self-locks here" not in tex
+    else:
+        assert "self-locks here" in tex
+        assert not any(ln.startswith(r"T = M") for ln in tex.splitlines())
