@@ -135,7 +135,7 @@ _AGREE_ATOL = 1e-12
 
 
 def batch_lm(problem, V, signs, X=None, *, iters: int = 25, hmax: float = _POLISH_H, floor: float | None = None,
-             warm: bool = False):
+             warm: bool = False, poses: bool = False):
     """Levenberg–Marquardt on every row of ``V`` ``(D, k)`` (model units) in its mode ``signs`` ``(nb, D)``.
 
     ``X``: the internal input values at the targets ``(T, D)`` (free timing: the starts of those
@@ -151,7 +151,9 @@ def batch_lm(problem, V, signs, X=None, *, iters: int = 25, hmax: float = _POLIS
     ended at 2.4e-7.) ``warm``: a trial design's positions at every target by Newton from the last
     accepted ones (:func:`_residuals_and_jacobian`), checked every ``_VALIDATE`` iterations and at
     the end by a trace through the targets (:func:`_validate`: a column that left the one motion
-    goes back to where it last passed and stops); shape synthesis uses it.
+    goes back to where it last passed and stops); shape synthesis uses it. ``poses`` (with ``warm``): also
+    return the positions at every target of each returned design ``(nv, T, D)`` (NaN where ``f`` is
+    ``inf``), the ones its last validating trace found, so the caller need not trace them again.
 
     Requirements (``crank``, ``transmission``; :mod:`loopsolve.design.synthreq`): the columns are
     first polished without them; the columns whose ends fail them and are better than every end
@@ -162,10 +164,11 @@ def batch_lm(problem, V, signs, X=None, *, iters: int = 25, hmax: float = _POLIS
     from . import synthreq
 
     if not synthreq.active(problem):
-        return _lm(problem, V, signs, X, iters, hmax, floor, False, warm)
+        out = _lm(problem, V, signs, X, iters, hmax, floor, False, warm)
+        return out if poses and warm else out[:3]
     # the requirements (crank, transmission) cost a trace per iteration: first without them; the
     # columns that end failing them are polished again from their starts, every step kept within them
-    Vr, Xr, fr = _lm(problem, V, signs, X, iters, hmax, floor, False, warm)
+    Vr, Xr, fr, Zr = _lm(problem, V, signs, X, iters, hmax, floor, False, warm)
     fin = np.isfinite(fr)
     ok = fin.copy()
     if ok.any():
@@ -178,14 +181,18 @@ def batch_lm(problem, V, signs, X=None, *, iters: int = 25, hmax: float = _POLIS
     if redo.size:
         Vs = np.asarray(V, dtype=float)[redo]
         Xs = None if X is None or not problem.free else np.asarray(X, dtype=float)[:, redo]
-        v2, x2, f2 = _lm(problem, Vs, np.asarray(signs, dtype=float)[:, redo], Xs, iters, hmax, floor, True, warm)
+        v2, x2, f2, z2 = _lm(problem, Vs, np.asarray(signs, dtype=float)[:, redo], Xs, iters, hmax, floor, True,
+                             warm)
         Vr[redo], Xr[:, redo], fr[redo] = v2, x2, f2
-    return Vr, Xr, fr
+        if Zr is not None:
+            Zr[..., redo] = z2
+    return (Vr, Xr, fr, Zr) if poses and warm else (Vr, Xr, fr)
 
 
 def _lm(problem, V, signs, X, iters, hmax, floor, need, warm):
     """The lockstep Levenberg–Marquardt of :func:`batch_lm`; ``need``: every step within the requirements;
-    ``warm``: warm poses at every target, validated by traces."""
+    ``warm``: warm poses at every target, validated by traces. Returns ``(V, X, f, Z)``, ``Z`` the validated
+    positions at every target ``(nv, T, D)`` with ``warm``, else None."""
     from . import synthreq
     from .synthesis import periodic
 
@@ -211,7 +218,8 @@ def _lm(problem, V, signs, X, iters, hmax, floor, need, warm):
         ok[ok] = synthreq.check(problem, b.params(V[ok]), signs[:, ok], X[:, ok])[0]
     checked = None
     if warm:  # the starts, traced through their targets: the first checked states
-        checked = {"V": V.copy(), "X": X.copy(), "f": np.where(ok, np.sum(r * r, axis=1), np.inf)}
+        checked = {"V": V.copy(), "X": X.copy(), "f": np.where(ok, np.sum(r * r, axis=1), np.inf),
+                   "Z": np.where(ok[None, None, :], Z0, np.nan)}
     f = np.where(ok, np.sum(r * r, axis=1), np.inf)
     lam = np.full(D, 1e-3)
     active = ok.copy()
@@ -264,8 +272,8 @@ def _lm(problem, V, signs, X, iters, hmax, floor, need, warm):
             checked = _validate(problem, V, X, signs, hmax, checked, active)
     if warm:
         checked = _validate(problem, V, X, signs, hmax, checked, active)
-        V, X, f = checked["V"], checked["X"], checked["f"]
-    return V, X, f
+        return checked["V"], checked["X"], checked["f"], checked["Z"]
+    return V, X, f, None
 
 
 #: warm steps are checked every this many iterations: every target reached by one motion in the mode
@@ -276,19 +284,21 @@ def _validate(problem, V, X, signs, hmax, checked, active):
     """Warm poses are of the right mode at every target but may lie on another circuit (a design that drifted
     into a rocker whose swing cannot reach every target in one motion). Trace every column through its targets;
     one that passes becomes its new checked state, one that fails goes back to its last checked state and stops.
-    Returns the checked states ``{"V", "X", "f"}`` (copies)."""
+    Returns the checked states ``{"V", "X", "f", "Z"}`` (copies; ``Z`` the positions at the targets)."""
     D = V.shape[0]
     P = problem.batch.params(V)
     with np.errstate(all="ignore"):
         Zt, reached = problem.trace(P, X, signs, hmax=hmax, singular_stop=False)
     passed = reached >= problem.T
     if checked is None:
-        checked = {"V": V.copy(), "X": X.copy(), "f": np.full(D, np.inf)}
+        checked = {"V": V.copy(), "X": X.copy(), "f": np.full(D, np.inf),
+                   "Z": np.full((Zt.shape[0], problem.T, D), np.nan)}
     r = np.nan_to_num(problem.residuals(np.nan_to_num(Zt[:, :problem.T]), P))
     f_now = np.where(passed, np.sum(r * r, axis=(0, 1)), np.inf)
     checked["V"][passed] = V[passed]
     checked["X"][:, passed] = X[:, passed]
     checked["f"][passed] = f_now[passed]
+    checked["Z"][:, :, passed] = Zt[:, :problem.T, passed]
     failed = ~passed
     V[failed] = checked["V"][failed]
     X[:, failed] = checked["X"][:, failed]

@@ -258,3 +258,54 @@ def test_a_diagram_model_without_placement_parameters_is_placed_through_added_on
     sw = res.mechanism.sweep(0, 360, 0.5, progress=False)
     curve = np.asarray(sw.columns["P_x"]) + 1j * np.asarray(sw.columns["P_y"])
     assert np.max(distance_to(xy[:, 0] + 1j * xy[:, 1], curve)) < 1e-3
+
+
+def test_a_stalled_polish_ends_early_with_its_best_design(fourbar, atlas, monkeypatch):
+    """MINPACK's polish of a curve no four-bar traces exactly (a kidney of 36 points) stops once its objective
+    no longer falls (shape._STALL), keeping the best design it evaluated: it needs far fewer evaluations than
+    the polish run to its cap, and its designs are as good to a fraction of a per cent."""
+    import loopsolve.design.shape as shape
+    import loopsolve.design.synthlm as synthlm
+
+    t = np.radians(np.arange(0, 360, 10))
+    xy = np.stack([4 + 3 * np.cos(t) * (1 + 0.3 * np.cos(2 * t)), 1.8 * np.sin(t) + 0.6 * np.sin(2 * t)], axis=1)
+    real = synthlm._residuals_and_jacobian
+    calls = {"n": 0}
+
+    def counted(problem, V, *a, **k):
+        calls["n"] += V.shape[0] == 1  # the single-design evaluations are MINPACK's
+        return real(problem, V, *a, **k)
+
+    monkeypatch.setattr(synthlm, "_residuals_and_jacobian", counted)
+    got, default = {}, shape._STALL_DROP
+    for drop in (default, 0.0):  # 0: a polish never stalls and runs to its cap
+        monkeypatch.setattr(shape, "_STALL_DROP", drop)
+        calls["n"] = 0
+        res = synthesize_shape(fourbar, shape="P", targets=xy, atlas=atlas, top=3, progress=False)
+        got[drop] = (calls["n"], [c["shape_error"]["rms"] for c in res.report["candidates"]])
+    (n_stall, rms_stall), (n_full, rms_full) = got[default], got[0.0]
+    assert n_stall < 0.6 * n_full
+    assert rms_stall[0] <= 1.01 * rms_full[0]
+
+
+def test_the_lockstep_polish_returns_the_positions_its_last_trace_found(fourbar):
+    """batch_lm(..., poses=True) gives, for every design it returns, the positions at every target that a fresh
+    trace through the targets in its mode finds (so shape synthesis need not trace them again)."""
+    from loopsolve.design.synthesis import define
+    from loopsolve.design.synthlm import batch_lm, sample
+
+    sw = fourbar.sweep(0, 360, 30, progress=False)
+    targets = {"x": sw.columns["P_x"][:-1] + 0.05, "y": sw.columns["P_y"][:-1]}
+    pb = define(fourbar, path="P", targets=targets, vary=VARY, mode="any")
+    V = sample(pb, 6, 1)
+    S = np.repeat(pb.modes(pb.batch.params(V))[0][:, :1], len(V), axis=1)
+    X = np.repeat(np.radians(np.arange(0.0, 360.0, 30.0))[:, None], len(V), axis=1)  # free timing: its starts
+    V, X, f, Z = batch_lm(pb, V, S, X, iters=6, warm=True, poses=True)
+    done = np.isfinite(f)
+    assert done.any()
+    for i in np.flatnonzero(done):
+        Zt, reached = pb.trace(pb.batch.params(V[i][None]), X[:, i][:, None], S[:, i][:, None], hmax=math.radians(5),
+                               singular_stop=False)
+        assert reached[0] >= pb.T
+        assert np.allclose(Z[:, :, i], Zt[:, :pb.T, 0], atol=1e-9)
+    assert np.all(np.isnan(Z[:, :, ~done]))
