@@ -333,7 +333,7 @@ def study(mech, vary, start, stop, step, *, samples: int | None = None, lhs: int
     bounds = [(a, min(a + chunk_size, N)) for a in range(0, N, chunk_size)]
     tasks = [(mech, names, values[a:b], start, stop, step, opts) for a, b in bounds]
     writer = _Writer(out, xr) if out is not None else None
-    parts = []
+    whole = _Assembler(N, xr)
     warned: list[tuple[int, str]] = []
 
     def consume(i, res):
@@ -342,7 +342,7 @@ def study(mech, vary, start, stop, step, *, samples: int | None = None, lhs: int
         if writer is not None and writer.streaming:
             writer.append(ds)
         else:
-            parts.append(ds)
+            whole.add(ds, *bounds[i])
 
     bar = _bar(N, progress)
     own_client = None
@@ -372,11 +372,49 @@ def study(mech, vary, start, stop, step, *, samples: int | None = None, lhs: int
         warn(line)
     if writer is not None and writer.streaming:
         return writer.finish()
-    ds = xr.concat(parts, dim="design", data_vars="all", coords="different", compat="equals", join="outer") \
-        if len(parts) > 1 else parts[0]
+    ds = whole.finish()
     if writer is not None:
         write(ds, out)
     return ds
+
+
+class _Assembler:
+    """The study's Dataset filled chunk by chunk into arrays allocated once for every design.
+
+    Why: collecting the chunks' Datasets and ``xr.concat``-ing them held the chunks and the result at
+    once (peak memory twice the result; issue 32 measured +2.2 GB for a 1.16 GB study). Here a chunk's
+    values are copied into their rows as the chunk arrives and the chunk is dropped, so the peak is the
+    result plus one chunk. Every chunk has the same variables, dimensions and units (one model, one
+    input grid); a variable whose dtype widens in a later chunk (e.g. a metric that is an integer in
+    one chunk and a float in another) is widened in place.
+    """
+
+    def __init__(self, n: int, xr):
+        self.n, self.xr = n, xr
+        self.first = None
+        self.arrays: dict = {}
+
+    def add(self, ds, a: int, b: int) -> None:
+        if self.first is None:
+            self.first = ds
+            for name, var in ds.variables.items():
+                if var.dims and var.dims[0] == "design":
+                    self.arrays[name] = np.empty((self.n,) + var.shape[1:], dtype=var.dtype)
+        for name, arr in self.arrays.items():
+            v = ds.variables[name].values
+            if not np.can_cast(v.dtype, arr.dtype, casting="same_kind") or v.dtype.itemsize > arr.dtype.itemsize:
+                wide = np.result_type(arr.dtype, v.dtype)
+                if wide != arr.dtype:
+                    arr = self.arrays[name] = arr.astype(wide)
+            arr[a:b] = v
+
+    def finish(self):
+        first = self.first
+        data = {k: (v.dims, self.arrays[k] if k in self.arrays else v.values, v.attrs)
+                for k, v in first.data_vars.items()}
+        coords = {k: (v.dims, self.arrays[k] if k in self.arrays else v.values, v.attrs)
+                  for k, v in first.coords.items()}
+        return self.xr.Dataset(data, coords=coords, attrs=first.attrs)
 
 
 def _whole_teeth(mech, names, values):

@@ -585,3 +585,25 @@ def test_a_start_a_hair_from_a_change_point_gets_the_single_sweeps_verdict(thesi
         assert str(ds["status"].values[0]) == want, (r4, want)
         if r4 < 40.0 and gap >= 1e-7:  # clearly apart: the closed form and the sweep agree
             assert want == "not-assemblable"
+
+
+def test_a_study_holds_its_result_and_one_chunk_not_the_result_twice(thesis):
+    """The chunks are copied into the result's arrays as they come (not collected and concatenated): the peak
+    memory of a study (tracemalloc sees numpy's buffers) stays within the result plus a few chunks' working
+    arrays. Collecting the eight chunks and concatenating them peaked at twice the result."""
+    import gc
+    import tracemalloc
+
+    ls.study(thesis, {"r2": (15, 35), "r3": (50, 90)}, 0, 360, 30, lhs=16, chunk_size=8, progress=False)  # caches
+    gc.collect()
+    n = 400
+    tracemalloc.start()
+    try:
+        ds = ls.study(thesis, {"r2": (15, 35), "r3": (50, 90)}, 0, 360, 2, lhs=n, chunk_size=n // 8, progress=False)
+        _, peak = tracemalloc.get_traced_memory()
+    finally:
+        tracemalloc.stop()
+    result = sum(v.values.nbytes for v in ds.variables.values())
+    chunk = result / 8
+    assert peak <= result + 4 * chunk, (peak / result)
+    assert ds.sizes["design"] == n and np.array_equal(ds["design"].values, np.arange(n))
