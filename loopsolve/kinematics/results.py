@@ -83,6 +83,11 @@ class Event:
     message : str
         What happened, in words.
 
+    Attributes
+    ----------
+    kind, input, message
+        As the parameters of the same names.
+
     Examples
     --------
     >>> sw = ls.load(ls.models_dir() / "double_rocker.toml").sweep(60, 180, 10)
@@ -249,8 +254,24 @@ class State:
     compiled : CompiledKinematics
         The compiled mechanism it belongs to.
     z, z1, z2, z3 : ndarray
-        Joint variables and their derivatives (internal units); the other fields are the
-        solver's figures. Made by :func:`loopsolve.solve`, not by hand.
+        Joint variables and their derivatives (internal units). Made by
+        :func:`loopsolve.solve`, not by hand.
+    points : ndarray
+        ``(4, P, 2)``: position, velocity, acceleration and jerk of every output point
+        (model length unit, per second...).
+    mode : str, optional
+        The assembly-mode signature of the solution.
+    residual, n_iter, cond : float, int, float, optional
+        The solver's figures: loop-closure residual (model length unit), Newton iterations,
+        condition number of Φ_q.
+    turns : tuple of int, optional
+        Whole turns of the unknown angles relative to their wrapped values, when a sweep
+        tracked them continuously.
+
+    Attributes
+    ----------
+    compiled, z, z1, z2, z3, points, mode, residual, n_iter, cond, turns
+        As the parameters of the same names.
 
     Examples
     --------
