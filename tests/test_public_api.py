@@ -116,7 +116,8 @@ def test_each_public_function_has_its_pinned_signature_and_documents_it(name):
         section = doc.split("Parameters\n----------", 1)[1].split("\n\n", 1)[0] + doc
         for p in _public(inspect.signature(fn)).parameters.values():
             assert p.name in section, f"{name}: parameter {p.name} is not documented"
-        _each_entry_names_parameters(name, re.split(r"\n\S[^\n]*\n-{3,}\n", doc.split("Parameters\n----------", 1)[1])[0])
+        params = re.split(r"\n\S[^\n]*\n-{3,}\n", doc.split("Parameters\n----------", 1)[1])[0]
+        _each_entry_names_parameters(name, params)
 
 
 #: the result types users receive and do not construct: numpydoc "Attributes" (what they read) besides

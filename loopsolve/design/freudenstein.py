@@ -156,11 +156,16 @@ class FunctionDesign:
     output degree); ``error_input``/``error`` the curve it comes from (input angle, signed error
     design − wanted, degrees).
 
+    Users receive a design from :func:`loopsolve.freudenstein`; they need not construct one.
+
     Parameters
     ----------
-    K, lengths, offsets, fit, precision, input_range, output_range, mechanism, mode, grashof, defects, max_error, max_error_y, error_input, error, reachable, suggestion, redesign, outputs, root
-        The attributes below. Users receive a design from :func:`loopsolve.freudenstein`; they
-        need not construct one.
+    K, lengths, offsets, fit, precision, input_range, output_range
+        The design asked for and found (see Attributes).
+    mechanism, mode, grashof, defects
+        Its model and the tracker's verdict.
+    max_error, max_error_y, error_input, error, reachable, suggestion, redesign, outputs, root
+        Its structural error and what to do about it.
 
     Attributes
     ----------

@@ -71,11 +71,16 @@ class EomGroup:
 class DynamicsDerivation:
     """The symbolic equation of motion of a one-degree-of-freedom mechanism (:func:`derive_dynamics`).
 
+    Users receive a derivation from :func:`loopsolve.derive_dynamics`; they need not construct one.
+
     Parameters
     ----------
-    mechanism, kinematics, input, input_kind, x, xdot, first, second, M, dM, Q, compact, coefficients, values, units, meaning, latex_names, groups, mass, inertia, length_scale, point_coefficients, spring_lengths
-        The attributes below. Users receive a derivation from :func:`loopsolve.derive_dynamics`;
-        they need not construct one.
+    mechanism, kinematics, input, input_kind, x, xdot, first, second
+        What was derived, and its symbols (see Attributes).
+    M, dM, Q, compact, coefficients, values, units, meaning, latex_names, groups
+        The equation of motion and how it is printed.
+    mass, inertia, length_scale, point_coefficients, spring_lengths
+        The named constants and coefficients.
 
     Attributes
     ----------

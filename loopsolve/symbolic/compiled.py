@@ -485,11 +485,15 @@ class CompiledKinematics:
     Built by :func:`compile_mechanism`; immutable. Index arrays map names to positions in
     ``z`` (all variables), and the ``*_v`` methods take ``(k, N)`` arrays for N points at once.
 
+    Users receive compiled kinematics from :func:`loopsolve.compile_mechanism`
+    (``mech.compile()``); they need not construct them.
+
     Parameters
     ----------
-    mechanism, module, variables, kinds, inputs, unknowns, input_idx, unknown_idx, blocks, points, vectors, sliding, p, scale
-        The attributes below. Users receive compiled kinematics from
-        :func:`loopsolve.compile_mechanism` (``mech.compile()``); they need not construct one.
+    mechanism, module, variables, kinds, inputs, unknowns, input_idx, unknown_idx
+        The mechanism, its generated code and its variables (see Attributes).
+    blocks, points, vectors, sliding, p, scale
+        The solve order, the outputs, the parameter values and the length scale.
 
     Attributes
     ----------

@@ -32,11 +32,17 @@ _INVERSE = {"asin": sp.asin, "acos": sp.acos, "atan": sp.atan}
 class Kinematics:
     """Everything derived for one choice of inputs.
 
+    Users receive a derivation from :func:`loopsolve.derive` (``mech.derive()``); they need
+    not construct one.
+
     Parameters
     ----------
-    name, units, variables, kinds, inputs, unknowns, z, z1, z2, z3, params, param_names, param_values, param_kinds, loop_names, loop_vectors, phi, jac, jac_inputs, rhs, points, vectors, vector_xy, equation_names
-        The attributes below. Users receive a derivation from :func:`loopsolve.derive`
-        (``mech.derive()``); they need not construct one.
+    name, units, variables, kinds, inputs, unknowns, z, z1, z2, z3
+        The mechanism's name, units and joint variables (see Attributes).
+    params, param_names, param_values, param_kinds
+        Its parameters.
+    loop_names, loop_vectors, phi, jac, jac_inputs, rhs, points, vectors, vector_xy, equation_names
+        The derived expressions.
 
     Attributes
     ----------
