@@ -423,7 +423,7 @@ class LoopsolveWarning(UserWarning):
 
     A ``UserWarning``: a sweep that stops at a limit position, guesses on a singular
     configuration, a power balance off by more than round-off... Filter them with the
-    :mod:`warnings` module.
+    ``warnings`` module.
 
     Parameters
     ----------
