@@ -7,6 +7,7 @@ in the changelog of the release.
 
 from __future__ import annotations
 
+import enum
 import inspect
 import re
 import subprocess
@@ -115,6 +116,71 @@ def test_each_public_function_has_its_pinned_signature_and_documents_it(name):
         section = doc.split("Parameters\n----------", 1)[1].split("\n\n", 1)[0] + doc
         for p in _public(inspect.signature(fn)).parameters.values():
             assert p.name in section, f"{name}: parameter {p.name} is not documented"
+        params = re.split(r"\n\S[^\n]*\n-{3,}\n", doc.split("Parameters\n----------", 1)[1])[0]
+        _each_entry_names_parameters(name, params)
+
+
+#: the result types users receive and do not construct: numpydoc "Attributes" (what they read) besides
+#: "Parameters" (the constructor)
+RECEIVED = sorted("""
+Atlas BurmesterCurves BurmesterResult CompiledKinematics DynamicsDerivation Event EventKind Flywheel ForceSweep
+FunctionDesign Kinematics Mode Page ShapeResult Simulation State Sweep SynthesisResult
+""".split())
+
+PUBLIC_CLASSES = sorted(n for n in NAMES if inspect.isclass(getattr(ls, n, None)))
+
+
+def _sections(doc):
+    """numpydoc section titles of a docstring (a title line underlined by as many dashes)."""
+    lines = doc.splitlines()
+    return {a for a, b in zip(lines, lines[1:]) if a.strip() and b.strip() and set(b.strip()) == {"-"}
+            and len(b.strip()) == len(a.strip())}
+
+
+def test_every_public_class_and_function_is_in_the_documentation_pins():
+    functions = {n for n in NAMES if inspect.isfunction(getattr(ls, n))}
+    assert functions == set(SIGNATURES)
+    assert set(RECEIVED) <= set(PUBLIC_CLASSES)
+
+
+@pytest.mark.parametrize("name", PUBLIC_CLASSES)
+def test_each_public_class_documents_its_constructor_and_shows_an_example(name):
+    """A user reads ``help(ls.X)``: what X is built from (Parameters, every public constructor argument
+    named), for a result type what it holds (Attributes), and an example that the doctests run."""
+    cls = getattr(ls, name)
+    doc = inspect.getdoc(cls)
+    sections = _sections(doc)
+    assert "Examples" in sections and ">>> " in doc.split("Examples\n--------", 1)[1], f"{name}: no Examples section"
+    assert "Parameters" in sections, f"{name}: no Parameters section"
+    if name in RECEIVED:
+        assert "Attributes" in sections, f"{name}: a result type lists what it holds under Attributes"
+    assert sections <= {"Parameters", "Attributes", "Returns", "Raises", "Warns", "See Also", "Notes",
+                        "References", "Examples", "Methods"}, f"{name}: not a numpydoc section: {sections}"
+    params = doc.split("Parameters\n----------", 1)[1]
+    params = re.split(r"\n\S[^\n]*\n-{3,}\n", params, maxsplit=1)[0]
+    if issubclass(cls, BaseException):
+        assert re.search(r"^message : str", params, re.M), f"{name}: the message is not documented"
+    if issubclass(cls, enum.Enum):  # EventKind("limit"): the value is its one argument
+        names = ["value"]
+    else:
+        try:
+            sig = _public(inspect.signature(cls))
+        except ValueError:  # the builtin Exception's constructor (*args): the message, checked above
+            assert issubclass(cls, BaseException), name
+            sig = inspect.Signature()
+        names = [p.name for p in sig.parameters.values() if p.kind not in (p.VAR_POSITIONAL, p.VAR_KEYWORD)]
+    for p in names:
+        assert re.search(rf"^(\S.*[ ,])?{p}\b[^\n]*$", params, re.M), \
+            f"{name}: constructor parameter {p} is not in the Parameters section"
+    _each_entry_names_parameters(name, params)
+
+
+def _each_entry_names_parameters(name, section):
+    """numpydoc reads every unindented line of a Parameters section as ``name[, name...] [: type]``: a
+    paragraph of prose there would be shown as a parameter (prose goes above the section)."""
+    for line in section.strip("\n").splitlines():
+        if line and not line[0].isspace():
+            assert re.fullmatch(r"\*{0,2}\w+(, \*{0,2}\w+)*( : .+)?", line), f"{name}: not a parameter entry: {line!r}"
 
 
 def test_no_public_function_hides_its_keywords_behind_kwargs():

@@ -46,9 +46,49 @@ DEFAULT_CHUNK = 2048
 class Atlas:
     """An atlas in memory (see the module docstring); open one with :func:`open_atlas`.
 
-    Attributes: ``path``, ``meta`` (the store's description), ``mechanism`` (the atlas' model),
-    ``point``, ``names``, ``lo``, ``hi``, and the per-entry arrays of
-    :mod:`loopsolve.design.atlasstore` (``params``, ``status``, ``crank``, ``curve``, ...).
+    Users receive atlases from :func:`loopsolve.build_atlas` and :func:`loopsolve.open_atlas`; they
+    need not construct one.
+
+    Parameters
+    ----------
+    path : str or pathlib.Path or None
+        The zarr store it was read from (None for an atlas built in memory).
+    meta : dict
+        The store's description: the model, the point, the varied parameters and their box, the
+        size and chunk.
+    arrays : dict
+        The per-entry arrays by name (``params``, ``status``, ``crank``, ``curve``, ...).
+
+    Attributes
+    ----------
+    path, meta, arrays
+        As the parameters of the same names.
+    mechanism : Mechanism
+        The atlas' model.
+    point : str
+        The traced point.
+    names : tuple of str
+        The varied parameters.
+    lo, hi : numpy.ndarray
+        The box of the varied parameters (model units).
+    size : int
+        The number of entries.
+    present : numpy.ndarray
+        True for the entries computed so far.
+    params, status, crank, curve
+        The per-entry arrays of :mod:`loopsolve.design.atlasstore`, read as attributes: the
+        varied values (model units), the entry's status, whether the input is a crank, the traced
+        curve's samples.
+
+    Examples
+    --------
+    >>> import loopsolve as ls
+    >>> mech = ls.load(ls.models_dir() / "fourbar_path_synthesis.toml")
+    >>> atlas = ls.build_atlas(mech, point="P", vary={"r2": (0.5, 2)}, size=16, chunk=16, progress=False)
+    >>> atlas.point, atlas.names, atlas.size, atlas.params.shape
+    ('P', ('r2',), 16, (16, 1))
+    >>> float(atlas.lo[0]), float(atlas.hi[0]), bool(atlas.present.all())
+    (0.5, 2.0, True)
     """
 
     def __init__(self, path, meta, arrays):

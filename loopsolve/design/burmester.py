@@ -170,6 +170,30 @@ class BurmesterCurves:
     ``center[i]`` (a ground pivot) goes with ``circle[i]`` (the coupler pin in the first pose,
     world coordinates) and ``circle_moving[i]`` (the same pin in the coupler's frame, from P).
     Rows of NaN separate the pieces of the curves.
+
+    Users receive the curves from :func:`loopsolve.burmester_curves`; they need not construct them.
+
+    Parameters
+    ----------
+    center, circle, circle_moving : numpy.ndarray
+        ``(N, 2)`` polylines: ground pivots, coupler pins in the first pose (world coordinates),
+        the same pins in the coupler's frame (from P); model length unit.
+    poles : numpy.ndarray
+        ``(K, 2)``: the finite poles P12, P13, P14, P23, P24, P34 of the four poses (K ≤ 6).
+
+    Attributes
+    ----------
+    center, circle, circle_moving, poles
+        As the parameters of the same names.
+
+    Examples
+    --------
+    >>> import loopsolve as ls
+    >>> mech = ls.fourbar(60, 25, 70, 45)
+    >>> poses = [(s["C_x"], s["C_y"], s["theta3"]) for s in (mech.solve(a) for a in (20, 70, 120, 170))]
+    >>> curves = ls.burmester_curves(poses)
+    >>> curves.center.shape[1], curves.poles.shape
+    (2, (6, 2))
     """
 
     center: np.ndarray = field(repr=False)
@@ -363,7 +387,38 @@ class FourBarCandidate:
 
 @dataclass(frozen=True)
 class BurmesterResult:
-    """Five-pose Burmester synthesis: the dyads (Ball–Burmester points) and every four-bar."""
+    """Five-pose Burmester synthesis: the dyads (Ball–Burmester points) and every four-bar.
+
+    Users receive a result from :func:`loopsolve.burmester`; they need not construct one.
+
+    Parameters
+    ----------
+    poses : numpy.ndarray
+        The five poses ``(x, y, angle)`` (model length unit, degrees).
+    dyads : tuple of Dyad
+        The Ball–Burmester dyads: a ground pivot ``center``, a coupler pin ``circle`` (coupler
+        frame, from P) and their ``radius``.
+    candidates : tuple of FourBarCandidate
+        Every four-bar made of two dyads, with its certificate.
+
+    Attributes
+    ----------
+    poses, dyads, candidates
+        As the parameters of the same names.
+    usable : tuple of FourBarCandidate
+        The candidates without defects (certified by the tracker).
+
+    Examples
+    --------
+    Five poses of the coupler of a four-bar; Burmester finds that four-bar among others:
+
+    >>> import loopsolve as ls
+    >>> mech = ls.fourbar(60, 25, 70, 45)
+    >>> poses = [(s["C_x"], s["C_y"], s["theta3"]) for s in (mech.solve(a) for a in (20, 70, 120, 170, 220))]
+    >>> res = ls.burmester(poses)
+    >>> len(res.dyads), len(res.candidates), len(res.usable)
+    (4, 6, 4)
+    """
 
     poses: np.ndarray = field(repr=False)
     dyads: tuple[Dyad, ...]

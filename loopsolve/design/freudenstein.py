@@ -155,6 +155,67 @@ class FunctionDesign:
     ``max_error_y`` the same in the function's units (``max_error`` times the function units per
     output degree); ``error_input``/``error`` the curve it comes from (input angle, signed error
     design − wanted, degrees).
+
+    Users receive a design from :func:`loopsolve.freudenstein`; they need not construct one.
+
+    Parameters
+    ----------
+    K, lengths, offsets, fit, precision, input_range, output_range
+        The design asked for and found (see Attributes).
+    mechanism, mode, grashof, defects
+        Its model and the tracker's verdict.
+    max_error, max_error_y, error_input, error, reachable, suggestion, redesign, outputs, root
+        Its structural error and what to do about it.
+
+    Attributes
+    ----------
+    K : tuple of float
+        Freudenstein's constants (K1, K2, K3) for the angles θ2 + α, θ4 + β.
+    lengths : tuple of float
+        r1 (ground), r2 (input), r3 (coupler), r4 (output), positive, in the model's length unit.
+    offsets : tuple of float
+        α and β (degrees): the input and output links' angles are θ2 + α, θ4 + β.
+    fit : str
+        ``"exact"`` (three precision points) or ``"least-squares"``.
+    precision : tuple of tuple of float
+        The wanted ``(x, y, input angle, output angle)`` of each precision point.
+    input_range, output_range : tuple of float
+        The intended input and output angle ranges (degrees).
+    mechanism : Mechanism
+        The model (input ``theta2``, output ``theta4``), its guesses at the first precision point.
+    mode : str
+        The assembly mode that passes through the first precision point.
+    grashof : GrashofClass
+        The linkage's Grashof class (crank-rocker, triple rocker...).
+    defects : tuple of Defect
+        Empty means certified; each names a defect (``kind``, ``message``, ``input``).
+    max_error : float
+        The largest ``|θ4 − θ4_desired|`` over the reachable part of the input range (degrees).
+    max_error_y : float
+        The same in the function's units.
+    error_input, error : numpy.ndarray
+        The error curve: input angle and signed error design − wanted (degrees).
+    reachable : tuple of float or None
+        The reachable part of the input range (degrees), when it is not the whole range.
+    suggestion : str
+        A hint for a better design, when there are defects.
+    redesign : callable or None
+        Re-runs the design with changed options.
+    outputs : tuple
+        The linkage's output angle at each precision point's input (degrees; None where it cannot
+        be assembled).
+    root : int
+        The sign of the closed-form output the design follows.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import loopsolve as ls
+    >>> d = ls.freudenstein(np.log10, (1, 10), (45, 105), (135, 225))
+    >>> [round(r, 2) for r in d.lengths], d.mode, d.grashof.name
+    ([100.0, 49.93, 220.18, 143.14], '-', 'TRIPLE_ROCKER')
+    >>> [x.kind for x in d.defects], round(d.max_error, 2)
+    (['range'], 5.68)
     """
 
     K: tuple[float, float, float]

@@ -524,9 +524,47 @@ def _candidate(problem, frame, atlas, xy, closed, p, match, transmission, deg, l
 class ShapeResult:
     """The certified designs of a shape synthesis, best first.
 
-    Attributes: ``mechanism`` (the best design in the target's coordinates), ``objective``,
-    ``report`` (the contract's dict), ``candidates`` (one dict per design, best first, with its
-    ``mechanism``), ``targets`` (the curve ``(T, 2)``), ``closed``.
+    Users receive one from ``ls.synthesize(mech, shape=..., atlas=...)``; they need not construct
+    one. ``to_toml(k)``, ``plot()`` and ``view()`` write, draw and show the candidates.
+
+    Parameters
+    ----------
+    report : dict
+        The synthesis contract's report (``objective``, ``candidates``, ``shape_error``...).
+    candidates : list of dict
+        One dict per certified design, best first, each with its ``mechanism``.
+    targets : numpy.ndarray
+        The target curve ``(T, 2)`` (the target's coordinates).
+    closed : bool
+        Whether the target curve is closed (a full turn of the crank).
+    problem : object
+        The shape-synthesis problem.
+
+    Attributes
+    ----------
+    mechanism : Mechanism
+        The best design, placed in the target's coordinates.
+    objective : float
+        The best design's objective (squared shape error, model length unit squared).
+    report, candidates, targets, closed, problem
+        As the parameters of the same names.
+
+    Examples
+    --------
+    The coupler curve of the model's own four-bar, found again from a small atlas (the search takes
+    a few seconds, so it is not run here):
+
+    >>> import numpy as np
+    >>> import loopsolve as ls
+    >>> mech = ls.load(ls.models_dir() / "fourbar_path_synthesis.toml")
+    >>> atlas = ls.build_atlas(mech, point="P", vary={"r2": (0.5, 2)}, size=16, chunk=16,
+    ...                        progress=False)  # doctest: +SKIP
+    >>> sw = mech.sweep(0, 360, 10)
+    >>> curve = np.column_stack([sw["P_x"], sw["P_y"]])
+    >>> res = ls.synthesize(mech, shape="P", targets=curve, atlas=atlas, top=1,
+    ...                     progress=False)  # doctest: +SKIP
+    >>> res.closed, res.targets.shape, round(res.report["parameters"]["r2"], 6)  # doctest: +SKIP
+    (True, (36, 2), 1.0)
     """
 
     def __init__(self, report, candidates, targets, closed, problem):

@@ -31,9 +31,53 @@ __all__ = ["synthesize", "SynthesisResult"]
 class SynthesisResult:
     """The certified best design of a synthesis.
 
-    Attributes: ``mechanism`` (the model with the found values; its guesses are the pose at
-    the first target, so they name its mode), ``objective``, ``report`` (the contract's dict),
-    ``problem``, ``values`` (model units), ``inputs`` (internal), ``positions`` ``(nv, T)``.
+    Users receive one from :func:`loopsolve.synthesize` (general method); they need not construct
+    one. ``to_toml()`` writes the design as a model file, ``plot()`` draws it over the targets.
+
+    Parameters
+    ----------
+    problem : object
+        The synthesis problem (the model, the targets, the varied parameters).
+    mechanism : Mechanism
+        The model with the found values.
+    report : dict
+        The synthesis contract's report (``objective``, ``parameters``, ``certificate``,
+        ``targets``, ``runs``...).
+    values : numpy.ndarray
+        The varied parameters' values (model units), in the order of ``vary``.
+    inputs : numpy.ndarray
+        The input at each target (internal units: radians or the model's length unit).
+    positions : numpy.ndarray
+        ``(nv, T)``: every variable at each target (internal units).
+
+    Attributes
+    ----------
+    mechanism : Mechanism
+        The model with the found values; its guesses are the pose at the first target, so they
+        name its mode.
+    objective : float
+        The objective reached: the sum of squared target errors (the report's units: squared
+        model length unit for a path, radians squared for a function).
+    report : dict
+        As the parameter.
+    problem, values, inputs, positions
+        As the parameters of the same names.
+
+    Examples
+    --------
+    The coupler point of the model's own four-bar at three crank angles; find the crank length
+    and the coupler point again:
+
+    >>> import loopsolve as ls
+    >>> mech = ls.load(ls.models_dir() / "fourbar_path_synthesis.toml")
+    >>> targets = {"x": [1.247635, 1.125070, 0.759129], "y": [2.261923, 2.556968, 2.635152]}
+    >>> res = ls.synthesize(mech, path="P", targets=targets, inputs=[30, 60, 90],
+    ...                     vary={"r2": (0.5, 2), "rcx": (0, 3)}, popsize=5, maxiter=5,
+    ...                     mode="guesses", polish_candidates=1, progress=False)
+    >>> [round(float(v), 3) for v in res.values], res.objective < 1e-9, res.positions.shape
+    ([1.0, 1.5], True, (3, 3))
+    >>> res.report["certificate"]["defects"]
+    []
     """
 
     def __init__(self, problem, mechanism, report, values, inputs, positions):

@@ -71,6 +71,17 @@ class EomGroup:
 class DynamicsDerivation:
     """The symbolic equation of motion of a one-degree-of-freedom mechanism (:func:`derive_dynamics`).
 
+    Users receive a derivation from :func:`loopsolve.derive_dynamics`; they need not construct one.
+
+    Parameters
+    ----------
+    mechanism, kinematics, input, input_kind, x, xdot, first, second
+        What was derived, and its symbols (see Attributes).
+    M, dM, Q, compact, coefficients, values, units, meaning, latex_names, groups
+        The equation of motion and how it is printed.
+    mass, inertia, length_scale, point_coefficients, spring_lengths
+        The named constants and coefficients.
+
     Attributes
     ----------
     M, dM, Q : sympy.Expr
@@ -101,6 +112,21 @@ class DynamicsDerivation:
         λ, the symbol of the model's length unit in metres (the number 1 in a metre model).
     point_coefficients, spring_lengths : dict
         point name → its named coefficients (x′, y′, x″, y″); spring/damper ends → (L, L′).
+    mechanism : Mechanism
+        The mechanism derived.
+    kinematics : Kinematics
+        Its kinematic derivation (the positions ``kinematics.z`` the expressions use).
+    first, second : tuple of sympy.Symbol
+        The kinematic coefficients q′ and q″ of the unknowns.
+
+    Examples
+    --------
+    >>> import loopsolve as ls
+    >>> dyn = ls.derive_dynamics(ls.load(ls.models_dir() / "thesis_crank_rocker_dynamics.toml"))
+    >>> dyn.input, sorted(dyn.mass)
+    ('theta2', ['coupler', 'crank', 'rocker'])
+    >>> dyn.M.has(dyn.xdot), sorted(dyn.compact)  # M(x) depends on the position only
+    (False, ['M', 'Q', 'dM'])
     """
 
     mechanism: Mechanism

@@ -28,9 +28,35 @@ __all__ = ["ForceSweep", "Flywheel", "force_units"]
 class Flywheel:
     """Flywheel sizing from the driving-torque curve over one cycle at constant mean speed.
 
-    ``mean_torque`` (N·m), ``energy_fluctuation`` ΔE (J, the largest swing of ∫(T − T_mean) dθ),
-    ``inertia`` = ΔE / (C_s ω²) (kg·m²), ``speed`` ω (rad/s), ``cs`` the coefficient of speed
-    fluctuation; ``at_max``/``at_min`` the inputs (display units) of the largest and smallest energy.
+    Users receive one from ``ForceSweep.flywheel(cs)``; they need not construct one.
+
+    Parameters
+    ----------
+    mean_torque, energy_fluctuation, inertia, speed, cs, at_max, at_min : float
+        The attributes below, in this order.
+
+    Attributes
+    ----------
+    mean_torque : float
+        The mean driving torque over the cycle (N·m).
+    energy_fluctuation : float
+        ΔE, the largest swing of ∫(T − T_mean) dθ over the cycle (J).
+    inertia : float
+        The flywheel inertia ΔE / (C_s ω²) that keeps the speed within ``cs`` (kg·m²).
+    speed : float
+        ω, the mean speed (rad/s).
+    cs : float
+        The coefficient of speed fluctuation (ω_max − ω_min) / ω asked for.
+    at_max, at_min : float
+        The inputs (display units) of the largest and the smallest energy.
+
+    Examples
+    --------
+    >>> import loopsolve as ls
+    >>> mech = ls.load(ls.models_dir() / "thesis_crank_rocker_dynamics.toml")
+    >>> fw = ls.forces(mech, 0, 360, 2, speed="300rpm").flywheel(0.02)
+    >>> round(fw.energy_fluctuation, 4), round(fw.inertia, 6), round(fw.speed, 4)
+    (0.0674, 0.003417, 31.4159)
     """
 
     mean_torque: float
@@ -75,15 +101,63 @@ def force_units(drive_name: str, columns) -> dict[str, str]:
 class ForceSweep:
     """Force analysis along a sweep (or at one input: a one-row sweep). Immutable.
 
-    Attributes: ``sweep`` (the kinematic :class:`~loopsolve.kinematics.results.Sweep`), ``drive`` (N·m or N),
-    ``joint_forces`` {``F_<joint>``: (N, 2)}, ``guide_reactions`` {``<body>_guide``: (N, 3): force x,
-    y and couple}, ``contact_forces`` {``F_<pair>``: (N, 3): the force along the gear's line of
-    action (cam: along the normal; slot: the normal reaction), x and y on the pair's first body}, ``shaking_force`` (N, 2), ``shaking_moment``, ``kinetic_energy``,
-    ``potential_energy``, ``power_residual`` (W) — arrays over the rows, or for a result at one
-    input (``ls.forces(mech, 30)``: ``scalar`` is True) scalars and ``(2,)`` vectors, as
-    :class:`~loopsolve.kinematics.results.State` gives; ``units()`` names every unit; ``singular`` (bool: the Newton–Euler system is
-    singular there, the forces are NaN), ``condition`` (the condition number of the Newton–Euler
-    system per row: large near a dead centre, where a warning is issued), ``events``.
+    Users receive force results from :func:`loopsolve.forces` (``mech.forces``); they need not
+    construct one. The arrays run over the rows of the sweep; for a result at one input
+    (``ls.forces(mech, 30)``: ``scalar`` is True) they are scalars and ``(2,)`` vectors, as
+    :class:`State` gives. :meth:`units` names every unit.
+
+    Parameters
+    ----------
+    sweep : Sweep
+        The kinematic sweep the forces belong to.
+    data : dict
+        The computed arrays, by attribute name (see Attributes).
+    scalar : bool, optional
+        True for a result at one input: the attributes are then scalars and ``(2,)`` vectors.
+
+    Attributes
+    ----------
+    sweep : Sweep
+        The kinematic sweep.
+    drive : numpy.ndarray
+        The driving torque (N·m) or force (N) per row.
+    joint_forces : dict
+        ``F_<joint>`` → ``(N, 2)`` force (N, x and y) the joint transmits.
+    guide_reactions : dict
+        ``<body>_guide`` → ``(N, 3)``: the guide's force x, y (N) and couple (N·m).
+    contact_forces : dict
+        ``F_<pair>`` → ``(N, 3)``: the force along the gear's line of action (cam: along the
+        normal; slot: the normal reaction), x and y on the pair's first body (N).
+    shaking_force : numpy.ndarray
+        ``(N, 2)`` force on the ground frame (N).
+    shaking_moment : numpy.ndarray
+        Moment on the ground frame (N·m).
+    kinetic_energy, potential_energy : numpy.ndarray
+        Energies (J).
+    power_residual : numpy.ndarray
+        Driving power − (dE/dt − loads' power) (W): round-off for consistent declarations.
+    singular : numpy.ndarray
+        True where the Newton–Euler system is singular (the forces are NaN there).
+    condition : numpy.ndarray
+        Condition number of the Newton–Euler system per row (large near a dead centre, where a
+        warning is issued).
+    events : tuple of Event
+        The sweep's events (and self-locking positions with friction).
+    scalar : bool
+        True for a result at one input.
+
+    Examples
+    --------
+    >>> import loopsolve as ls
+    >>> mech = ls.load(ls.models_dir() / "thesis_crank_rocker_dynamics.toml")
+    >>> fs = ls.forces(mech, 0, 360, 90, speed="60rpm")
+    >>> [round(float(t), 3) for t in fs.drive], fs.units()["drive"]
+    ([-0.036, 0.03, 0.011, -0.013, -0.036], 'N*m')
+    >>> list(fs.joint_forces), fs.joint_forces["F_B"].shape
+    (['F_O2', 'F_B', 'F_C', 'F_O4'], (5, 2))
+    >>> one = ls.forces(mech, 30, speed="60rpm")
+    >>> one.scalar, round(float(one.drive), 4)
+    (True, 0.0133)
     """
 
     __slots__ = ("sweep", "drive", "drive_name", "joint_forces", "guide_reactions", "contact_forces", "power_lost",

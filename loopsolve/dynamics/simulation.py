@@ -32,12 +32,49 @@ __all__ = ["Simulation", "simulate", "equation_of_motion_rhs", "NonFiniteError",
 class Simulation:
     """Rows of a simulation at ``t`` = 0, step, 2·step, … in the units the CLI prints.
 
-    ``x``, ``xd``, ``xdd``: the input (continuous, not wrapped) in the model's units (degrees in a
-    degree model, the model's length unit for a slider: ``mech.solve(sim.x[i])`` is the pose of row
-    i), its speed and acceleration (rad/s, rad/s² or length unit/s, /s²); ``z`` ``(N, nvar)`` the
-    poses in internal units (radians, as ``Sweep.z``); ``kinetic_energy``, ``potential_energy`` (J);
-    ``modes``; ``events`` (a limit reached stops the integration); ``message`` from the integrator.
-    :meth:`units` names the unit of every column and of ``t``, ``x``, ``xd``, ``xdd``.
+    Users receive one from :func:`loopsolve.simulate` (``mech.simulate``); they need not construct
+    one. :meth:`units` names the unit of every column and of ``t``, ``x``, ``xd``, ``xdd``.
+
+    Parameters
+    ----------
+    compiled : CompiledKinematics
+        The compiled mechanism simulated.
+    t, x, xd, xdd, z, kinetic_energy, potential_energy : numpy.ndarray
+        The attributes below.
+    modes, events : tuple, optional
+        The assembly mode per row and the events.
+    message : str, optional
+        The integrator's message.
+
+    Attributes
+    ----------
+    t : numpy.ndarray
+        Times (s).
+    x : numpy.ndarray
+        The input, continuous (not wrapped), in the model's units: degrees in a degree model, the
+        model's length unit for a slider (``mech.solve(sim.x[i])`` is the pose of row i).
+    xd, xdd : numpy.ndarray
+        The input's speed and acceleration (rad/s, rad/s², or length unit/s, /s²).
+    z : numpy.ndarray
+        ``(N, nvar)`` the poses in internal units (radians, as ``Sweep.z``).
+    kinetic_energy, potential_energy : numpy.ndarray
+        Energies (J).
+    modes : tuple
+        The assembly mode at every row.
+    events : tuple of Event
+        A limit reached stops the integration.
+    message : str
+        The integrator's message.
+    compiled : CompiledKinematics
+        The compiled mechanism.
+
+    Examples
+    --------
+    >>> import loopsolve as ls
+    >>> mech = ls.load(ls.models_dir() / "thesis_crank_rocker_dynamics.toml")
+    >>> sim = ls.simulate(mech, 0.1, step=0.05, speed0="60rpm")
+    >>> [float(t) for t in sim.t], round(float(sim.xd[0]), 4), sim.units()["xd"]
+    ([0.0, 0.05, 0.1], 6.2832, 'rad/s')
     """
 
     compiled: object = field(repr=False)

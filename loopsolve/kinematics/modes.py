@@ -62,6 +62,28 @@ class Mode:
     it (``("open",)``), ``positions`` every variable in display units (unknown angles wrapped to
     (−180°, 180°]) and ``z`` all variables in internal units (declaration order).
 
+    Users receive modes from ``mech.modes(at)``; they need not construct one.
+
+    Parameters
+    ----------
+    signature : str
+        The mode's name: one sign per block of the solve order (``"+"``, ``"-+"``...).
+    aliases : tuple of str
+        The model's names for it (``("open",)``).
+    positions : dict
+        Every variable → its value in display units (unknown angles wrapped to (−180°, 180°]).
+    z : numpy.ndarray
+        All variables in internal units (declaration order).
+    residual : float, optional
+        The loop-closure residual of the solution (model length unit).
+    units : dict, optional
+        Every variable → its display unit.
+
+    Attributes
+    ----------
+    signature, aliases, positions, z, residual, units
+        As the parameters of the same names.
+
     Examples
     --------
     >>> m = ls.fourbar(60, 25, 70, 45).modes(90)[1]

@@ -37,6 +37,29 @@ class Newton:
 
     ``atol`` is relative to the system's length scale (the residual of a loop is a length);
     ``rtol`` bounds the final step relative to ``1 + |x|``.
+
+    Parameters
+    ----------
+    atol : float, optional
+        Absolute tolerance on the loop-closure residual, relative to the system's length scale
+        (the residual of a loop is a length); default 1e-12.
+    rtol : float, optional
+        Bound on the final Newton step relative to ``1 + |x|``; default 1e-12.
+    max_iter : int, optional
+        Iterations allowed; default 60.
+    stall_tol : float, optional
+        A residual that stops decreasing above this (relative to the length scale) is a stall:
+        the loops have no real solution there (an :class:`AssemblyError`); default 1e-9.
+
+    Examples
+    --------
+    >>> import loopsolve as ls
+    >>> mech = ls.load(ls.models_dir() / "thesis_crank_rocker.toml")
+    >>> loose = ls.Newton(atol=1e-8, max_iter=20)
+    >>> round(ls.solve(mech, 90, settings=loose)["theta4"], 4)
+    80.7225
+    >>> loose.max_iter, ls.Newton().atol
+    (20, 1e-12)
     """
 
     atol: float = 1e-12

@@ -29,7 +29,38 @@ _RATE_KINDS = {
 
 
 class EventKind(enum.Enum):
-    """What happened along a sweep (values are the contract's ``kind`` strings)."""
+    """What happened along a sweep (values are the contract's ``kind`` strings).
+
+    Parameters
+    ----------
+    value : str
+        The event's ``kind`` string of the output contract (``"limit"``, ``"singular"``,
+        ``"not-assemblable"``, ``"mode-change"``, ``"self-locking"``): ``EventKind("limit")`` is
+        ``EventKind.LIMIT``. Users receive these in ``Event.kind`` of ``sweep.events``.
+
+    Attributes
+    ----------
+    LIMIT : EventKind
+        A limit position (toggle, fold): the input cannot go further in this mode.
+    SINGULAR : EventKind
+        A singular position (dead centre, change point) where the rates are undefined.
+    NOT_ASSEMBLABLE : EventKind
+        The mechanism cannot be assembled over part of the range.
+    MODE_CHANGE : EventKind
+        The assembly mode changes (through a limit, with ``through_limits=True``).
+    SELF_LOCKING : EventKind
+        A force analysis with friction: no driving force or torque can move the mechanism there.
+
+    Examples
+    --------
+    >>> import loopsolve as ls
+    >>> triple_rocker = ls.fourbar(60, 50, 40, 30, theta2=10)
+    >>> sw = ls.sweep(triple_rocker, 10, 360, 10, through_limits=True)
+    >>> [e.kind.value for e in sw.events]
+    ['limit', 'mode-change']
+    >>> ls.EventKind("limit") is ls.EventKind.LIMIT
+    True
+    """
 
     LIMIT = "limit"
     SINGULAR = "singular"
@@ -51,6 +82,11 @@ class Event:
         Where it happened, in the input's display unit.
     message : str
         What happened, in words.
+
+    Attributes
+    ----------
+    kind, input, message
+        As the parameters of the same names.
 
     Examples
     --------
@@ -218,8 +254,24 @@ class State:
     compiled : CompiledKinematics
         The compiled mechanism it belongs to.
     z, z1, z2, z3 : ndarray
-        Joint variables and their derivatives (internal units); the other fields are the
-        solver's figures. Made by :func:`loopsolve.solve`, not by hand.
+        Joint variables and their derivatives (internal units). Made by
+        :func:`loopsolve.solve`, not by hand.
+    points : ndarray
+        ``(4, P, 2)``: position, velocity, acceleration and jerk of every output point
+        (model length unit, per second...).
+    mode : str, optional
+        The assembly-mode signature of the solution.
+    residual, n_iter, cond : float, int, float, optional
+        The solver's figures: loop-closure residual (model length unit), Newton iterations,
+        condition number of Φ_q.
+    turns : tuple of int, optional
+        Whole turns of the unknown angles relative to their wrapped values, when a sweep
+        tracked them continuously.
+
+    Attributes
+    ----------
+    compiled, z, z1, z2, z3, points, mode, residual, n_iter, cond, turns
+        As the parameters of the same names.
 
     Examples
     --------
@@ -315,27 +367,63 @@ class State:
 class Sweep:
     """Results of a sweep: arrays per variable and output point, the events and the mode.
 
-    Immutable. ``z``, ``z1``, ``z2``, ``z3`` are ``(N, nvar)`` arrays (internal units, one row
-    per output point in the order traversed); ``modes`` the signature at every point,
-    ``residual``/``n_iter``/``cond`` the solver's figures. ``columns`` maps every column name
-    of the output contract to an array (display units, the angles of unknowns continuous along
-    the rows — the first in (−180°, 180°], see :attr:`turns`; plus a ``mode`` column of signatures when
-    the rows are not all in one mode, as through limits); ``states`` gives one :class:`State`
-    per point (built on first use); ``events`` lists limits, singular points, mode changes;
-    ``mode`` is the starting mode and ``method`` how the points were solved.
+    Immutable. Made by :func:`loopsolve.sweep` (``mech.sweep``); columns and units: the docs'
+    "Results". Index it by column name (``sw["theta4"]``, display units) or by row
+    (``sw.states[i]``, a :class:`State`).
 
-    Made by :func:`loopsolve.sweep` (``mech.sweep``); columns and units: the docs' "Results".
+    Users receive sweeps from :func:`loopsolve.sweep`; they need not construct one.
+    ``Sweep(compiled, states, events, mode)`` builds one from states, :meth:`from_arrays` from
+    arrays (what the sweeps do).
+
+    Parameters
+    ----------
+    compiled : CompiledKinematics
+        The compiled mechanism the rows belong to.
+    states : sequence of State, optional
+        One solved state per row, in the order traversed.
+    events : sequence of Event, optional
+        Limits, singular points, mode changes met along the way.
+    mode : str, optional
+        The assembly mode at the start (a signature such as ``"-"``).
+    method : str, optional
+        How the rows were solved (``"tracked"``, ``"closed-form"``...).
+
+    Attributes
+    ----------
+    z, z1, z2, z3 : numpy.ndarray
+        ``(N, nvar)`` positions, velocities, accelerations and jerks of every variable (internal
+        units: rad, rad/s, ... and the model's length unit), one row per output point in the order
+        traversed.
+    modes : numpy.ndarray
+        The assembly-mode signature at every row.
+    residual, n_iter, cond : numpy.ndarray
+        The solver's figures per row: loop-closure residual (model length unit), Newton
+        iterations, condition number of Φ_q.
+    columns : dict
+        Every column name of the output contract → array (display units; the angles of unknowns
+        continuous along the rows, the first in (−180°, 180°], see :attr:`turns`; plus a ``mode``
+        column of signatures when the rows are not all in one mode, as through limits).
+    states : tuple of State
+        One :class:`State` per row (built on first use).
+    events : tuple of Event
+        Limits, singular points, mode changes.
+    mode : str
+        The starting mode.
+    method : str
+        How the points were solved.
+    compiled : CompiledKinematics
+        The compiled mechanism.
 
     Examples
     --------
+    >>> import loopsolve as ls
     >>> sw = ls.load(ls.models_dir() / "thesis_crank_rocker.toml").sweep(0, 360, 90)
     >>> [round(float(v), 4) for v in sw["theta4"]]
     [58.4119, 80.7225, 124.6546, 125.9622, 58.4119]
     >>> sw.units()["theta4_vel"]
     'rad/s'
-
-    ``Sweep(compiled, states, events, mode)`` builds one from states;
-    :meth:`from_arrays` from arrays (what the sweeps do).
+    >>> len(sw), sw.mode, sw.z.shape
+    (5, '-', (5, 3))
     """
 
     __slots__ = ("compiled", "events", "mode", "method", "z", "z1", "z2", "z3", "modes", "residual", "n_iter",

@@ -21,6 +21,15 @@ __all__ = ["MechanismBuilder"]
 class MechanismBuilder:
     """Declare a mechanism from Python; :meth:`~MechanismBuilder.build` gives the same :class:`Mechanism` as a file.
 
+    Parameters
+    ----------
+    name : str, optional
+        The mechanism's name (default ``"mechanism"``).
+    length_unit : str, optional
+        Unit of every length of the declaration (default ``"mm"``).
+    angle_unit : str, optional
+        ``"deg"`` (default) or ``"rad"``: unit of the angles of the declaration.
+
     Examples
     --------
     >>> b = ls.MechanismBuilder("Four-bar", length_unit="mm", angle_unit="deg")

@@ -128,6 +128,29 @@ class Mechanism:
     stages (derive, compile, solve, sweep, export); nothing is ever written back onto the
     declaration.
 
+    The constructor takes already-validated parts: build a mechanism with :func:`loopsolve.load`,
+    :func:`loopsolve.loads`, :func:`loopsolve.build_mechanism` or :class:`MechanismBuilder`,
+    which validate a declaration and give these fields back as attributes of the same names.
+
+    Parameters
+    ----------
+    name : str
+        The mechanism's name.
+    units : Units
+        Length and angle units of the declaration.
+    parameters, variables, vectors, loops, points : tuple
+        The declared parameters, joint variables, vectors, vector loops and output points.
+    source : str, optional
+        The model file it came from.
+    spec : dict, optional
+        The validated declaration as a dict (what :func:`loopsolve.dumps` writes).
+    mode_aliases : dict, optional
+        Names of assembly modes (``{"open": "-"}``).
+    dynamics : Dynamics, optional
+        Bodies, masses and loads, when declared.
+    pairs : object, optional
+        Higher pairs (gears, cams, slots...), when declared.
+
     Examples
     --------
     >>> mech = ls.fourbar(r1=60, r2=25, r3=70, r4=45, name="thesis")

@@ -519,6 +519,20 @@ class Page:
 
     ``html`` is the whole document (:func:`~loopsolve.output.view.to_html`).
 
+    Parameters
+    ----------
+    html_text : str
+        The whole HTML document.
+    height : int, optional
+        Height of the inline frame in a notebook (pixels; default 760).
+
+    Attributes
+    ----------
+    html : str
+        The whole document (as :meth:`loopsolve.Sweep.to_html` gives).
+    height : int
+        As the parameter.
+
     Examples
     --------
     >>> sw = ls.load(ls.models_dir() / "thesis_crank_rocker.toml").sweep(0, 360, 30)

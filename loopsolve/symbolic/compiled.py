@@ -498,6 +498,53 @@ class CompiledKinematics:
 
     Built by :func:`compile_mechanism`; immutable. Index arrays map names to positions in
     ``z`` (all variables), and the ``*_v`` methods take ``(k, N)`` arrays for N points at once.
+
+    Users receive compiled kinematics from :func:`loopsolve.compile_mechanism`
+    (``mech.compile()``); they need not construct them.
+
+    Parameters
+    ----------
+    mechanism, module, variables, kinds, inputs, unknowns, input_idx, unknown_idx
+        The mechanism, its generated code and its variables (see Attributes).
+    blocks, points, vectors, sliding, p, scale
+        The solve order, the outputs, the parameter values and the length scale.
+
+    Attributes
+    ----------
+    mechanism : Mechanism
+        The declaration it was compiled from.
+    module : module
+        The generated numpy code (from the checked disk cache).
+    variables : tuple of str
+        Every joint variable, in declaration order: the columns of ``z``.
+    kinds : tuple of Kind
+        Angle or length, per variable.
+    inputs, unknowns : tuple of str
+        The driving inputs and the unknowns (the order of Φ_q's columns).
+    input_idx, unknown_idx : numpy.ndarray
+        Their positions in ``z``.
+    blocks : tuple of Block
+        The solve order: blocks of unknowns solved one after the other (one sign of a mode
+        signature each).
+    points, vectors : tuple of str
+        The output points and the vectors, by name.
+    sliding : tuple of str
+        The variables that are sliding lengths.
+    p : numpy.ndarray
+        The parameter values (internal units).
+    scale : float
+        The model's characteristic length (model length unit): tolerances and step sizes are
+        relative to it.
+
+    Examples
+    --------
+    >>> import loopsolve as ls
+    >>> mech = ls.load(ls.models_dir() / "thesis_crank_rocker.toml")
+    >>> ck = ls.compile_mechanism(mech)
+    >>> ck.inputs, ck.unknowns, ck.points, ck.scale
+    (('theta2',), ('theta3', 'theta4'), ('B', 'C'), 70.0)
+    >>> ck.jac(ls.solve(mech, 90).z).shape  # Φ_q: two loop rows x two unknowns
+    (2, 2)
     """
 
     mechanism: Mechanism

@@ -32,6 +32,18 @@ _INVERSE = {"asin": sp.asin, "acos": sp.acos, "atan": sp.atan}
 class Kinematics:
     """Everything derived for one choice of inputs.
 
+    Users receive a derivation from :func:`loopsolve.derive` (``mech.derive()``); they need
+    not construct one.
+
+    Parameters
+    ----------
+    name, units, variables, kinds, inputs, unknowns, z, z1, z2, z3
+        The mechanism's name, units and joint variables (see Attributes).
+    params, param_names, param_values, param_kinds
+        Its parameters.
+    loop_names, loop_vectors, phi, jac, jac_inputs, rhs, points, vectors, vector_xy, equation_names
+        The derived expressions.
+
     Attributes
     ----------
     variables, inputs, unknowns : tuple of str
@@ -51,6 +63,33 @@ class Kinematics:
         name → tuple of 2×1 matrices: position, velocity, acceleration, jerk.
     vectors : dict
         name → (length, angle [rad]) expressions (angle ``None`` for Cartesian vectors).
+    name : str
+        The mechanism's name.
+    units : Units
+        The model's units (length, angle).
+    kinds : tuple of Kind
+        Angle or length, per variable.
+    param_names, param_kinds : tuple
+        The parameters' names and kinds (same order as ``params``).
+    loop_names : tuple of str
+        The loops' names; ``loop_vectors`` the vectors (2×1 matrices) each loop sums.
+    jac_inputs : sympy.Matrix
+        Φ_x, the derivative of ``phi`` with respect to the inputs.
+    vector_xy : dict
+        name → the vector's (x, y) components as a 2×1 matrix.
+    equation_names : tuple of str
+        One name per row of ``phi`` (``loop1_x``...).
+
+    Examples
+    --------
+    >>> import loopsolve as ls
+    >>> k = ls.derive(ls.load(ls.models_dir() / "thesis_crank_rocker.toml"))
+    >>> k.unknowns, k.phi.shape
+    (('theta3', 'theta4'), (2, 1))
+    >>> k.jac
+    Matrix([
+    [-r3*sin(theta3),  r4*sin(theta4)],
+    [ r3*cos(theta3), -r4*cos(theta4)]])
     """
 
     name: str
