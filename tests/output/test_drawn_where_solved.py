@@ -146,10 +146,12 @@ def test_dxf_pins_and_points_are_the_solve_s_points(path, shifted, tmp_path_fact
     labels = {t for text in d["texts"] for t in text.split(", ")}
     for name, xy in pts.items():  # named (one name a place: a slider's pin names its block)
         assert any(math.dist(xy, pts[other]) <= TOL for other in labels & set(pts)), name
-    # every tracer that moves has its curve (the path over the default sweep), passing by the pose
+    # every tracer that moves has its curve (the path over the default sweep), passing by the pose; a
+    # point at rest at the pose may still move (a cam's follower in a dwell, or at the start of a rise
+    # where its velocity and acceleration vanish): it moves if any of its rates at the pose is nonzero
     curves = [verts for verts, _ in d["polys"].get("CURVES", [])]
     moving = [xy for name, xy in pts.items() if near_any(xy, dots) and not near_any(xy, pins)
-              and math.hypot(state[f"{name}_x_vel"], state[f"{name}_y_vel"]) > 0]
+              and any(math.hypot(state[f"{name}_x_{r}"], state[f"{name}_y_{r}"]) > 0 for r in ("vel", "acc", "jerk"))]
     assert len(curves) == len(moving)
     for xy in moving:
         assert any(_polyline_distance(xy, verts) < 1e-3 * state.compiled.scale for verts in curves), xy
