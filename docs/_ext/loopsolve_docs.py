@@ -42,7 +42,10 @@ EXTRA = DOCS / "_build" / ".loopsolve-extra"  # html_extra_path: the interactive
 GENERATED_STATIC = DOCS / "_static" / "generated"
 
 # per model: sweep options of the plot and the page (the default range and step otherwise)
-SWEEP = {"thesis_crank_rocker.toml": ["--from", "0", "--to", "360", "--step", "2"]}
+SWEEP = {"thesis_crank_rocker.toml": ["--from", "0", "--to", "360", "--step", "2"],
+         # the cycles of the geared models: five sun turns per crank turn, three input turns per coupler curve
+         "planetary_geared_crank.toml": ["--from", "0", "--to", "1800", "--step", "10"],
+         "geared_fivebar.toml": ["--from", "90", "--to", "1170", "--step", "5"]}
 STEP = "2"
 
 

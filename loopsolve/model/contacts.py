@@ -172,6 +172,8 @@ class _Placeable:
     def __init__(self, ctx):
         self.points = tuple(ctx.points.values())
         self.loops = tuple(ctx.loops)
+        self.vectors = tuple(ctx.vectors.values())
+        self.variables = tuple(ctx.variables.values())
 
 
 def parse_rolling(ctx) -> tuple[Rolling, ...]:

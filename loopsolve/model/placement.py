@@ -2,7 +2,10 @@
 
 A vector loop says how vectors add up, not where they are. The points of interest (sums of
 vectors from the origin) and the textbook convention that a loop starts at the origin, or at a
-vector another loop already placed, fix the ends of the vectors: that is what a drawing shows
+vector another loop already placed, fix the ends of the vectors (a constant vector in no loop, a frame
+vector such as ``r0 = { x = "x0", y = "y0" }``, is walked first wherever a point's sum names it: a sum
+is the same in any order, so ``"r2 + r0"`` places the crank at the frame as ``"r0 + r2"`` does, as
+the drawing's skeleton does): that is what a drawing shows
 (:mod:`loopsolve.output.geometry` places them the same way) and what the higher pairs need (a slot
 along a vector passes through its tail; a gear turns about a pivot of its link).
 
@@ -70,9 +73,10 @@ def placement(mech) -> Placement:
             placed.add(v)
         return cur
 
+    frame = _frame_vectors(mech)
     for p in mech.points:  # points are sums from the origin: they say where their vectors are
         if p.plain and p.terms:
-            chain("origin", p.terms)
+            chain("origin", sorted(p.terms, key=lambda t: t[1] not in frame))
     pending = list(mech.loops)
     while pending:
         pick = next((lp for lp in pending if any(v in placed for _, v in _walk(lp))), pending[0])
@@ -107,6 +111,19 @@ def placement(mech) -> Placement:
         if a in pos and b in pos:
             tail[v], head[v] = pos[a], pos[b]
     return Placement(tail, head)
+
+
+def _frame_vectors(mech) -> set:
+    """The constant vectors that are in no loop (they carry the frame: walked first in a point's sum)."""
+    variables = {v.name for v in mech.variables}
+    in_loops = {name for loop in mech.loops for _, name in loop.terms}
+    out = set()
+    for v in mech.vectors:
+        nodes = (v.x, v.y) if v.cartesian else (v.length, v.angle, v.offset)
+        used = set().union(*(_expr.names(n) for n in nodes if n is not None))
+        if not used & variables and v.name not in in_loops:
+            out.add(v.name)
+    return out
 
 
 def link_vectors(mech, angle: str) -> list[str]:

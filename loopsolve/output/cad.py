@@ -17,6 +17,9 @@ POINTS     a small circle at every tracer point (a named point that is not a joi
            point, a centre of mass), at the solve's coordinates
 CURVES     the path of each tracer point that moves (or each ``curves`` point) over a sweep: a
            polyline
+PAIRS      the higher pairs (:mod:`loopsolve.output.pairdraw`): a gear's pitch circle, a cam's
+           profile turned to the pose and its follower (roller circle, flat face or knife
+           edge), a slot's outline
 LABELS     the joint and point names
 ========== ===============================================================================
 
@@ -48,6 +51,7 @@ LAYERS = {
     "SLIDERS": (2, "#b9770e"),
     "POINTS": (1, "#b03a2e"),
     "CURVES": (3, "#1e8449"),
+    "PAIRS": (6, "#7d3c98"),
     "LABELS": (7, "#000000"),
 }
 
@@ -365,10 +369,12 @@ def export_cad(mech, output, at=None, *, input: str | None = None, mode: str | N
 
 
 def shape_entities(shapes) -> list:
-    """CAD entities of the shapes: gears and cams on ``LINKS``, followers on ``SLIDERS``, slots on ``LINKS``."""
+    """CAD entities of the shapes, on ``PAIRS``: pitch circles and cam profiles are not the bars and plates of
+    ``LINKS`` (whose lines end at joints), nor a roller the block of ``SLIDERS``; a CAD user shows or hides
+    them as one."""
     out = []
     for s in shapes:
-        layer = "SLIDERS" if s.role == "follower" else "LINKS"
+        layer = "PAIRS"
         if s.kind == "circle":
             out.append(Entity(layer, "circle", (tuple(map(float, s.points)),), size=float(s.size), name=s.name))
         elif s.kind == "polyline":

@@ -17,8 +17,10 @@ one Jacobian, one tracker. The rows are:
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
+from fractions import Fraction
 
 import sympy as sp
 
@@ -236,7 +238,7 @@ def gear_row(ps: PairSymbols, g) -> sp.Expr:
     def ang(name, ref=None):
         if not name:
             return sp.Integer(0)
-        return ps.var[name] if ref is None else ps.var[name] - sp.Float(ref)
+        return ps.var[name] if ref is None else ps.var[name] - _angle_constant(ref)
 
     rho = gear_ratio(ps, g)
     if g.phase is None:  # the guesses mesh: each angle measured from its guess
@@ -251,6 +253,15 @@ def gear_row(ps: PairSymbols, g) -> sp.Expr:
         return tm - rho * (tg - tc) - phase
     s = -1 if g.internal else 1
     return (tm - tc) + s * rho * (tg - tc) - phase
+
+
+def _angle_constant(value: float) -> sp.Expr:
+    """An angle in radians as the derivation prints it: a multiple of π when it is one (a guess of 90°
+    is π/2, not 1.5707963267949), else the float."""
+    frac = Fraction(value / math.pi).limit_denominator(3600)
+    if abs(float(frac) * math.pi - value) <= 1e-12 * max(1.0, abs(value)):
+        return sp.Rational(frac.numerator, frac.denominator) * sp.pi
+    return sp.Float(value)
 
 
 def _angle_valued(mech, nodes) -> bool:

@@ -37,6 +37,10 @@ FULL_ROTATION = {
     "quick_return",
 }
 
+#: shipped models none of whose unknowns has a bounded range (driven, each takes every angle): the
+#: geared five-bar's cranks and couplers all turn fully over the three input turns of its cycle
+EVERY_UNKNOWN_TURNS = {"geared_fivebar"}
+
 N_SAMPLES = 48  # inputs per model for the closure test
 N_FD = 10  # inputs per model for the finite-difference tests
 OFFSETS = np.arange(-4, 5)  # 9-point central stencil
@@ -153,7 +157,37 @@ def _declared_phi(mech, z_internal: dict[str, float]) -> np.ndarray | None:
     for loop in mech.loops:
         total = sum((sign * xy[name] for sign, name in loop.terms), np.zeros(2))
         res.extend(total)
+    res.extend(_gear_rows(mech, env, z_internal, k))
     return np.array(res)
+
+
+def _gear_rows(mech, env, z_internal, k) -> list:
+    """Willis' formula of every gear pair, written here from the declaration (radians; a rack's in the
+    length unit): ``(θ_m − θ_c) ± ρ (θ_g − θ_c) = phase``, ρ = N_g/N_m (or r_g/r_m), + external, − internal,
+    each angle measured from its guess when no ``phase`` is given. A higher pair ties unknowns that may
+    be in no vector loop (a planet gear's angle): its row is part of the declared Φ."""
+    if mech.pairs is None:
+        return []
+    rows = []
+    for g in mech.pairs.gears:
+        def val(node):
+            return lexpr.evaluate(node, env, angle_unit_factor=k)
+
+        def ang(name, ref):
+            return 0.0 if not name else z_internal[name] - (ref if g.phase is None else 0.0)
+
+        ref = g.ref if g.phase is None else (0.0, 0.0, 0.0)
+        tg, tm, tc = ang(g.gear, ref[0]), ang(g.mate, ref[1]), ang(g.carrier, ref[2])
+        if g.kind == "rack":
+            radius = val(g.radii[0]) if g.radii is not None else val(g.module) * val(g.teeth[0]) / 2
+            phase = val(g.phase) if g.phase is not None else 0.0
+            rows.append(tm - radius * (tg - tc) - phase)
+            continue
+        pair = g.teeth if g.teeth is not None else g.radii
+        rho = val(pair[0]) / val(pair[1])
+        phase = val(g.phase) * k if g.phase is not None else 0.0
+        rows.append((tm - tc) + (-1 if g.kind == "internal" else 1) * rho * (tg - tc) - phase)
+    return rows
 
 
 def _fd_positions(ck, x0, z0, h):
@@ -167,6 +201,41 @@ def _fd_positions(ck, x0, z0, h):
         zs.append(z)
         ps.append(ck.point_values(0, z) if ck.points else np.zeros((0, 2)))
     return np.array(zs), np.array(ps)
+
+
+def _cam_joins(mech) -> list[tuple[str, list[float]]]:
+    """``[(cam variable, [join angles, radians])]``: where a cam law's segments meet (written here from the
+    declared ``to`` of each segment and ``start``)."""
+    if mech.pairs is None:
+        return []
+    k = angle_factor(mech.units.angle)
+    env = {p.name: (p.value / k if p.kind is Kind.ANGLE else p.value) for p in mech.parameters}
+    out = []
+    for cam in mech.pairs.cams:
+        ends = [lexpr.evaluate(seg.end, env, angle_unit_factor=k) * k for seg in cam.segments]
+        start = lexpr.evaluate(cam.start, env, angle_unit_factor=k) * k if cam.start is not None else 0.0
+        out.append((cam.cam, [start] + ends))
+    return out
+
+
+def _smooth_near(mech, ck, z, span) -> bool:
+    """No cam-law join within the stencil around ``z`` (``span`` of the input each side): a law is
+    piecewise (its jerk, or acceleration, jumps where two segments meet), so finite differences across
+    a join do not converge to the one-sided rates there."""
+    cams = _cam_joins(mech)
+    if not cams:
+        return True
+    try:
+        rates = solve_rates(ck, z, (1.0, 0.0, 0.0))[0]
+    except ls.LoopsolveError:  # a singular pose: no stencil here anyway
+        return False
+    for var, joins in cams:
+        j = ck.index(var)
+        reach = 2 * span * max(1.0, abs(rates[j])) + 1e-9
+        for a in joins:
+            if abs((z[j] - a + math.pi) % (2 * math.pi) - math.pi) < reach:
+                return False
+    return True
 
 
 def _well_conditioned(ck, traced, n, max_cond=1e5):
@@ -234,16 +303,29 @@ def test_assembly_failures_are_typed_when_an_unknown_drives(model):
             missing = [x for x, z in _trace(ck, _samples(ck)) if z is None]
         except ls.ConvergenceError:
             continue
-        if missing:
+        # the trace's Newton from the last pose may fail where the public solve, which searches the
+        # assembly modes, finds a pose (a cam follower driven from a dwell, where the cam angle is
+        # singular; a geared five-bar's other branches): such a pose must close the loops; where solve
+        # fails, it says so with AssemblyError naming the input value
+        i = ck.input_idx[0]
+        k = angle_factor(mech.units.angle) if ck.kinds[i] is Kind.ANGLE else 1.0
+        raised = 0
+        for x in missing[:: max(1, len(missing) // 6)]:
+            try:
+                state = mech.solve(x / k, compiled=ck)
+            except ls.AssemblyError as exc:
+                assert exc.input_value == pytest.approx(x / k)
+                raised += 1
+                continue
+            assert state.input_value == pytest.approx(x / k)
+            assert np.max(np.abs(ck.phi(np.asarray(state.z, dtype=float)))) <= 1e-9 * ck.scale
+        if raised:
             break
     else:
-        pytest.fail(f"{name}: no unknown of bounded range found")
-    i = ck.input_idx[0]
-    k = angle_factor(mech.units.angle) if ck.kinds[i] is Kind.ANGLE else 1.0
-    for x in missing[:: max(1, len(missing) // 3)]:
-        with pytest.raises(ls.AssemblyError) as info:
-            mech.solve(x / k, compiled=ck)
-        assert info.value.input_value == pytest.approx(x / k)
+        # no unknown of bounded range: every pose found where the trace failed was checked above
+        assert name in EVERY_UNKNOWN_TURNS, f"{name}: no unknown of bounded range found"
+        return
+    assert name not in EVERY_UNKNOWN_TURNS, f"{name}: an unknown is bounded after all"
 
 
 # ----------------------------------------------------------------------------- rates vs finite differences
@@ -270,10 +352,11 @@ def test_rates_match_finite_differences_of_positions(model):
     """
     name, mech, ck = model
     traced = _trace(ck, _samples(ck))
-    points = _well_conditioned(ck, traced, N_FD)
-    assert points
     h = _input_step(ck)
     i = ck.input_idx[0]
+    points = _well_conditioned(ck, [(x, z) for x, z in traced if z is not None and _smooth_near(mech, ck, z, 4 * h)],
+                               N_FD)
+    assert points
     for x0, z0 in points:
         z1, z2, z3, pts, _ = solve_rates(ck, z0, RATES)
         # near a limit position (a double rocker lives next to its toggles) the truncation error

@@ -146,13 +146,68 @@ def test_dxf_pins_and_points_are_the_solve_s_points(path, shifted, tmp_path_fact
     labels = {t for text in d["texts"] for t in text.split(", ")}
     for name, xy in pts.items():  # named (one name a place: a slider's pin names its block)
         assert any(math.dist(xy, pts[other]) <= TOL for other in labels & set(pts)), name
-    # every tracer that moves has its curve (the path over the default sweep), passing by the pose
+    # every tracer that moves has its curve (the path over the default sweep), passing by the pose; a
+    # point at rest at the pose may still move (a cam's follower in a dwell, or at the start of a rise
+    # where its velocity and acceleration vanish): it moves if any of its rates at the pose is nonzero
     curves = [verts for verts, _ in d["polys"].get("CURVES", [])]
     moving = [xy for name, xy in pts.items() if near_any(xy, dots) and not near_any(xy, pins)
-              and math.hypot(state[f"{name}_x_vel"], state[f"{name}_y_vel"]) > 0]
+              and any(math.hypot(state[f"{name}_x_{r}"], state[f"{name}_y_{r}"]) > 0 for r in ("vel", "acc", "jerk"))]
     assert len(curves) == len(moving)
     for xy in moving:
         assert any(_polyline_distance(xy, verts) < 1e-3 * state.compiled.scale for verts in curves), xy
+
+
+def _has_pairs(path) -> bool:
+    pairs = ls.load(path).pairs
+    return pairs is not None and bool(pairs.gears or pairs.cams)
+
+
+def _length(mech, node) -> float:
+    """A length (or a tooth number) of the declaration, in model units (its parameters' values)."""
+    from loopsolve.model import expr as lexpr
+
+    env = {p.name: p.value for p in mech.parameters if p.kind.name != "ANGLE"}
+    return float(lexpr.evaluate(node, env))
+
+
+@pytest.mark.parametrize("path, shifted", [c for c in CASES + CASES_END if _has_pairs(c.values[0])])
+def test_dxf_gears_and_cams_are_where_solve_puts_them(path, shifted, tmp_path_factory):
+    """On ``PAIRS``: every gear's pitch circle (radius m·N/2 or the declared radius) about a joint of the
+    solve, the two of a pair touching (centre distance the sum of the radii, the difference inside a
+    ring); a cam's roller about a point of the solve (the shipped models name the roller's centre)
+    and touching the cam's profile, which turns about a joint."""
+    state, d = dxf_of(path, shifted, tmp_path_factory)
+    mech = state.mechanism
+    scale = state.compiled.scale
+    tol = TOL * max(1.0, scale)
+    joints = centres(d, "PINS")
+    drawn = d["circles"].get("PAIRS", [])
+    for g in mech.pairs.gears:
+        if g.kind == "rack":
+            continue
+        if g.radii is not None:
+            radii = [_length(mech, r) for r in g.radii]
+        else:
+            radii = [_length(mech, g.module) * _length(mech, n) / 2 for n in g.teeth]
+        found = [[c for c, r in drawn if abs(r - want) <= 1e-12 * want] for want in radii]
+        assert all(found), (g.key, radii, drawn)
+        for cs in found:
+            assert all(near_any(c, joints, tol) for c in cs), (g.key, cs)  # a gear turns about a pivot
+        want = abs(radii[0] - radii[1]) if g.kind == "internal" else radii[0] + radii[1]
+        assert any(abs(math.dist(a, b) - want) <= tol for a in found[0] for b in found[1]), (g.key, want)
+    profiles = sorted((verts for verts, _ in d["polys"].get("PAIRS", [])), key=len)
+    for cam in mech.pairs.cams:
+        profile = np.asarray(profiles.pop(), dtype=float)  # the profiles have the most vertices
+        assert len(profile) >= 100
+        if cam.contact != "roller":
+            continue
+        rr = _length(mech, cam.roller)
+        rollers = [c for c, r in drawn if abs(r - rr) <= 1e-12 * rr and near_any(c, list(solve_points(state).values()),
+                                                                                  tol)]
+        assert rollers, (cam.key, rr)
+        # touching: the nearest vertex of the profile (a polyline of 360 samples) is a roller's radius away
+        gaps = [float(np.min(np.hypot(*(profile - np.asarray(c)).T))) - rr for c in rollers]
+        assert min(abs(g) for g in gaps) <= 2e-3 * scale, (cam.key, gaps)
 
 
 def _on_line(c, a, b, tol) -> bool:
@@ -199,6 +254,15 @@ def test_dxf_of_the_moved_copy_is_the_drawing_moved(path, shifted, tmp_path_fact
         ma, mb = tuple(move_xy(a, *MOVE)), tuple(move_xy(b, *MOVE))
         assert any((math.dist(ma, p) <= tol and math.dist(mb, q) <= tol) or
                    (math.dist(ma, q) <= tol and math.dist(mb, p) <= tol) for p, q in bars1), (a, b)
+    # the higher pairs: pitch circles, a cam's profile and follower (turned with the cam's frame)
+    for (c, r) in d0["circles"].get("PAIRS", []):
+        assert any(abs(r - r1) <= tol and math.dist(move_xy(c, *MOVE), c1) <= tol
+                   for c1, r1 in d1["circles"].get("PAIRS", [])), ("PAIRS", c, r)
+    polys1 = d1["polys"].get("PAIRS", [])
+    for verts, _ in d0["polys"].get("PAIRS", []):
+        moved_verts = move_xy(verts, *MOVE)
+        assert any(len(v1) == len(verts) and np.max(np.hypot(*(moved_verts - np.asarray(v1)).T)) <= tol
+                   for v1, _ in polys1), ("PAIRS polyline", verts[0])
     blocks0 = [np.mean(v, axis=0) for v, _ in d0["polys"].get("SLIDERS", [])]
     blocks1 = [tuple(np.mean(v, axis=0)) for v, _ in d1["polys"].get("SLIDERS", [])]
     assert len(blocks0) == len(blocks1)

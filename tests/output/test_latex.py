@@ -108,9 +108,29 @@ class TestEveryModel:
                     for fn in ("cos", "sin"):
                         assert f"{text_of(length)} {fn} {text_of(angle)}" in text, (vname, fn)
                     checked += 1
-        assert checked >= 2
+        # a link of named length turning with its own variable: two in a four-bar; one where the other
+        # bars of the loop turn with a cam's lift (a rocker at gamma0 - psi) or slide
+        assert checked >= 1
         for v in mech.variables:
             assert text_of(v.name) in text
+        if mech.pairs is not None:  # each higher pair is a row of Φ, named by its key
+            assert "Constraints and higher pairs" in text
+            for pair in (*mech.pairs.constraints, *mech.pairs.gears, *mech.pairs.cams):
+                # (TeX draws the underscore of \_ as a rule: pdftotext reads it as a space)
+                assert f"{pair.key.replace('_', ' ')}:" in text, pair.key
+
+    def test_cam_law_joins_are_printed(self, document):
+        """A cam's row is its law piecewise over one turn: each segment's end (its join with the next)
+        appears as a bound of the cam angle, a multiple of π written here from the declared ``to``."""
+        import sympy as sp
+
+        mech, tex = document
+        cams = mech.pairs.cams if mech.pairs is not None else ()
+        for cam in cams:
+            for seg in cam.segments[:-1]:  # the last piece is the 'otherwise' of the cases
+                to = float(mech.spec["cams"][cam.name]["law"][cam.segments.index(seg)]["to"])
+                bound = sp.nsimplify(to / 180) * sp.pi if mech.units.angle == "deg" else sp.nsimplify(to)
+                assert sp.latex(bound) in tex, (cam.key, to)
 
     def test_first_page_is_not_blank(self, exported, tmp_path):
         require("pdftoppm")

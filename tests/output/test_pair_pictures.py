@@ -57,7 +57,7 @@ def test_dxf_of_a_geared_pose(tmp_path):
     export_cad(ls.loads(GEARS), out, 40, curves=[])
     circles = {(round(e.dxf.center[0], 9), round(e.dxf.center[1], 9), round(e.dxf.radius, 9), e.dxf.layer)
                for e in ezdxf.readfile(out).modelspace().query("CIRCLE")}
-    assert (0.0, 0.0, 12.0, "LINKS") in circles and (30.0, 0.0, 18.0, "LINKS") in circles
+    assert (0.0, 0.0, 12.0, "PAIRS") in circles and (30.0, 0.0, 18.0, "PAIRS") in circles
 
 
 def test_dxf_of_a_cam_pose(tmp_path):
@@ -67,11 +67,12 @@ def test_dxf_of_a_cam_pose(tmp_path):
     out = tmp_path / "cam.dxf"
     export_cad(ls.loads(CAM_FOLLOWER), out, 0, curves=[])
     msp = ezdxf.readfile(out).modelspace()
-    profiles = [e for e in msp.query("LWPOLYLINE") if e.dxf.layer == "LINKS" and len(e) > 100]
+    profiles = [e for e in msp.query("LWPOLYLINE") if e.dxf.layer == "PAIRS" and len(e) > 100]
     assert len(profiles) == 1
     pts = np.array([p[:2] for p in profiles[0].get_points()])
     assert np.linalg.norm(pts, axis=1).min() == pytest.approx(40, abs=1e-6)  # the base circle
-    rollers = [e for e in msp.query("CIRCLE") if e.dxf.layer == "SLIDERS"]
+    # on PAIRS with the profile: the cam's centre mark (at the origin) and the roller
+    rollers = [e for e in msp.query("CIRCLE") if e.dxf.layer == "PAIRS" and math.hypot(e.dxf.center.x, e.dxf.center.y) > 1e-9]
     assert [round(e.dxf.radius, 9) for e in rollers] == [8.0]
 
 

@@ -27,7 +27,7 @@ import numpy as np
 
 import loopsolve as ls
 
-NAMES = ("moved_T", "moved_dx", "moved_dy", "moved_rot", "moved_c", "moved_s")
+NAMES = ("moved_T", "moved_dx", "moved_dy", "moved_rot", "moved_c", "moved_s", "moved_O")
 
 
 def rotation(rot_deg: float) -> np.ndarray:
@@ -71,8 +71,6 @@ def moved_data(data: dict, dx: float, dy: float, rot_deg: float, *, frame_last: 
         return data
     known = set(data.get("parameters", {})) | set(data.get("vectors", {})) | set(data.get("points", {}))
     assert not known & set(NAMES), "the model already uses a name of the move"
-    unsupported = {"slots", "gears", "cams", "rolling"} & set(data)
-    assert not unsupported, f"moving {sorted(unsupported)} is not written"
     angle_unit = data.get("units", {}).get("angle", "deg")
     rot = rot_deg if angle_unit == "deg" else math.radians(rot_deg)
     data.setdefault("parameters", {}).update(moved_dx=dx, moved_dy=dy, moved_rot=rot, moved_c=float(R[0, 0]),
@@ -89,9 +87,29 @@ def moved_data(data: dict, dx: float, dy: float, rot_deg: float, *, frame_last: 
     points = data.setdefault("points", {})
     for name, expr in points.items():
         points[name] = _point_expr(expr, frame_last)
+    for cam in data.get("cams", {}).values():
+        _move_cam(cam, points, rot, angle_unit)
     for key in ("bodies", "loads", "gravity"):  # mass properties are not what is moved here
         data.pop(key, None)
     return data
+
+
+def _move_cam(cam: dict, points: dict, rot: float, angle_unit: str) -> None:
+    """Turn a cam's frame by ``rot`` (model angle unit) and centre it on a moved point (``points``: the
+    moved copy's; the origin's point is found, or added as ``moved_O``)."""
+    assert "profile" not in cam, "moving a profile cam (a file next to the model) is not written"
+    if cam.get("kind") == "oscillating":
+        key, default = "pivot_angle", 0.0
+    else:
+        key, default = "axis", 90.0 if angle_unit == "deg" else math.pi / 2
+    old = cam.get(key, default)
+    cam[key] = old + rot if isinstance(old, (int, float)) else f"({old}) + moved_rot"
+    if "center" not in cam:
+        origin = next((name for name, expr in points.items() if expr == "moved_T"), None)
+        if origin is None:
+            origin = "moved_O"
+            points[origin] = "moved_T"
+        cam["center"] = origin
 
 
 def _value(v) -> str:
