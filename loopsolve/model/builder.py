@@ -18,6 +18,15 @@ from .spec import build_mechanism
 __all__ = ["MechanismBuilder"]
 
 
+def _plain(value):
+    """A builder argument as the TOML reader gives it: tuples as lists, mappings as dicts, all the way down."""
+    if isinstance(value, Mapping):
+        return {k: _plain(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_plain(v) for v in value]
+    return value
+
+
 class MechanismBuilder:
     """Declare a mechanism from Python; :meth:`~MechanismBuilder.build` gives the same :class:`Mechanism` as a file.
 
@@ -118,6 +127,91 @@ class MechanismBuilder:
         """Add a ``[[loads]]`` entry: ``load(at="C", body="rocker", force=["-50N", 0])``, ``load(body=..., torque=...)``,
         ``load(spring=["A", "B"], stiffness=..., free_length=...)``, ``load(damper=[...], damping=...)``."""
         self._spec.setdefault("loads", []).append({k: list(v) if isinstance(v, tuple) else v for k, v in entry.items()})
+        return self
+
+    # ---- higher pairs and friction (the model file's [constraints], [gears], [cams], [slots], [rolling],
+    # [friction]; the keys of each entry as in docs/reference/model_file.md)
+    def constraint(self, name: str, equation: str) -> "MechanismBuilder":
+        """Add a scalar constraint (``[constraints]``): ``constraint("mark", "phi = theta")``.
+
+        Parameters
+        ----------
+        name : str
+            The constraint's name (its row of Φ is ``constraints.<name>``).
+        equation : str
+            An equation of the variables and parameters in the model file's expression language.
+        """
+        return self._put_table("constraints", name, equation)
+
+    def gear(self, name: str, **entry) -> "MechanismBuilder":
+        """Add a gear pair (``[gears]``): ``gear("g1", a="theta_s", b="theta_p", carrier="theta2", za=24, zb=36)``.
+
+        Parameters
+        ----------
+        name : str
+            The pair's name.
+        **entry
+            The keys of a ``[gears]`` entry (tooth numbers or pitch radii, the two links, the carrier, the
+            kind), as in the model file.
+        """
+        return self._put_table("gears", name, entry)
+
+    def cam(self, name: str, **entry) -> "MechanismBuilder":
+        """Add a disk cam and its follower (``[cams.NAME]``): ``cam("c1", cam="theta2", follower="s", ...)``.
+
+        Parameters
+        ----------
+        name : str
+            The cam's name.
+        **entry
+            The keys of a ``[cams.NAME]`` table (``law`` segments as a list of tables, or ``profile``).
+        """
+        return self._put_table("cams", name, entry)
+
+    def slot(self, name: str, **entry) -> "MechanismBuilder":
+        """Add a pin in a straight or circular slot of a moving link (``[slots]``).
+
+        Parameters
+        ----------
+        name : str
+            The slot's name.
+        **entry
+            The keys of a ``[slots]`` entry, as in the model file.
+        """
+        return self._put_table("slots", name, entry)
+
+    def rolling(self, name: str, **entry) -> "MechanismBuilder":
+        """Add a circle rolling without slipping on a line or a circle (``[rolling]``).
+
+        Parameters
+        ----------
+        name : str
+            The contact's name.
+        **entry
+            The keys of a ``[rolling]`` entry, as in the model file.
+        """
+        return self._put_table("rolling", name, entry)
+
+    def friction(self, joint: str, *, mu, radius=None) -> "MechanismBuilder":
+        """Add Coulomb friction at a joint (``[friction]``): ``friction("O2", mu=0.1, radius="6mm")``.
+
+        Parameters
+        ----------
+        joint : str
+            A pin of the bodies (then ``radius``, its journal radius, is needed), a guided body, a slot or a
+            knife-edge or flat-face cam.
+        mu : float
+            The coefficient of friction.
+        radius : float or str, optional
+            The journal radius of a revolute joint.
+        """
+        return self._put_table("friction", joint, {"mu": mu} | ({} if radius is None else {"radius": radius}))
+
+    def _put_table(self, section: str, name: str, value: Any) -> "MechanismBuilder":
+        table = self._spec.setdefault(section, {})
+        if name in table:
+            raise ModelError(f"{section}.{name}: {name!r} is declared twice")
+        table[name] = _plain(value)
         return self
 
     def gravity(self, gx=0.0, gy="-9.81m/s^2") -> "MechanismBuilder":

@@ -74,6 +74,11 @@ def replay(mech: ls.Mechanism) -> ls.Mechanism:
         b.point(n, v)
     for n, v in spec.get("modes", {}).items():
         b.mode(n, v)
+    for n, v in spec.get("constraints", {}).items():
+        b.constraint(n, v)
+    for section, method in (("gears", b.gear), ("cams", b.cam), ("slots", b.slot), ("rolling", b.rolling)):
+        for n, v in spec.get(section, {}).items():
+            method(n, **v)
     return b.build()
 
 
@@ -91,7 +96,8 @@ def _same_derivation(m1, m2, input=None):
 
 
 def _declaration(m):
-    return (m.name, m.units, m.parameters, m.variables, m.vectors, m.loops, m.points, dict(m.mode_aliases))
+    return (m.name, m.units, m.parameters, m.variables, m.vectors, m.loops, m.points, dict(m.mode_aliases),
+            m.n_equations, m.equation_names)
 
 
 @pytest.mark.parametrize("stem", HAND)
@@ -157,3 +163,25 @@ def test_builder_rejects_like_the_file():
     b.vector("r1", length="r1", angle="theta2").vector("r2", length="r2", angle=0).loop("r1 = r2")
     with pytest.raises(ls.ModelError, match=r"vectors\.r2\.length: unknown name 'r2'"):
         b.build()
+
+
+def test_builder_declares_higher_pairs_and_friction_as_the_file_does():
+    """A wheel on a journal with a constraint and friction, declared from Python, is the file's model: the same
+    equations, and the same driving torque against the friction (r sin(atan mu) m g)."""
+    from pathlib import Path
+
+    import math
+
+    from_file = ls.load(Path(__file__).parents[1] / "data" / "journal_wheel.toml")
+    b = ls.MechanismBuilder("wheel on a journal bearing", length_unit="mm", angle_unit="deg")
+    b.variable("theta", input=True, guess=0).variable("phi", guess=0, kind="angle")
+    b.vector("spoke", length=50, angle="theta").point("O", "0").point("A", "spoke")
+    b.constraint("mark", "phi = theta").gravity(0, "-9.81m/s^2")
+    b.body("wheel", mass="2kg", inertia="0.01kg*m^2", com="O", angle="theta", joints=["O"])
+    built = b.friction("O", mu=0.2, radius="20mm").build()
+    assert built.equation_names == from_file.equation_names
+    torque = ls.forces(built, at=30)["input_torque"]
+    assert torque == pytest.approx(ls.forces(from_file, at=30)["input_torque"], rel=1e-12)
+    assert torque == pytest.approx(0.020 * 0.2 / math.sqrt(1 + 0.2**2) * 2 * 9.81, rel=1e-9)
+    with pytest.raises(ls.ModelError, match="friction.O"):
+        b.friction("O", mu=0.1, radius="5mm")
