@@ -98,7 +98,7 @@ def main(argv=None) -> int:
         by[mod] = names[:: args.every]
     order = []
     while any(by.values()):
-        for mod in sorted(by):
+        for mod in by:  # in the order the modules are named (the ones to check first, first)
             if by[mod]:
                 order.append(by[mod].pop(0))
     env = dict(os.environ, PYTHONPATH=str(root.resolve()), MPLBACKEND="Agg")
