@@ -55,7 +55,10 @@ CS = "tests/design/test_classicsynth.py::"
 CLASSIC = [CS + "test_freudenstein_door_meets_the_targets", SO + "test_freudenstein_report_values_are_the_written_designs",
            SO + "test_freudenstein_design_is_the_users_model_with_its_names"]
 MOTION = [CS + "test_burmester_door_recovers_and_writes_a_loadable_model", SO + "test_burmester_design_is_the_users_model_with_its_names"]
-LATEX = ["tests/dynamics/test_eom.py::test_named_symbols_and_values", "tests/output/test_latex_at_tables.py"]
+EOM = "tests/dynamics/test_eom.py::"
+LATEX = [EOM + "test_named_symbols_and_values", EOM + "TestLatexSection::test_thesis_symbols_then_numbers",
+         EOM + "TestLatexSection::test_pdf_compiles_and_reads_like_the_notes[engine_slider_crank]",
+         "tests/output/test_latex_at_tables.py"]
 #: the test files of each module, fast ones first (pytest -x stops at the first failure)
 TESTS = {"model.bodies": FORCES + ["tests/model/test_diagram_bodies.py"],
          "dynamics.derivation": FORCES + ["tests/model/test_diagram_bodies.py"],
