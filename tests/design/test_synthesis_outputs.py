@@ -336,6 +336,12 @@ def test_freudenstein_report_values_are_the_written_designs(tmp_path):
     s_ = sorted((p["r1"], p["r2"], p["r3"], p["r4"]))
     assert rep["certificate"]["grashof_margin"] == pytest.approx(s_[1] + s_[2] - s_[0] - s_[3], rel=1e-9)
     assert (rep["certificate"]["grashof_margin"] > 0) == (rep["certificate"]["grashof"] != "triple rocker")
+    # and its Grashof class from the same lengths by the textbook table (shortest link: frame, input, coupler, output)
+    lengths = [abs(p[k]) for k in ("r1", "r2", "r3", "r4")]
+    ordered = sorted(lengths)
+    expected = ("triple rocker" if ordered[0] + ordered[3] > ordered[1] + ordered[2] else
+                ("double crank", "crank-rocker", "double rocker", "rocker-crank")[lengths.index(ordered[0])])
+    assert rep["certificate"]["grashof"] == expected
     # the method's own precision points hold the targets, never the linkage's outputs
     for pr, (ai, bi) in zip(rep["design"]["precision"], zip(a, b)):
         assert (pr["input"], pr["output"]) == pytest.approx((ai, bi))

@@ -252,6 +252,12 @@ def test_structural_error_of_the_freudenstein_design_against_the_closed_form(log
     assert abs(e[0]) < 1e-6 and abs(e[-1]) < 1e-6  # the end targets are met
     assert se["max"] == pytest.approx(np.abs(e).max(), rel=1e-3)
     assert se["at"] == pytest.approx(np.degrees(t2[np.argmax(np.abs(e))]), abs=0.5)
+    # sampled as the reference says: 1001 points over the range (here from its low end, the first target),
+    # so the worst input is one of lo + k (hi - lo) / 1000
+    lo, hi = rows[0][0], rows[-1][0]
+    assert se["points"] == 1001
+    k = (se["at"] - lo) / ((hi - lo) / 1000)
+    assert k == pytest.approx(round(k), abs=1e-6)
 
 
 def test_cli_general_function_report_has_the_structural_error_over_range(tmp_path):

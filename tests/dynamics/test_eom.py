@@ -204,6 +204,8 @@ class TestLatexSection:
         for body in ("crank", "coupler", "rocker"):
             assert r"m_{\mathrm{%s}} = " % body in sec and r"I_{\mathrm{%s}} = " % body in sec
         assert r"\lambda = 0.001\,\mathrm{m/mm}" in sec and r"g = 9.81\,\mathrm{m/s^{2}}" in sec
+        # the sentence over that table names its three kinds of rows (the model has gravity, a torque, mm)
+        assert "Gravity, the loads and the unit of length:" in sec
         assert r"T_{\mathrm{rocker}} = -0.05\,\mathrm{N\,m}" in sec
         # the symbolic sums, then the same with numbers: textbook signs, lambda a factor
         assert r"Q(\theta_{2}) &= - \lambda g\Bigl[m_{\mathrm{crank}}\,y'_{G_{\mathrm{crank}}}" in sec
