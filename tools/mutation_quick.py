@@ -54,7 +54,8 @@ STRUCT = [SM + "test_structural_error_of_the_freudenstein_design_against_the_clo
 CS = "tests/design/test_classicsynth.py::"
 CLASSIC = [CS + "test_freudenstein_door_meets_the_targets", SO + "test_freudenstein_report_values_are_the_written_designs",
            SO + "test_freudenstein_design_is_the_users_model_with_its_names"]
-MOTION = [CS + "test_burmester_door_recovers_and_writes_a_loadable_model", SO + "test_burmester_design_is_the_users_model_with_its_names"]
+MOTION = [CS + "test_burmester_door_recovers_and_writes_a_loadable_model", SO + "test_burmester_design_is_the_users_model_with_its_names",
+          CS + "test_burmester_candidates_report_their_crank_angles_at_the_poses_in_the_model_unit"]
 EOM = "tests/dynamics/test_eom.py::"
 LATEX = [EOM + "test_named_symbols_and_values", EOM + "TestLatexSection::test_thesis_symbols_then_numbers",
          EOM + "TestLatexSection::test_pdf_compiles_and_reads_like_the_notes[engine_slider_crank]",

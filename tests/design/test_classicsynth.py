@@ -101,3 +101,21 @@ def test_read_table_rows():
         read_table([[1, 2]], ("x", "y", "angle"))
     with pytest.raises(ModelError, match="finite"):
         read_table([[1, 2, float("inf")]], ("x", "y", "angle"))
+
+
+def test_burmester_candidates_report_their_crank_angles_at_the_poses_in_the_model_unit(poses_file):
+    """Every candidate's ``inputs`` are the angle of its crank O2→A at each pose, in the model's unit (degrees
+    here): A is carried from the first pose by the coupler's rigid motion (the poses' own x, y, angle)."""
+    r = classic_synthesize(PATHMECH, method="burmester", motion="P", link="theta3", targets=poses_file)
+    poses = [planted_pose(t)[0] for t in (20, 70, 120, 170, 220)]
+    x0, y0, a0 = poses[0]
+    assert r.report["candidates"]
+    for c in r.report["candidates"]:
+        if not c["inputs"]:
+            continue
+        O2, A0 = np.array(c["pivots"]["O2"]), np.array(c["pins"]["A"])
+        for (x, y, a), got in zip(poses, c["inputs"]):
+            t = math.radians(a - a0)
+            Ak = np.array([x, y]) + np.array([[math.cos(t), -math.sin(t)], [math.sin(t), math.cos(t)]]) @ (A0 - [x0, y0])
+            want = math.degrees(math.atan2(Ak[1] - O2[1], Ak[0] - O2[0]))
+            assert (got - want + 180) % 360 - 180 == pytest.approx(0, abs=1e-7)
