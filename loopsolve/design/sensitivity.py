@@ -63,7 +63,7 @@ def parameter_derivative_source(kin, exprs, *, func: str, what: str, count: str)
 
 
 def generate_phi_p_source(kin) -> str:
-    """Python (numpy) source of ``phi_p_v(z, p)`` for a :class:`~loopsolve.symbolic.derivation.Kinematics`."""
+    """Python (numpy) source of ``phi_p_v(z, p)`` for a :class:`~loopsolve.symbolic.loop_equations.Kinematics`."""
     return parameter_derivative_source(kin, list(kin.phi), func="phi_p_v",
                                        what="dPhi/dp (row-major: equation, parameter)", count="N_EQ")
 
@@ -165,7 +165,7 @@ def _generated(ck, tag: str, generate, fname: str) -> ModuleType:
         except (Exception, SystemExit):  # an entry of ours that fails to run: derived again, rewritten
             module = None
     if module is None:
-        from ..symbolic.derivation import derive
+        from ..symbolic.loop_equations import derive
 
         source = generate(derive(ck.mechanism, input=ck.inputs))
         if writable:

@@ -22,7 +22,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..model.bodies import FRAME, LoadKind
-from .derivation import DynamicsModel, kinematic_coefficients, mass_matrix_terms
+from .dynamics_model import DynamicsModel, kinematic_coefficients, mass_matrix_terms
 from ..model.units import Kind
 
 __all__ = ["Layout", "layout", "inverse_dynamics", "generalized_force", "virtual_work_drive",
@@ -683,7 +683,7 @@ def force_analysis(sweep, *, dynamics: DynamicsModel | None = None, scalar: bool
 
     Returns a :class:`~loopsolve.dynamics.forceresults.ForceSweep`.
     """
-    from .derivation import compile_dynamics
+    from .dynamics_model import compile_dynamics
     from .forceresults import ForceSweep
 
     ck = sweep.compiled
@@ -735,7 +735,7 @@ def forces(mech, at=None, stop=None, step=None, *, speed=None, accel=None, input
     >>> round(float(f.drive), 5), round(f["input_torque"], 5), f.units()["drive"]
     (0.03015, 0.03015, 'N*m')
     """
-    from .derivation import compile_dynamics
+    from .dynamics_model import compile_dynamics
 
     ck = mech.compile(input)
     dm = compile_dynamics(mech, compiled=ck)

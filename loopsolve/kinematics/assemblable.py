@@ -201,7 +201,7 @@ class AssemblyTest:
         none of which is assemblable at ``x0``; None for a design this cannot decide (a length input,
         an undecided sample). The logic of :func:`loopsolve.sweep._nearest_local` on its samples."""
         from .reach import _input_samples
-        from .kernel import Kernel
+        from .scalar_solver import Kernel
 
         cols = np.asarray(cols)
         if not self.usable or self.ck.kinds[self.ix] is not Kind.ANGLE or not len(cols):

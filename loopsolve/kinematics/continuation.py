@@ -55,8 +55,8 @@ import numpy as np
 
 from .rows import RowSolution, fill_node_rows, solve_rows_scalar  # noqa: F401  (kinematics/rows.py; public here before)
 from ..errors import SingularPositionError
-from .kernel import ROUNDOFF as _ROUNDOFF
-from .kernel import Kernel, rho_2x3
+from .scalar_solver import ROUNDOFF as _ROUNDOFF
+from .scalar_solver import Kernel, rho_2x3
 from .results import Event, EventKind
 from .solve import _input_unit, display_value
 
@@ -158,7 +158,7 @@ class Tracer:
         self.near = _NEAR_SINGULAR  # regularity below which a node is refused (see trace)
         self.cos_turn = math.cos(control.max_turn)
         self.cos_grow = math.cos(control.max_turn / 3)
-        self.fast = None  # compiled fast lane of regular natural steps (loopsolve.kinematics.fastlane), or None
+        self.fast = None  # compiled fast lane of regular natural steps (loopsolve.kinematics.numba_engine.steps), or None
 
     # ------------------------------------------------------------------ helpers
     def _display(self, x):

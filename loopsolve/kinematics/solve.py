@@ -543,7 +543,7 @@ def solve(mech: Mechanism, at=None, *, speed=None, accel=None, jerk=None, input:
             if not any(abs(v - disp) <= max(_AT_LIMIT, 1e-15 * abs(disp)) for v in near):
                 raise err from None  # beyond the limit, not at it
         # at a limit Newton stops ~sqrt(round-off) short of the position: report the located fold
-        from .kernel import Kernel
+        from .scalar_solver import Kernel
 
         kern = Kernel(ck)
         found = kern.fold_point([float(v) for v in z], kern.jac_f([float(v) for v in z], kern.p))

@@ -19,11 +19,12 @@ import numpy as np
 from .grid import Grid, exact_radians, grid  # noqa: F401  (grid, exact_radians: public here before the split)
 from .reach import (assembly_failure, default_range, nearest_assemblable, no_assembly_error,  # noqa: F401
                     reachable_ranges)  # where the input can go: kinematics/reach.py (public here before the split)
-from . import batch, numbakin
+from . import batch
+from .numba_engine import jit as numba_jit
 from .continuation import (Kernel, Path, RowSolution, StepControl, Tracer, fill_node_rows, first_node,
                            solve_rows_scalar)
 from ..errors import AssemblyError, ConvergenceError, ModelError, SingularPositionError, SolveError, warn
-from .kernel import kernel_of
+from .scalar_solver import kernel_of
 from .newton import Newton
 from .results import Event, EventKind, Sweep
 from .solve import _input_unit, display_value, initial_z, input_rates, input_value, plain_value, start_position
@@ -284,7 +285,7 @@ def sweep(mech, start, stop, step, *, speed=None, accel=None, jerk=None, input: 
         the positions there, NaN rates), so that plotted branches meet at their fold.
     engine : {"python", "numba", "auto"}, optional
         Who takes the tracer's regular natural steps: Python, or the compiled fast lane
-        (:mod:`loopsolve.kinematics.fastlane`, needs the ``fast`` extra: numba); ``"auto"`` is numba when
+        (:mod:`loopsolve.kinematics.numba_engine.steps`, needs the ``fast`` extra: numba); ``"auto"`` is numba when
         installed. Default: ``$LOOPSOLVE_ENGINE``, else ``"python"``. The rows agree to round-off.
 
     Returns
@@ -325,14 +326,14 @@ def sweep(mech, start, stop, step, *, speed=None, accel=None, jerk=None, input: 
     settings = Newton() if settings is None else settings
     if derivatives not in (1, 2, 3):
         raise ModelError(f"derivatives={derivatives!r}: expected 1 (velocities), 2 (accelerations) or 3 (jerks)")
-    fast = numbakin.use_numba(engine)
+    fast = numba_jit.use_numba(engine)
     ck = compiled if compiled is not None else mech.compile(input)
     x0, x1, h, kind, deg = _parse_range(ck, start, stop, step)
     g = _make_grid(x0, x1, h, kind, through_limits, deg, max_rows=max_rows)
     x0 = g.value(0)  # start exactly on the first grid value (the two may differ by an ulp)
     rates = input_rates(ck, speed, accel, jerk)
     kern = kernel_of(ck)
-    lane = numbakin.fast_lane(kern, lazy=method != "batched") if fast else None
+    lane = numba_jit.fast_lane(kern, lazy=method != "batched") if fast else None
     started = lane.start(x0, mode=mode, guess=guess, settings=settings) if lane is not None else None
     z0, _, _ = started or start_position(ck, x0, mode=mode, guess=guess, settings=settings)
     d = 1.0 if g.step > 0 else -1.0

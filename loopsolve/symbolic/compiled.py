@@ -155,7 +155,7 @@ def _function_source(name: str, args: Sequence[str], unpack: dict[str, Sequence[
 
 
 def generate_source(kin) -> tuple[str, dict]:
-    """Python source of the compiled module for a :class:`~loopsolve.symbolic.derivation.Kinematics`."""
+    """Python source of the compiled module for a :class:`~loopsolve.symbolic.loop_equations.Kinematics`."""
     import sympy as sp
     from sympy.printing.numpy import NumPyPrinter
     from sympy.printing.pycode import PythonCodePrinter
@@ -271,7 +271,7 @@ def _module_from_source(source: str, key: str, origin: str) -> ModuleType:
     module.__file__ = origin
     code = compile(source, origin, "exec")
     exec(code, module.__dict__)
-    module._SOURCE = source  # the text, for the numba engine (loopsolve.kinematics.numbakin)
+    module._SOURCE = source  # the text, for the numba engine (loopsolve.kinematics.numba_engine.jit)
     return module
 
 
@@ -461,7 +461,7 @@ def _cached_module(mech: Mechanism, inputs: tuple[str, ...], cache: bool) -> Mod
             if isinstance(exc, OSError):
                 writable = False
     if module is None:
-        from .derivation import derive
+        from .loop_equations import derive
 
         kin = derive(mech, input=inputs)
         source, _ = generate_source(kin)
