@@ -262,7 +262,7 @@ def test_kernels_are_reused_per_mechanism_and_do_not_keep_a_study_alive():
         assert np.max(np.abs(_wrap(sw.z[:, sw.compiled.index("theta4")] - t4))) < 1e-10
     del m, sw
     gc.collect()
-    assert len(kernel._KERNELS) <= scalar_solver._KERNELS_MAX
+    assert len(scalar_solver._KERNELS) <= scalar_solver._KERNELS_MAX
     assert sum(r() is not None for r in refs) <= scalar_solver._KERNELS_MAX  # the others were freed
 
 
