@@ -96,9 +96,9 @@ def cmd_atlas_default(args) -> int:
     import time
 
     from ..design.atlas.defaults import default_atlas
-    from ..design.studies import _check_cluster
+    from ..design.studies import check_cluster
 
-    _check_cluster(args.workers, None)
+    check_cluster(args.workers, None)
     mech = _load(args.model)
     t0 = time.perf_counter()
     a = default_atlas(mech, args.point, progress=None if not args.quiet else False, workers=args.workers)

@@ -233,7 +233,7 @@ def locate_limits(ck, P, xs, x_end, cand, last, irregular, sig0, ch, rates, deri
     """
     from ..kinematics.assemblable import AssemblyTest
     from .designops import DesignOps, design_scale, display_value_of, fill_rows
-    from ..kinematics.solve import _input_unit
+    from ..kinematics.solve import input_unit
 
     none = np.zeros(0, dtype=int)
     K = len(xs)
@@ -340,6 +340,6 @@ def locate_limits(ck, P, xs, x_end, cand, last, irregular, sig0, ch, rates, deri
         ch.events[j] = f"limit@{disp:.10g}"
         # the warning the single sweep gives at this stop (sweep._announce_stop), summarized per study
         ch.warnings.append((j, f"the sweep stops at a limit position (toggle) at {ck.inputs[0]} = "
-                               f"{disp:.10g}{_input_unit(ck)}"))
+                               f"{disp:.10g}{input_unit(ck)}"))
     done = np.array(done, dtype=int)
     return np.setdiff1d(cand, done), done

@@ -700,13 +700,13 @@ def force_analysis(sweep, *, dynamics: DynamicsModel | None = None, scalar: bool
 def _checks(dm: DynamicsModel, data: dict, sweep) -> None:
     """The power balance as a check, and the dead-centre warning (see :mod:`loopsolve.dynamics.declcheck`)."""
     from .declcheck import check_power_balance, warn_ill_conditioned
-    from ..kinematics.solve import _input_unit
+    from ..kinematics.solve import input_unit
 
     ck = sweep.compiled
     xs = np.asarray(sweep[ck.inputs[0]], dtype=float)
     _check_determined(dm, data, sweep, xs)
     check_power_balance(dm, data, xs, spurious=data["spurious"])
-    warn_ill_conditioned(dm, data["kappa"], xs, _input_unit(ck))
+    warn_ill_conditioned(dm, data["kappa"], xs, input_unit(ck))
 
 
 def forces(mech, at=None, stop=None, step=None, *, speed=None, accel=None, input=None, mode=None,

@@ -27,7 +27,7 @@ from ..errors import AssemblyError, ConvergenceError, ModelError, SingularPositi
 from .scalar_solver import kernel_of
 from .newton import Newton
 from .results import Event, EventKind, Sweep
-from .solve import _input_unit, display_value, initial_z, input_rates, input_value, plain_value, start_position
+from .solve import input_unit, display_value, initial_z, input_rates, input_value, plain_value, start_position
 from ..model.units import Kind
 
 __all__ = ["StepControl", "sweep", "grid", "reachable_ranges", "default_range", "nearest_assemblable",
@@ -339,9 +339,9 @@ def sweep(mech, start, stop, step, *, speed=None, accel=None, jerk=None, input: 
     d = 1.0 if g.step > 0 else -1.0
     first = first_node(kern, z0, d, allow_fold=True)
     if first.kind == "fold" and abs(display_value(ck, first.z[kern.ix]) - display_value(ck, x0)) > _AT_LIMIT:
-        from .modes import _modes_at
+        from .modes import modes_at
 
-        if not _modes_at(ck, x0):  # Newton found a near-solution beyond the limit: not assemblable
+        if not modes_at(ck, x0):  # Newton found a near-solution beyond the limit: not assemblable
             raise assembly_failure(ck, x0, AssemblyError("beyond a limit position"))
     n_grid = g.kmax - g.kmin + 1
     use_batch = method == "batched" or (method == "auto" and n_grid >= AUTO_BATCH)
@@ -450,7 +450,7 @@ def _insert_limit_rows(ck, path, sol, key, rates, Z, Z1, Z2, Z3, cond, code, res
 
 def _announce_stop(ck, events, through_limits: bool) -> None:
     """One :class:`LoopsolveWarning` line when the sweep stopped before the end of its range."""
-    from .solve import _input_unit
+    from .solve import input_unit
 
     for e in events:
         stop = (e.kind is EventKind.LIMIT and not through_limits) or (
@@ -459,7 +459,7 @@ def _announce_stop(ck, events, through_limits: bool) -> None:
             what = "a limit position (toggle)" if e.kind is EventKind.LIMIT else "a singular position"
             hint = "; --through-limits (through_limits=True) goes around it" if e.kind is EventKind.LIMIT else ""
             warn(f"{ck.mechanism.source or ck.mechanism.name}: the sweep stops at {what} at "
-                 f"{ck.inputs[0]} = {e.input:.10g}{_input_unit(ck)}{hint}")
+                 f"{ck.inputs[0]} = {e.input:.10g}{input_unit(ck)}{hint}")
             return
 
 

@@ -38,7 +38,7 @@ def no_work(monkeypatch):
 
     monkeypatch.setattr(synthesis_run, "one_run", forbidden)
     monkeypatch.setattr(synthesis_run, "_dask_runs", forbidden)
-    monkeypatch.setattr(burmester_mod, "_dyads", forbidden)
+    monkeypatch.setattr(burmester_mod, "pose_dyads", forbidden)
     monkeypatch.setattr(freudenstein_mod, "freudenstein_constants", forbidden)
 
 

@@ -154,13 +154,13 @@ def _counting(monkeypatch):
     from loopsolve.design.synthesis import lockstep_lm
 
     calls = []
-    orig = lockstep_lm._residuals_and_jacobian
+    orig = lockstep_lm.residuals_and_jacobian
 
     def counted(*a, **k):
         calls.append(a[1].shape[0])
         return orig(*a, **k)
 
-    monkeypatch.setattr(lockstep_lm, "_residuals_and_jacobian", counted)
+    monkeypatch.setattr(lockstep_lm, "residuals_and_jacobian", counted)
     return calls
 
 

@@ -259,7 +259,7 @@ class TestNumbaCache:
         (tmp_path / "evil").write_bytes(b"not numba")
         link = pyc / f"{stem}.run2-1.py311.nbi"
         os.symlink(tmp_path / "evil", link)
-        with pytest.raises(compiled._Untrusted, match="not a regular file"):  # a planted symlink
+        with pytest.raises(compiled.Untrusted, match="not a regular file"):  # a planted symlink
             jit._check_pycache(cache, stem)
         link.unlink()
         os.chmod(pyc, 0o775)  # a __pycache__ others can write to: the whole sweep is compiled in memory

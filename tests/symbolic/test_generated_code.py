@@ -227,7 +227,7 @@ def test_default_cache_directory_is_created_under_the_home(tmp_path, monkeypatch
     directory.
 
     Kills loopsolve.symbolic.compiled.x_cache_dir__mutmut_9 (base None), x_cache_dir__mutmut_19 (the home
-    not expanded: a relative 'XX~XX/.cache') and x__ensure_dir__mutmut_2 (missing parents of the
+    not expanded: a relative 'XX~XX/.cache') and x_ensure_dir__mutmut_2 (missing parents of the
     cache directory not created, so nothing was cached)."""
     monkeypatch.setattr(compiled, "_MEMO", {})
     monkeypatch.delenv("LOOPSOLVE_CACHE_DIR", raising=False)
@@ -272,7 +272,7 @@ def test_entry_replaced_by_a_fifo_after_the_first_check_is_named_in_the_warning(
     """Another process swaps the entry for a FIFO between the lstat and the open: the open
     descriptor's check refuses it and the warning names the entry.
 
-    Kills loopsolve.symbolic.compiled.x__read_entry__mutmut_49 (the warning said 'None')."""
+    Kills loopsolve.symbolic.compiled.x_read_entry__mutmut_49 (the warning said 'None')."""
     ls.load(THESIS).compile()
     (entry,) = fresh.glob("m_*.py")
     entry.unlink()

@@ -267,7 +267,7 @@ def build_atlas(mech, *, point: str, vary, size: int, seed: int = 0, out=None, c
     >>> s = a.summary(); s["size"], s["certified"] > 0
     (64, True)
     """
-    from ..studies import _check_cluster
+    from ..studies import check_cluster
 
     if isinstance(size, bool) or not isinstance(size, (int, np.integer)) or size < 1:
         raise ModelError(f"--size {size!r}: the number of designs to sample, at least 1")
@@ -276,7 +276,7 @@ def build_atlas(mech, *, point: str, vary, size: int, seed: int = 0, out=None, c
     if size > max_size:
         raise ModelError(f"--size {size}: more than --max-size {max_size} designs; raise --max-size to build it "
                          f"(an atlas of N four-bars takes about N x 0.7 kB on disk)")
-    _check_cluster(workers, scheduler)
+    check_cluster(workers, scheduler)
     meta = describe(mech, point, vary, seed=seed, chunk=chunk, size=size, step_deg=step_deg,
                     curve_points=curve_points, harmonics=harmonics)
     if out is None:
@@ -323,9 +323,9 @@ def _build_into(mech, path, meta, size, workers, scheduler, client, progress, de
     own = None
     try:
         if client is None and (workers or scheduler):
-            from ..studies import _make_client
+            from ..studies import make_client
 
-            own = client = _make_client(workers, scheduler)
+            own = client = make_client(workers, scheduler)
         if client is None:
             for c in todo:
                 arrays = _chunk_task(text, source, meta, c)

@@ -78,7 +78,7 @@ def _workers():
     caller's ``__main__`` again — a user's script without an ``if __name__ == "__main__":`` guard that calls
     ``ls.synthesize(..., shape=...)`` would run again in every worker (and wait for the atlas it is building).
     """
-    from ..studies import _cpus
+    from ..studies import usable_cpus
 
     env = os.environ.get("LOOPSOLVE_ATLAS_WORKERS")
     if not env:
@@ -87,7 +87,7 @@ def _workers():
         n = int(env)
     except ValueError:
         raise ModelError(f"LOOPSOLVE_ATLAS_WORKERS={env!r}: a whole number of processes") from None
-    n = max(1, min(n, _cpus()))
+    n = max(1, min(n, usable_cpus()))
     if n <= 1:
         return None
     try:
@@ -163,10 +163,10 @@ def default_atlas(mech, point, *, progress=None, seed: int = 0, workers: int | N
                   max_size=max(size, 1), _desc=f"default atlas ({name}, once)")
     if base is None:
         return build_atlas(model, workers=workers or _workers(), **kwargs)
-    from ...symbolic.compiled import _ensure_dir
+    from ...symbolic.compiled import ensure_dir
 
-    _ensure_dir(base.parent)
-    _ensure_dir(base)
+    ensure_dir(base.parent)
+    ensure_dir(base)
     path = base / f"{name}-{key}-{size}.zarr"
     lock = base / f"{name}-{key}-{size}.lock"
     if path.is_dir():

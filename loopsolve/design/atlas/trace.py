@@ -93,7 +93,7 @@ def _fourbar_loops(mech) -> list[dict]:
     return out
 
 
-def _loop_lengths(ck, loops, Z, P):
+def loop_lengths(ck, loops, Z, P):
     """``(nloops, 4, D)`` lengths (ground, input, coupler, output) of every four-bar loop at poses ``Z``."""
     out = np.full((len(loops), 4, Z.shape[1]), np.nan)
     if not loops:
@@ -117,7 +117,7 @@ def _loop_lengths(ck, loops, Z, P):
     return out
 
 
-def _grashof(lengths):
+def grashof_codes(lengths):
     """Class codes ``(nloops, D)`` and the least margin P + Q − S − L over the loops ``(D,)``."""
     from ...kinematics.classic_limits import grashof
 
@@ -264,7 +264,7 @@ def trace_chunk(mech, point: str, names, V, *, step_deg: float = 3.0, curve_poin
             out["transmission"] = np.stack([np.nanmin(mu, axis=0), np.nanmax(mu, axis=0)], axis=1).astype(np.float32)
     if loops:
         zany = np.where(ok[None, :], np.nan_to_num(Z0), 0.0)
-        codes, margin = _grashof(_loop_lengths(ck, loops, zany, P))
+        codes, margin = grashof_codes(loop_lengths(ck, loops, zany, P))
         out["grashof"] = np.where(ok[:, None], codes.T, 0).astype(np.int8)
         out["margin"] = np.where(ok, margin, np.nan)
     # descriptors

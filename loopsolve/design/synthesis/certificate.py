@@ -189,7 +189,7 @@ def certify(mech, inputs, *, poses=None, crank: bool = False, transmission=None,
 
 
 def _certify(mech, inputs, poses, crank, transmission, point, targets, margin=True):
-    from ...kinematics.modes import _modes_at
+    from ...kinematics.modes import modes_at
 
     ck = mech.compile()
     xs = np.asarray(inputs, dtype=float)
@@ -210,7 +210,7 @@ def _certify(mech, inputs, poses, crank, transmission, point, targets, margin=Tr
             except LoopsolveError:
                 z, closes = None, False
         else:
-            modes = _modes_at(ck, xs[t])
+            modes = modes_at(ck, xs[t])
             z, closes = None, bool(modes)
             if modes:
                 pi = ck.points.index(point)

@@ -109,9 +109,9 @@ def check_options(*, runs, seed, popsize, maxiter, tol, restarts, starts, de_sta
     _limit("--max-cells", max_cells)
     _limit("--max-targets", max_targets)
     if workers is not None or scheduler is not None:
-        from ..studies import _check_cluster  # the studies' rules: 1..CPUs local processes, an address
+        from ..studies import check_cluster  # the studies' rules: 1..CPUs local processes, an address
 
-        _check_cluster(workers, scheduler)
+        check_cluster(workers, scheduler)
 
 
 def _rows(i: int, j: int) -> str:

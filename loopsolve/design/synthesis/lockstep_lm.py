@@ -37,11 +37,11 @@ __all__ = ["batch_lm", "distinct", "multistart", "sample"]
 
 #: the trace step (the exact polish's 5°: at the search's 10° the trace loses designs whose output turns
 #: fast, and the eighteen-point runs lost the 9.03e-3 basin) and the largest change of a free input per step
-_POLISH_H = math.radians(5.0)
+POLISH_H = math.radians(5.0)
 _FREE_STEP = math.radians(10.0)
 
 
-def _residuals_and_jacobian(problem, V, X, signs, hmax, start=None, warm=False):
+def residuals_and_jacobian(problem, V, X, signs, hmax, start=None, warm=False):
     """Residual vectors ``(D, M)``, Jacobians ``(D, M, k [+ T])``, the reached flags of designs ``V`` ``(D, k)``
     and their positions at the first target ``(nv, D)`` (``warm``: at every target, ``(nv, T, D)``).
 
@@ -104,7 +104,7 @@ def _residuals_and_jacobian(problem, V, X, signs, hmax, start=None, warm=False):
 
 
 def _warm_poses(problem, start, P, X, signs, hmax):
-    """Positions at every target by Newton from ``start`` ``(nv, T, D)`` (see :func:`_residuals_and_jacobian`)."""
+    """Positions at every target by Newton from ``start`` ``(nv, T, D)`` (see :func:`residuals_and_jacobian`)."""
     b = problem.batch
     T, D = X.shape
     nv = start.shape[0]
@@ -134,7 +134,7 @@ _AGREE_RTOL = 1e-6
 _AGREE_ATOL = 1e-12
 
 
-def batch_lm(problem, V, signs, X=None, *, iters: int = 25, hmax: float = _POLISH_H, floor: float | None = None,
+def batch_lm(problem, V, signs, X=None, *, iters: int = 25, hmax: float = POLISH_H, floor: float | None = None,
              warm: bool = False):
     """Levenberg–Marquardt on every row of ``V`` ``(D, k)`` (model units) in its mode ``signs`` ``(nb, D)``.
 
@@ -149,7 +149,7 @@ def batch_lm(problem, V, signs, X=None, *, iters: int = 25, hmax: float = _POLIS
     columns 1e4 times worse than the best after ten iterations was tried and removed: on a
     free-timing half circle the column that ends at f ≈ 1e-30 was above that early, and the run
     ended at 2.4e-7.) ``warm``: a trial design's positions at every target by Newton from the last
-    accepted ones (:func:`_residuals_and_jacobian`), checked every ``_VALIDATE`` iterations and at
+    accepted ones (:func:`residuals_and_jacobian`), checked every ``_VALIDATE`` iterations and at
     the end by a trace through the targets (:func:`_validate`: a column that left the one motion
     goes back to where it last passed and stops); shape synthesis uses it.
 
@@ -206,7 +206,7 @@ def _lm(problem, V, signs, X, iters, hmax, floor, need, warm):
         return np.where(per, Vw, np.clip(Vt, lo, hi))
 
     V = project(V)
-    r, J, ok, Z0 = _residuals_and_jacobian(problem, V, X, signs, hmax, warm=warm)
+    r, J, ok, Z0 = residuals_and_jacobian(problem, V, X, signs, hmax, warm=warm)
     if need and ok.any():  # a start that fails the requirements is not polished (its steps could not be judged)
         ok[ok] = requirements.check(problem, b.params(V[ok]), signs[:, ok], X[:, ok])[0]
     checked = None
@@ -242,7 +242,7 @@ def _lm(problem, V, signs, X, iters, hmax, floor, need, warm):
             step = step * np.minimum(1.0, _FREE_STEP / np.where(big > 0, big, 1.0))[:, None]
         Vn = project(V[a] + np.where(good[:, None], step[:, :k], 0.0))
         Xn = X[:, a] + (np.where(good[:, None], step[:, k:], 0.0).T if problem.free else 0.0)
-        rn, Jn, okn, Z0n = _residuals_and_jacobian(problem, Vn, Xn, signs[:, a], hmax, start=Z0[..., a], warm=warm)
+        rn, Jn, okn, Z0n = residuals_and_jacobian(problem, Vn, Xn, signs[:, a], hmax, start=Z0[..., a], warm=warm)
         fn = np.where(okn & good, np.sum(rn * rn, axis=1), np.inf)
         acc = fn < f[a]
         if need and acc.any():  # a step must keep the design within the requirements (crank, transmission)

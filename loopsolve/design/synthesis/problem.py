@@ -178,7 +178,7 @@ class Problem:
         return b.follow(Z, P, X, hmax=hmax, signs=signs, stop_on_singular=singular_stop)
 
 
-def _signature(signs) -> str:
+def sign_string(signs) -> str:
     return "".join("+" if s > 0 else "-" if s < 0 else "0" for s in signs)
 
 

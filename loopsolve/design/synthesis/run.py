@@ -23,7 +23,7 @@ import numpy as np
 from ...errors import ModelError
 from ...errors import SynthesisError
 from .design_model import certify_design, clean, design_model
-from .problem import define, polish, search_many, _signature
+from .problem import define, polish, search_many, sign_string
 
 __all__ = ["synthesize", "SynthesisResult"]
 
@@ -180,7 +180,7 @@ def one_run(problem, seed, opts):
 
     t0 = time.perf_counter()
     if problem.mode == "any":  # one search per mode: a basin of one mode cannot crowd out the other's
-        subs = [dataclasses.replace(problem, mode=_signature(sg)) for sg in problem.batch.all_signs()]
+        subs = [dataclasses.replace(problem, mode=sign_string(sg)) for sg in problem.batch.all_signs()]
     else:
         subs = [problem]
     gens, nev, history = 0, 0, []
@@ -567,11 +567,11 @@ def problem_targets(problem, targets):
 def _dask_runs(problem, mech, kwargs, seeds, opts, workers, scheduler, client, bar):
     from ...model.modelfile import dumps
 
-    from ..studies import _make_client  # the studies' cluster rules (local processes or a scheduler)
+    from ..studies import make_client  # the studies' cluster rules (local processes or a scheduler)
 
     own = None
     if client is None:
-        client = own = _make_client(workers or 1, scheduler)
+        client = own = make_client(workers or 1, scheduler)
     kwargs = dict(kwargs, model_text=dumps(mech), source=mech.source or mech.name)
     try:
         futs = [client.submit(_run_task, (kwargs, s, opts), pure=False) for s in seeds]
@@ -623,7 +623,7 @@ def _result(problem, outs, input_range=None, desired=None) -> SynthesisResult:
     report.update({
         "objective": best["objective"],
         "parameters": dict(zip(problem.names, map(float, best["values"]))),
-        "mode": _signature(best["signs"]),
+        "mode": sign_string(best["signs"]),
         "direction": best["direction"],
         "targets": entries,
         "certificate": cert,

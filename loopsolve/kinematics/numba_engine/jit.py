@@ -12,7 +12,7 @@ Unreadable entries: a truncated, corrupt or unreadable numba index or data file 
 a generated ``nb_<hash>.py`` whose content does not match its header is rewritten likewise.
 
 Security: numba's cache holds pickled data and machine code, so the same rules as the
-generated modules (:func:`loopsolve.symbolic.compiled._check_dir`, ``_read_entry``) apply: the cache
+generated modules (:func:`loopsolve.symbolic.compiled.check_dir`, ``read_entry``) apply: the cache
 directory and its ``__pycache__`` must belong to the user and be writable by nobody else,
 the module file must be a regular file of the user's whose content matches the hash in its
 first line, and no entry of ``__pycache__`` for it may be a symlink, foreign or writable by
@@ -152,7 +152,7 @@ def numba_source(ck) -> str:
 
 def _check_pycache(directory: Path, stem: str) -> None:
     """numba's ``__pycache__`` next to the module: private to the user, no foreign or linked entry for it."""
-    from ...symbolic.compiled import _check_dir, _check_owner_mode, _Untrusted
+    from ...symbolic.compiled import check_dir, check_owner_mode, Untrusted
 
     pyc = directory / "__pycache__"
     if not pyc.exists():
@@ -161,14 +161,14 @@ def _check_pycache(directory: Path, stem: str) -> None:
         except FileExistsError:
             pass
         os.chmod(pyc, 0o700)
-    _check_dir(pyc)
+    check_dir(pyc)
     for entry in os.scandir(pyc):
         if not entry.name.startswith(stem + "."):
             continue
         st = os.lstat(entry.path)
         if not stat.S_ISREG(st.st_mode):
-            raise _Untrusted(f"the numba cache entry {entry.path} is not a regular file")
-        _check_owner_mode(st, f"the numba cache entry {entry.path}")
+            raise Untrusted(f"the numba cache entry {entry.path} is not a regular file")
+        check_owner_mode(st, f"the numba cache entry {entry.path}")
 
 
 class _MissOnError:
@@ -228,7 +228,7 @@ def _numba_module(ck) -> ModuleType:
         return hit[1]
     import numba
 
-    from ...symbolic.compiled import (_check_dir, _ensure_dir, _read_entry, _Stale, _Untrusted, _warn_untrusted, _write_entry,
+    from ...symbolic.compiled import (check_dir, ensure_dir, read_entry, Stale, Untrusted, warn_untrusted, write_entry,
                            cache_dir)
 
     source = numba_source(ck)
@@ -242,20 +242,20 @@ def _numba_module(ck) -> ModuleType:
     if directory is not None:
         path = directory / f"nb_{key}.py"
         try:
-            _ensure_dir(directory)
-            _check_dir(directory)
+            ensure_dir(directory)
+            check_dir(directory)
             _check_pycache(directory, f"nb_{key}")
             try:
-                text = _read_entry(path, key)
-            except _Stale:
+                text = read_entry(path, key)
+            except Stale:
                 text = None
             if text != source:
-                if not _write_entry(path, source, key) or _read_entry(path, key) != source:
+                if not write_entry(path, source, key) or read_entry(path, key) != source:
                     raise OSError("not written")
             origin, cache = str(path), True
-        except _Untrusted as exc:
-            _warn_untrusted(str(exc))
-        except (OSError, _Stale):
+        except Untrusted as exc:
+            warn_untrusted(str(exc))
+        except (OSError, Stale):
             pass  # an unwritable cache: compile in memory
     module = ModuleType(f"loopsolve_numba_{key}")
     module.__file__ = origin

@@ -42,7 +42,7 @@ import numpy as np
 from ...errors import warn
 from ...model.units import Kind
 from ..batch import SINGULAR_COND, rates_v
-from ..continuation import _NEAR_SINGULAR, _RHO_TOUCH, _TRUST, Node
+from ..continuation import NEAR_SINGULAR, RHO_TOUCH, TRUST, Node
 from ..scalar_solver import ROUNDOFF, rho_2x3  # rho_2x3: compiled into the template from its one definition
 from ..newton import Newton
 from ..solve import guess_pose, initial_z
@@ -535,7 +535,7 @@ class FastLane:
         f[F_TOL], f[F_W0], f[F_W1], f[F_WX] = k.tol, k.wu[0], k.wu[1], k.wx
         f[F_COS_TURN], f[F_COS_GROW] = tracer.cos_turn, tracer.cos_grow
         f[F_MAX_STEP], f[F_MIN_STEP], f[F_NATURAL_MIN] = c.max_step, c.min_step, c.natural_min
-        f[F_TRUST], f[F_RHO_TOUCH], f[F_NEAR] = _TRUST, _RHO_TOUCH, _NEAR_SINGULAR
+        f[F_TRUST], f[F_RHO_TOUCH], f[F_NEAR] = TRUST, RHO_TOUCH, NEAR_SINGULAR
         f[F_G_START], f[F_G_STEP], f[F_G_LO], f[F_G_HI] = g.start, g.step, g.lo, g.hi
         f[F_DEG0], f[F_DEG1] = g.deg if g.deg is not None else (0.0, 0.0)
         f[F_ROUNDOFF] = ROUNDOFF

@@ -85,7 +85,7 @@ def _refuse_repeated(arr) -> None:
                          "give distinct poses")
 
 
-class _Frame:
+class PoseFrame:
     """Poses normalized: centroid at the origin, unit size (results are mapped back)."""
 
     def __init__(self, poses):
@@ -134,7 +134,7 @@ class _Frame:
         return k
 
 
-def _pencil(fr: _Frame, idx, n: int = 1440, psi=None):
+def _pencil(fr: PoseFrame, idx, n: int = 1440, psi=None):
     """The centre-point curve of rows ``idx`` along the lines through the pole P₀ⱼ (first of idx).
 
     Returns (psi, pts) with pts (n, 2, 2): the two curve points on each line (NaN where none).
@@ -191,7 +191,7 @@ def burmester_curves(poses, *, samples: int = 1440) -> BurmesterCurves:
     poses = parse_poses(poses)
     if len(poses) != 4:
         raise ModelError(f"centre-point and circle-point curves need exactly four poses (got {len(poses)})")
-    fr = _Frame(poses)
+    fr = PoseFrame(poses)
     idx3 = fr.order(4)
     psi, pts, _ = _pencil(fr, idx3, samples)
     for _ in range(10):  # refine the lines' angles where the curve moves fast (near the pencil's pole)
@@ -249,8 +249,8 @@ class Dyad:
         return np.array([x, y]) + _rot(math.radians(a)) @ np.array(self.circle)
 
 
-def _dyads(poses) -> list[Dyad]:
-    fr = _Frame(poses)
+def pose_dyads(poses) -> list[Dyad]:
+    fr = PoseFrame(poses)
     o = fr.order(5)
     idx3, idx4 = o[:3], o[:2] + o[3:]
     psi, pts, P = _pencil(fr, idx3, 2880)
@@ -419,7 +419,7 @@ def _wrap_deg(a):
     return (a + 180.0) % 360.0 - 180.0
 
 
-def _candidate(pair, da: Dyad, db: Dyad, poses, name, length_unit) -> FourBarCandidate:
+def candidate_four_bar(pair, da: Dyad, db: Dyad, poses, name, length_unit) -> FourBarCandidate:
     mech, lengths, t1, d3 = _model(da, db, poses[0], name, length_unit)
     ck = mech.compile()
     cls = grashof(*lengths)
@@ -489,7 +489,7 @@ def dyad_for_center(poses, center) -> Dyad:
     poses = parse_poses(poses)
     if len(poses) < 3:
         raise ModelError(f"a dyad through poses needs at least three poses (got {len(poses)})")
-    fr = _Frame(poses)
+    fr = PoseFrame(poses)
     m = (np.asarray(center, dtype=float) - fr.c) / fr.s
     k = fr.circle_point(m, tuple(range(1, len(poses))))
     w = fr.p + np.einsum("jab,b->ja", fr.R, k)
@@ -519,7 +519,7 @@ def four_bar(poses, center_a, center_b, *, length_unit: str = "mm",
     """
     poses = parse_poses(poses)
     da, db = dyad_for_center(poses, center_a), dyad_for_center(poses, center_b)
-    return _candidate((0, 1), da, db, poses, name, length_unit)
+    return candidate_four_bar((0, 1), da, db, poses, name, length_unit)
 
 
 def burmester(poses, *, length_unit: str = "mm", name: str = "Burmester four-bar") -> BurmesterResult:
@@ -552,13 +552,13 @@ def burmester(poses, *, length_unit: str = "mm", name: str = "Burmester four-bar
     if len(poses) != 5:
         raise ModelError(f"Burmester synthesis needs exactly five poses (got {len(poses)}); four poses give the "
                          "centre-point and circle-point curves (burmester_curves)")
-    dyads = _dyads(poses)
+    dyads = pose_dyads(poses)
     cands = []
     for i, j in itertools.combinations(range(len(dyads)), 2):
         options = []
         for a, b in ((i, j), (j, i)):
             try:
-                options.append(_candidate((a, b), dyads[a], dyads[b], poses, name, length_unit))
+                options.append(candidate_four_bar((a, b), dyads[a], dyads[b], poses, name, length_unit))
             except ModelError:
                 continue
         if options:

@@ -1,6 +1,6 @@
 """Burmester four-bars for three, four or five poses, screened and ranked by a stated rule.
 
-Five poses give a finite set of dyads (the Ball–Burmester points, :func:`loopsolve.design.synthesis.classical.burmester._dyads`);
+Five poses give a finite set of dyads (the Ball–Burmester points, :func:`loopsolve.design.synthesis.classical.burmester.pose_dyads`);
 four give a curve of centre points (:func:`loopsolve.design.synthesis.classical.burmester.burmester_curves`); three
 give a dyad for every centre point. So a choice is always involved, and this module makes it by
 a rule a designer can read:
@@ -23,7 +23,7 @@ a rule a designer can read:
    much a poor transmission multiplies the force the input must give (1 at 90°, 2 at 30°).
    The motion is the poses' stretch, or the full turn when ``crank`` is asked for.
 4. The candidates that pass the screening go, best score first, to the tracker's certificate
-   (:func:`loopsolve.design.synthesis.classical.burmester._candidate`) and the caller's own check (the user's model);
+   (:func:`loopsolve.design.synthesis.classical.burmester.candidate_four_bar`) and the caller's own check (the user's model);
    the report lists the certified ones with their scores.
 """
 
@@ -35,7 +35,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ....errors import ModelError
-from .burmester import Dyad, _Frame, _dyads, burmester_curves, parse_poses
+from .burmester import Dyad, PoseFrame, pose_dyads, burmester_curves, parse_poses
 
 __all__ = ["RULE", "Screened", "screen", "candidate_dyads", "REACH"]
 
@@ -58,8 +58,8 @@ def candidate_dyads(poses) -> list[Dyad]:
     poses = parse_poses(poses)
     n = len(poses)
     if n == 5:
-        return _dyads(poses)
-    fr = _Frame(poses)
+        return pose_dyads(poses)
+    fr = PoseFrame(poses)
     c, L = fr.c, fr.s
     if n == 4:
         cu = burmester_curves(poses, samples=480)

@@ -3,7 +3,7 @@
 The candidates and their screening and score are :mod:`loopsolve.design.synthesis.classical.burmester_search`'s (the rule is
 :data:`loopsolve.design.synthesis.classical.burmester_search.RULE`, also in the report's ``ranking``). Each candidate that
 passes the screening is, best score first, moved through the poses by the tracker
-(:func:`loopsolve.design.synthesis.classical.burmester._candidate`), written into the user's model
+(:func:`loopsolve.design.synthesis.classical.burmester.candidate_four_bar`), written into the user's model
 (:func:`loopsolve.design.synthesis.classical.transplant.transplant`) and certified there by the general method's
 certificate (with ``crank`` and ``transmission``). Five poses: every pair of Ball–Burmester
 dyads is tried (both ways; the better one is listed). Three or four: up to ``_TRY`` candidates
@@ -137,13 +137,13 @@ def _conv(mech, deg_value):
 
 def _try(mech, lay, pdeg, poses, dyads, scr, m, motion, link, crank, transmission, cache):
     """One candidate: the tracker on the classical four-bar, then the user's model and its certificate."""
-    from .burmester import _candidate
+    from .burmester import candidate_four_bar
     from ..certificate import certify, flags, sort_defects
     from .transplant import transplant
 
     i, j = (int(v) for v in scr.pairs[m])
     try:
-        cand = _candidate((i, j), dyads[i], dyads[j], pdeg, f"{mech.name} (Burmester)", mech.units.length)
+        cand = candidate_four_bar((i, j), dyads[i], dyads[j], pdeg, f"{mech.name} (Burmester)", mech.units.length)
     except ModelError:
         return None
     da, db = dyads[i], dyads[j]

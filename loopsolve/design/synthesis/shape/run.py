@@ -309,7 +309,7 @@ def _lm_polish(problem, v, x, signs, Z, max_nfev: int = 80):
     """
     from scipy.optimize import least_squares
 
-    from ..lockstep_lm import _POLISH_H, _residuals_and_jacobian
+    from ..lockstep_lm import POLISH_H, residuals_and_jacobian
 
     k = len(v)
     state = {"Z": np.asarray(Z, dtype=float)[:, :, None].copy()}
@@ -321,7 +321,7 @@ def _lm_polish(problem, v, x, signs, Z, max_nfev: int = 80):
         if key not in cache:
             cache.clear()
             with np.errstate(all="ignore"):
-                r, J, ok, Zn = _residuals_and_jacobian(problem, u[:k][None], u[k:][:, None], sg, _POLISH_H,
+                r, J, ok, Zn = residuals_and_jacobian(problem, u[:k][None], u[k:][:, None], sg, POLISH_H,
                                                        start=state["Z"], warm=True)
             if ok[0]:
                 state["Z"] = Zn
@@ -429,7 +429,7 @@ def _candidate(problem, frame, atlas, xy, closed, p, match, transmission, deg, l
     """Certify one polished design and measure its shape error: the candidate dict, or None (cannot be traced)."""
     from ....errors import LoopsolveError
     from ..certificate import certify
-    from ..problem import _signature
+    from ..problem import sign_string
 
     values = np.asarray(p["values"], dtype=float)
     inputs = np.asarray(p["inputs"], dtype=float)
@@ -443,10 +443,10 @@ def _candidate(problem, frame, atlas, xy, closed, p, match, transmission, deg, l
     sub = np.unique(np.round(np.linspace(0, T - 1, min(T, _CERT_POINTS))).astype(int))
     margin, grashof = None, ""
     if loops:
-        from ...atlas.trace import GRASHOF_CLASSES, _grashof, _loop_lengths
+        from ...atlas.trace import GRASHOF_CLASSES, grashof_codes, loop_lengths
 
         Pd = problem.batch.params(values[None])
-        codes, marg = _grashof(_loop_lengths(problem.ck, loops, Z[:, :1], Pd))
+        codes, marg = grashof_codes(loop_lengths(problem.ck, loops, Z[:, :1], Pd))
         grashof = " + ".join(GRASHOF_CLASSES[c] for c in codes[:, 0] if c)
         margin = float(marg[0]) if np.isfinite(marg[0]) else None
     cert = certify(mech, inputs[sub], poses=Z[:, sub], crank=problem.crank, transmission=transmission,
@@ -484,7 +484,7 @@ def _candidate(problem, frame, atlas, xy, closed, p, match, transmission, deg, l
                       "reference": ref},
         "shape_error": {"rms": float(np.sqrt(np.mean(dist ** 2))), "max": float(np.max(dist))},
         "grashof": grashof,
-        "mode": _signature(p["signs"]),
+        "mode": sign_string(p["signs"]),
         "transmission": cert.get("transmission"),
         "certificate": cert,
         "objective": float(np.sum(dist ** 2)),
