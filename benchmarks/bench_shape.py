@@ -273,8 +273,8 @@ def path(args, out):
 
 
 def speed(args, out):
-    from loopsolve.design.atlas import build_atlas
-    from loopsolve.design.atlasdefault import default_atlas
+    from loopsolve.design.atlas.build import build_atlas
+    from loopsolve.design.atlas.defaults import default_atlas
 
     mech = ls.load(MODEL)
     c0 = time.process_time()

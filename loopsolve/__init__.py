@@ -13,7 +13,10 @@ tracking, and gives velocities, accelerations and jerks, sweeps, plots and the L
 __version__ = "0.1.0"
 
 from . import errors
-from .model import bodies, diagram, expr, topology, units
+from . import _moved
+
+_moved.install()  # old module paths (loopsolve.design.synthesis.classical.burmester, ...) still import, with a warning
+from .model import bodies, diagram, expr, topology, units  # noqa: E402
 from .kinematics import newton  # noqa: E402
 from .errors import (  # noqa: E402
     AssemblyError,
@@ -42,9 +45,9 @@ from .kinematics.results import Event, EventKind, State, Sweep  # noqa: E402
 # below, so that importing them later cannot replace ``loopsolve.kinematics.solve``/``loopsolve.kinematics.sweep``
 from .kinematics import solve as _solve_module  # noqa: E402, F401
 from .kinematics import sweep as _sweep_module  # noqa: E402, F401
-from .design import freudenstein as _freudenstein_module  # noqa: E402, F401
-from .design import burmester as _burmester_module  # noqa: E402, F401
-from .design.atlas import build_atlas, open_atlas  # noqa: E402  (the implementation is the public door)
+from .design.synthesis.classical import freudenstein as _freudenstein_module  # noqa: E402, F401
+from .design.synthesis.classical import burmester as _burmester_module  # noqa: E402, F401
+from .design.atlas.build import build_atlas, open_atlas  # noqa: E402  (the implementation is the public door)
 
 
 def derive(mech, input=None):
@@ -70,7 +73,7 @@ def derive(mech, input=None):
     >>> kin.jac.shape
     (2, 2)
     """
-    from .symbolic.derivation import derive as _derive
+    from .symbolic.loop_equations import derive as _derive
 
     return _derive(mech, input=input)
 
@@ -339,7 +342,7 @@ def synthesize(mech, *, path=None, function=None, motion=None, link=None, target
     >>> res.report["task"], res.report["certificate"]["defects"]
     ('function', [])
     """
-    from .design.synthrun import synthesize as _synthesize
+    from .design.synthesis.run import synthesize as _synthesize
 
     return _synthesize(mech, path=path, function=function, motion=motion, link=link, targets=targets, inputs=inputs,
                        vary=vary, crank=crank, transmission=transmission, runs=runs, seed=seed, mode=mode,
@@ -554,12 +557,12 @@ def export_cad(mech, output, at=None, *, input: 'str | None' = None, mode: 'str 
 #: The types users hold, importable from the top (``from loopsolve import ForceSweep``); each is
 #: imported on first use, so ``import loopsolve`` stays light (no sympy, xarray or matplotlib).
 _TYPES = {
-    "CompiledKinematics": "symbolic.compiled", "Kinematics": "symbolic.derivation",
+    "CompiledKinematics": "symbolic.compiled", "Kinematics": "symbolic.loop_equations",
     "DynamicsDerivation": "dynamics.eom", "Newton": "kinematics.newton", "StepControl": "kinematics.continuation",
     "Mode": "kinematics.modes", "ForceSweep": "dynamics.forceresults", "Flywheel": "dynamics.forceresults",
-    "Simulation": "dynamics.simulation", "SynthesisResult": "design.synthrun", "ShapeResult": "design.shape",
-    "FunctionDesign": "design.freudenstein", "BurmesterResult": "design.burmester",
-    "BurmesterCurves": "design.burmester", "Atlas": "design.atlas", "Page": "output.view",
+    "Simulation": "dynamics.simulation", "SynthesisResult": "design.synthesis.run", "ShapeResult": "design.synthesis.shape.run",
+    "FunctionDesign": "design.synthesis.classical.freudenstein", "BurmesterResult": "design.synthesis.classical.burmester",
+    "BurmesterCurves": "design.synthesis.classical.burmester", "Atlas": "design.atlas.build", "Page": "output.view",
 }
 
 # The flat modules' names before the subpackages (issue 24, ARCHITECTURE.md). ``ls.classic`` and
@@ -569,15 +572,15 @@ _MOVED = {
     "spec": "model.spec", "exprcheck": "model.exprcheck", "unitlib": "model.unitlib", "files": "model.files",
     "modelfile": "model.modelfile", "builder": "model.builder", "factories": "model.factories",
     "diagrambodies": "model.diagrambodies", "compiled": "symbolic.compiled", "texprint": "symbolic.texprint",
-    "kernel": "kinematics.kernel", "modes": "kinematics.modes", "continuation": "kinematics.continuation",
+    "kernel": "kinematics.scalar_solver", "modes": "kinematics.modes", "continuation": "kinematics.continuation",
     "batch": "kinematics.batch", "assemblable": "kinematics.assemblable", "results": "kinematics.results",
     "export": "kinematics.export", "info": "kinematics.info", "classic": "kinematics.classic",
     "declcheck": "dynamics.declcheck", "kinetostatics": "dynamics.kinetostatics", "eom": "dynamics.eom",
     "simulation": "dynamics.simulation", "forceresults": "dynamics.forceresults", "designs": "design.designs",
     "lockstep": "design.lockstep", "studies": "design.studies", "metrics": "design.metrics",
-    "sensitivity": "design.sensitivity", "synthesis": "design.synthesis", "synthbatch": "design.synthbatch",
-    "certify": "design.certify", "synthrun": "design.synthrun", "classicsynth": "design.classicsynth",
-    "linkcheck": "design.linkcheck", "structerr": "design.structerr", "plotting": "output.plotting",
+    "sensitivity": "design.sensitivity", "synthesis": "design.synthesis.problem", "synthbatch": "design.synthesis.candidates",
+    "certify": "design.synthesis.certificate", "synthrun": "design.synthesis.run", "classicsynth": "design.synthesis.classical.run",
+    "linkcheck": "design.synthesis.classical.verdict", "structerr": "design.synthesis.structural_error", "plotting": "output.plotting",
     "forceplots": "output.forceplots", "drawstyle": "output.drawstyle", "geometry": "output.geometry",
     "view": "output.view", "cad": "output.cad", "latex": "output.latex", "latex_dynamics": "output.latex_dynamics",
 }

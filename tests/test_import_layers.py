@@ -4,7 +4,7 @@ The layers, lowest first: ``errors`` (every layer raises its errors), ``model``,
 ``kinematics``, ``dynamics``, ``design``, ``output``, and at the top ``cli`` together with the
 package's ``__init__`` (the public API, which the command line may use). Every import in ``loopsolve/`` is read with ``ast`` — at module level and
 inside functions (lazy imports) alike — and an import of a higher layer fails here, unless it is
-one of the convenience methods listed in :data:`loopsolve._facade.FACADE` (``mech.sweep``,
+one of the convenience methods listed in :data:`loopsolve._layering.FACADE` (``mech.sweep``,
 ``sweep.plot``, ...): the single documented way up.
 """
 
@@ -14,7 +14,7 @@ import ast
 from pathlib import Path
 
 import loopsolve
-from loopsolve._facade import CYCLES, FACADE, LAYERS, WITHIN_LAYER
+from loopsolve._layering import CYCLES, FACADE, LAYERS, WITHIN_LAYER
 
 PACKAGE = Path(loopsolve.__file__).parent
 
@@ -30,7 +30,7 @@ def _layer(module: str) -> int:
     if len(parts) == 1:
         return LAYERS.index("cli")  # loopsolve/__init__.py: the public API, the top layer with the CLI
     name = parts[1]
-    if name == "_facade":
+    if name in ("_layering", "_moved"):
         return 0
     if name not in LAYERS:  # loopsolve.__main__, or a name of the public API (`from .. import guessed_mode`)
         return LAYERS.index("cli")
@@ -90,7 +90,7 @@ def test_every_module_belongs_to_a_layer():
     for path in PACKAGE.rglob("*.py"):
         module = _module_name(path)
         parts = module.split(".")
-        if len(parts) > 1 and parts[1] not in LAYERS and parts[1] not in ("__main__", "_facade"):
+        if len(parts) > 1 and parts[1] not in LAYERS and parts[1] not in ("__main__", "_layering", "_moved"):
             stray.append(module)
     assert stray == [], f"modules outside the layers (put them in a subpackage): {stray}"
 
@@ -164,7 +164,7 @@ def _cycles():
 
 def test_import_cycles_inside_a_layer_are_the_listed_ones():
     """A cycle, even through imports inside functions, is two modules that cannot be understood (or moved)
-    apart: each is listed in loopsolve._facade.CYCLES with its reason, and a broken one leaves the list."""
+    apart: each is listed in loopsolve._layering.CYCLES with its reason, and a broken one leaves the list."""
     listed = {frozenset(c) for c, _ in CYCLES}
     found = _cycles()
     assert sorted(map(sorted, found - listed)) == [], "unlisted import cycles: break them or list them with a reason"

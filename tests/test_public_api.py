@@ -59,11 +59,11 @@ SIGNATURES = {
 #: (public function or method, the implementation it is): the same parameters, kinds and defaults
 SAME_OPERATION = [
     ("solve", "loopsolve.kinematics.solve:solve"), ("sweep", "loopsolve.kinematics.sweep:sweep"),
-    ("study", "loopsolve.design.studies:study"), ("synthesize", "loopsolve.design.synthrun:synthesize"),
+    ("study", "loopsolve.design.studies:study"), ("synthesize", "loopsolve.design.synthesis.run:synthesize"),
     ("forces", "loopsolve.dynamics.kinetostatics:forces"), ("simulate", "loopsolve.dynamics.simulation:simulate"),
-    ("freudenstein", "loopsolve.design.freudenstein:freudenstein"), ("burmester", "loopsolve.design.burmester:burmester"),
-    ("burmester_curves", "loopsolve.design.burmester:burmester_curves"), ("export_cad", "loopsolve.output.cad:export_cad"),
-    ("build_atlas", "loopsolve.design.atlas:build_atlas"), ("open_atlas", "loopsolve.design.atlas:open_atlas"),
+    ("freudenstein", "loopsolve.design.synthesis.classical.freudenstein:freudenstein"), ("burmester", "loopsolve.design.synthesis.classical.burmester:burmester"),
+    ("burmester_curves", "loopsolve.design.synthesis.classical.burmester:burmester_curves"), ("export_cad", "loopsolve.output.cad:export_cad"),
+    ("build_atlas", "loopsolve.design.atlas.build:build_atlas"), ("open_atlas", "loopsolve.design.atlas.build:open_atlas"),
     ("Mechanism.solve", "loopsolve.kinematics.solve:solve"), ("Mechanism.sweep", "loopsolve.kinematics.sweep:sweep"),
     ("Mechanism.forces", "loopsolve.dynamics.kinetostatics:forces"),
     ("Mechanism.simulate", "loopsolve.dynamics.simulation:simulate"),
@@ -219,8 +219,8 @@ def test_an_old_module_name_still_works_and_warns_with_the_new_path(old, new):
         exec(f"from loopsolve import {old}", {})  # noqa: S102 - our own package
 
 
-@pytest.mark.parametrize("package, name, home", [("model", "Mechanism", "mechanism"), ("symbolic", "derive", "derivation"),
-                                                 ("dynamics", "DynamicsModel", "derivation")])
+@pytest.mark.parametrize("package, name, home", [("model", "Mechanism", "mechanism"), ("symbolic", "derive", "loop_equations"),
+                                                 ("dynamics", "DynamicsModel", "dynamics_model")])
 def test_a_subpackage_s_old_module_names_warn(package, name, home):
     real = _resolve(f"loopsolve.{package}.{home}:{name}")
     with pytest.warns(DeprecationWarning, match=rf"loopsolve\.{package}\.{name} is loopsolve\.{package}\.{home}\.{name} now"):
@@ -231,7 +231,7 @@ def test_new_names_do_not_warn_and_types_are_the_implementations():
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         assert ls.ForceSweep is _resolve("loopsolve.dynamics.forceresults:ForceSweep")
-        assert ls.SynthesisResult is _resolve("loopsolve.design.synthrun:SynthesisResult")
+        assert ls.SynthesisResult is _resolve("loopsolve.design.synthesis.run:SynthesisResult")
         assert ls.Newton is _resolve("loopsolve.kinematics.newton:Newton")
         assert ls.kinematics.classic is sys.modules["loopsolve.kinematics.classic"]
         from loopsolve.model.mechanism import Mechanism
@@ -246,3 +246,52 @@ def test_import_loopsolve_stays_light():
             " if m in sys.modules))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
     assert out.strip() == "[]"
+
+
+@pytest.mark.parametrize("old, new", [
+    ("loopsolve.design.burmester", "loopsolve.design.synthesis.classical.burmester"),
+    ("loopsolve.design.synthlm", "loopsolve.design.synthesis.lockstep_lm"),
+    ("loopsolve.design.chunklimits", "loopsolve.design.lockstep_limits"),
+    ("loopsolve.kinematics.fastlane", "loopsolve.kinematics.numba_engine.steps"),
+    ("loopsolve.kinematics.kernel", "loopsolve.kinematics.scalar_solver"),
+    ("loopsolve.symbolic.derivation", "loopsolve.symbolic.loop_equations"),
+])
+def test_an_old_module_path_imports_the_new_module_and_warns(old, new):
+    """Issue 31 named the modules by concept: a script importing an old path gets the module at its new one,
+    told where it is and when the old path goes (errors.COMPAT_REMOVAL), in a fresh interpreter."""
+    code = (f"import warnings, sys; warnings.simplefilter('error', DeprecationWarning)\n"
+            f"try:\n    import {old}\nexcept DeprecationWarning as w:\n    print(w)\n"
+            f"warnings.simplefilter('ignore')\nimport {old} as a, {new} as b\nprint(a is b, sys.modules['{old}'] is b)")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout.splitlines()
+    assert out[0] == f"{old} is {new} now; the old path is removed in {ls.errors.COMPAT_REMOVAL}"
+    assert out[1] == "True True"
+
+
+def test_an_old_module_path_s_names_import_with_a_warning():
+    real = _resolve("loopsolve.design.synthesis.classical.burmester:four_bar")
+    code = "from loopsolve.design.burmester import four_bar"
+    namespace: dict = {}
+    with pytest.warns(DeprecationWarning, match=r"loopsolve\.design\.burmester is loopsolve\.design\.synthesis\.classical\.burmester now"):
+        sys.modules.pop("loopsolve.design.burmester", None)
+        exec(code, namespace)  # noqa: S102 - our own package
+    assert namespace["four_bar"] is real
+
+
+@pytest.mark.parametrize("package, name, home", [("loopsolve.design.synthesis", "define", "problem"),
+                                                 ("loopsolve.design.atlas", "open_atlas", "build")])
+def test_an_old_module_that_is_a_package_now_answers_its_names_with_a_warning(package, name, home):
+    import importlib
+
+    real = _resolve(f"{package}.{home}:{name}")
+    with pytest.warns(DeprecationWarning, match=rf"{package.replace('.', '[.]')}\.{name} is {package.replace('.', '[.]')}\.{home}\.{name} now"):
+        assert getattr(importlib.import_module(package), name) is real
+    assert importlib.import_module(f"{package}.{home}") is sys.modules[f"{package}.{home}"]  # submodules still import
+
+
+def test_the_old_module_paths_all_lead_to_modules():
+    import importlib
+
+    from loopsolve._moved import MOVED_MODULES
+
+    for old, new in MOVED_MODULES.items():
+        assert importlib.import_module(f"loopsolve.{new}").__name__ == f"loopsolve.{new}", old

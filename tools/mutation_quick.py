@@ -62,7 +62,7 @@ LATEX = [EOM + "test_named_symbols_and_values", EOM + "TestLatexSection::test_th
          "tests/output/test_latex_at_tables.py"]
 #: the test files of each module, fast ones first (pytest -x stops at the first failure)
 TESTS = {"model.bodies": FORCES + ["tests/model/test_diagram_bodies.py"],
-         "dynamics.derivation": FORCES + ["tests/model/test_diagram_bodies.py"],
+         "dynamics.dynamics_model": FORCES + ["tests/model/test_diagram_bodies.py"],
          "dynamics.forceresults": FORCES, "dynamics.simulation": FORCES, "design.lockstep": STUDY,
          "design.studies": STUDY + ["tests/design/test_study_progress.py"],
          "design.sensitivity": STUDY, "design.designs": STUDY, "design.metrics": STUDY,
@@ -70,9 +70,9 @@ TESTS = {"model.bodies": FORCES + ["tests/model/test_diagram_bodies.py"],
          "kinematics.grid": TRACKER, "kinematics.reach": TRACKER, "kinematics.rows": TRACKER + ["tests/kinematics/test_batch.py"],
          "output.cad": CAD, "output.geometry": DRAWING, "output.skeleton": DRAWING,
          "model.unitlib": UNITS, "model.units": UNITS,
-         "design.synthreport": SYNTH, "design.certify": CERT, "design.synthlm": LM, "design.structerr": STRUCT,
-         "design.classicsynth": CLASSIC, "design.classicmotion": MOTION, "design.classicmap": CLASSIC[2:] + MOTION[1:],
-         "design.freudenstein": CLASSIC, "design.burmester": MOTION,
+         "design.synthesis.report": SYNTH, "design.synthesis.certificate": CERT, "design.synthesis.lockstep_lm": LM, "design.synthesis.structural_error": STRUCT,
+         "design.synthesis.classical.run": CLASSIC, "design.synthesis.classical.motion": MOTION, "design.synthesis.classical.transplant": CLASSIC[2:] + MOTION[1:],
+         "design.synthesis.classical.freudenstein": CLASSIC, "design.synthesis.classical.burmester": MOTION,
          "output.latex_dynamics": LATEX}
 
 

@@ -73,7 +73,7 @@ def parse_vary(texts, *, allow_fixed: bool = False) -> dict:
 
 
 def cmd_atlas_build(args) -> int:
-    from ..design.atlas import DEFAULT_CHUNK, MAX_SIZE, build_atlas
+    from ..design.atlas.build import DEFAULT_CHUNK, MAX_SIZE, build_atlas
     from ..errors import ModelError
 
     out = args.output
@@ -95,10 +95,10 @@ def cmd_atlas_build(args) -> int:
 def cmd_atlas_default(args) -> int:
     import time
 
-    from ..design.atlasdefault import default_atlas
-    from ..design.studies import _check_cluster
+    from ..design.atlas.defaults import default_atlas
+    from ..design.studies import check_cluster
 
-    _check_cluster(args.workers, None)
+    check_cluster(args.workers, None)
     mech = _load(args.model)
     t0 = time.perf_counter()
     a = default_atlas(mech, args.point, progress=None if not args.quiet else False, workers=args.workers)
@@ -110,7 +110,7 @@ def cmd_atlas_default(args) -> int:
 
 
 def cmd_atlas_info(args) -> int:
-    from ..design.atlas import open_atlas
+    from ..design.atlas.build import open_atlas
 
     a = open_atlas(args.atlas)
     _write(json.dumps(a.summary(), indent=1) + "\n", None)
@@ -119,7 +119,7 @@ def cmd_atlas_info(args) -> int:
 
 def cmd_shape(args) -> int:
     """``synthesize MODEL --shape P ...``."""
-    from ..design.shape import synthesize_shape
+    from ..design.synthesis.shape.run import synthesize_shape
     from ..errors import ModelError
     from .common import synthesis_output
 
@@ -131,7 +131,7 @@ def cmd_shape(args) -> int:
     for out in (args.output, args.report):
         _check_output(out)
     if args.atlas is not None and not os.path.isdir(args.atlas):
-        from ..design.atlasstore import check_tree
+        from ..design.atlas.store import check_tree
 
         check_tree(args.atlas)  # a one-line error naming what is wrong
     mech = _load(args.model)

@@ -72,7 +72,7 @@ def _synthesis_parser(sub) -> None:
 
 def cmd_synthesize(args) -> int:
     from ..errors import ModelError
-    from ..design.synthrun import synthesize
+    from ..design.synthesis.run import synthesize
 
     if args.shape is not None:
         from .atlas import cmd_shape
@@ -124,7 +124,7 @@ def cmd_synthesize(args) -> int:
 
 
 def _fit_phrase(rep) -> str:
-    from ..design.synthreport import fit_phrase
+    from ..design.synthesis.report import fit_phrase
 
     return fit_phrase(rep.get("fit"))
 
@@ -147,7 +147,7 @@ def _parse_range(text):
 def _classic_synthesize(args, input_range) -> int:
     """``synthesize --method freudenstein|burmester``: exit 3 (report still written) when not usable."""
     from ..errors import ModelError
-    from ..design.synthrun import synthesize
+    from ..design.synthesis.run import synthesize
 
     for flag, given in (("--path", args.path), ("--vary", args.vary), ("--inputs", args.inputs),
                         ("--workers", args.workers), ("--scheduler", args.scheduler)):

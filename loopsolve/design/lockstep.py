@@ -24,7 +24,7 @@ design of a chunk along the same input values:
    the chunk decides at once which designs cannot be assembled at the start and locates their
    nearest assemblable inputs (:func:`_not_assemblable`), and locates the limit position of
    designs that left the path approaching one, filling their rows up to it
-   (:func:`loopsolve.design.chunklimits.locate_limits`; it also starts the designs the path did not
+   (:func:`loopsolve.design.lockstep_limits.locate_limits`; it also starts the designs the path did not
    bring from the guesses to the start, and completes those dropped for a steep slope): status,
    stop, nearest inputs, events, mode and rows as their single sweep gives them (the limits
    located by bisection to round-off, the tracker's to 1e-9).
@@ -271,7 +271,7 @@ def sweep_chunk(mech, names, values, start, stop, step, *, speed=None, accel=Non
     if lockstep and len(single):
         single = _not_assemblable(ck, P, xs, xs_disp, single, ch)
         x_end = input_value(ck, stop, ck.inputs[0], reduce=False)
-        from .chunklimits import locate_limits
+        from .lockstep_limits import locate_limits
 
         single, limits = locate_limits(ck, P, xs, x_end, single, last, irregular, sig0, ch, rates, derivatives)
     for j in np.flatnonzero(~alive):

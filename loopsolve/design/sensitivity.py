@@ -63,7 +63,7 @@ def parameter_derivative_source(kin, exprs, *, func: str, what: str, count: str)
 
 
 def generate_phi_p_source(kin) -> str:
-    """Python (numpy) source of ``phi_p_v(z, p)`` for a :class:`~loopsolve.symbolic.derivation.Kinematics`."""
+    """Python (numpy) source of ``phi_p_v(z, p)`` for a :class:`~loopsolve.symbolic.loop_equations.Kinematics`."""
     return parameter_derivative_source(kin, list(kin.phi), func="phi_p_v",
                                        what="dPhi/dp (row-major: equation, parameter)", count="N_EQ")
 
@@ -132,13 +132,13 @@ def _generated(ck, tag: str, generate, fname: str) -> ModuleType:
     """The generated module ``tag`` of ``ck``: from the memo, the disk cache or sympy.
 
     The disk entry (``<tag>_<key>.py`` in :func:`~loopsolve.symbolic.compiled.cache_dir`) follows the
-    compiled models' rules (:func:`loopsolve.symbolic.compiled._read_entry`): a private directory, a
+    compiled models' rules (:func:`loopsolve.symbolic.compiled.read_entry`): a private directory, a
     regular file of the user's whose content matches the key and hash in its first line, written
     atomically. An entry that is truncated, corrupt, unreadable or fails to run is a miss: derived
     again and rewritten; a foreign entry is never run (one warning; compiled in memory).
     """
-    from ..symbolic.compiled import (_check_dir, _ensure_dir, _read_entry, _Stale, _Untrusted, _warn_untrusted,
-                                     _write_entry)
+    from ..symbolic.compiled import (check_dir, ensure_dir, read_entry, Stale, Untrusted, warn_untrusted,
+                                     write_entry)
 
     key = structure_key(ck.mechanism, ck.inputs) + f"_{tag}{_FORMAT}"
     with _LOCK:
@@ -150,30 +150,30 @@ def _generated(ck, tag: str, generate, fname: str) -> ModuleType:
     if path is not None:
         try:
             if directory.exists():
-                _check_dir(directory)
-            source = _read_entry(path, key)
+                check_dir(directory)
+            source = read_entry(path, key)
             if source is not None:
                 module = _load(source, key, path)
                 if getattr(module, "NPARAM", None) != len(ck.mechanism.parameters) or not callable(
                         getattr(module, fname, None)):
                     module = None
-        except _Stale:
+        except Stale:
             module = None
-        except _Untrusted as exc:
-            _warn_untrusted(str(exc))
+        except Untrusted as exc:
+            warn_untrusted(str(exc))
             module, writable = None, False
         except (Exception, SystemExit):  # an entry of ours that fails to run: derived again, rewritten
             module = None
     if module is None:
-        from ..symbolic.derivation import derive
+        from ..symbolic.loop_equations import derive
 
         source = generate(derive(ck.mechanism, input=ck.inputs))
         if writable:
             try:
-                _ensure_dir(directory)
-                _check_dir(directory)
-                _write_entry(path, source, key)
-            except (OSError, _Untrusted):
+                ensure_dir(directory)
+                check_dir(directory)
+                write_entry(path, source, key)
+            except (OSError, Untrusted):
                 pass
         module = _load(source, key, None)
     with _LOCK:

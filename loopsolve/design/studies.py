@@ -273,7 +273,7 @@ def study(mech, vary, start, stop, step, *, samples: int | None = None, lhs: int
         raise ModelError(f"derivatives={derivatives!r}: expected 1, 2 or 3")
     if chunk_size < 1:
         raise ModelError(f"chunk_size={chunk_size!r}: must be at least 1")
-    _check_cluster(workers, scheduler)
+    check_cluster(workers, scheduler)
     if seed is not None and (isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0):
         raise ModelError(f"--seed {seed!r}: the seed of --samples/--lhs must be a whole number, at least 0")
     if samples is not None and lhs is not None:
@@ -348,7 +348,7 @@ def study(mech, vary, start, stop, step, *, samples: int | None = None, lhs: int
     own_client = None
     try:
         if client is None and (workers or scheduler):
-            own_client = _make_client(workers, scheduler)
+            own_client = make_client(workers, scheduler)
             client = own_client
         if client is None:
             for i, t in enumerate(tasks):
@@ -440,20 +440,20 @@ def _bar(total, progress):
     return tqdm(total=total, unit="design", desc="study", file=sys.stderr)
 
 
-def _cpus() -> int:
+def usable_cpus() -> int:
     try:
         return len(os.sched_getaffinity(0))
     except (AttributeError, OSError):
         return os.cpu_count() or 1
 
 
-def _check_cluster(workers, scheduler) -> None:
+def check_cluster(workers, scheduler) -> None:
     """``workers`` within this machine's CPUs, ``scheduler`` an address: before any work."""
     if workers is not None:
         if isinstance(workers, bool) or not isinstance(workers, (int, np.integer)) or workers < 1:
             raise ModelError(f"--workers {workers!r}: a number of worker processes, at least 1")
-        if workers > _cpus():
-            raise ModelError(f"--workers {workers}: this machine has {_cpus()} CPU(s); a local cluster of more "
+        if workers > usable_cpus():
+            raise ModelError(f"--workers {workers}: this machine has {usable_cpus()} CPU(s); a local cluster of more "
                              "worker processes than CPUs is slower, not faster (for more, start a cluster and "
                              "pass --scheduler ADDRESS)")
     if scheduler is not None:
@@ -519,7 +519,7 @@ def summarize_warnings(warned, total: int) -> list[str]:
     return lines
 
 
-def _make_client(workers, scheduler):
+def make_client(workers, scheduler):
     distributed = _need("distributed")
     if scheduler:
         try:

@@ -57,7 +57,7 @@ def _where(dm) -> str:
 
 def _sample(dm, z):
     """``dm.evaluate`` at the kinematic coefficients of up to :data:`_SAMPLE` poses of ``z`` (None if none)."""
-    from .derivation import kinematic_coefficients
+    from .dynamics_model import kinematic_coefficients
 
     z = np.atleast_2d(np.asarray(z, dtype=float))
     z = z[np.all(np.isfinite(z), axis=1)]

@@ -18,7 +18,7 @@ positions and their coefficients stay in the model's unit and the conversion is 
 never folded into a coefficient. The values of all these symbols travel beside the expressions
 in :attr:`DynamicsDerivation.values`.
 
-These are the same quantities that :func:`loopsolve.dynamics.derivation.mass_terms_from` and
+These are the same quantities that :func:`loopsolve.dynamics.dynamics_model.mass_terms_from` and
 :func:`loopsolve.dynamics.kinetostatics.generalized_from` compute numerically (the tests check it on every
 shipped model); the LaTeX export (:mod:`loopsolve.output.latex_dynamics`) prints this object. sympy runs
 only here, once per call, never when the equation of motion is evaluated.
@@ -32,10 +32,10 @@ from dataclasses import dataclass
 import sympy as sp
 
 from ..model.bodies import FRAME, LoadKind
-from .derivation import _converter, _metres, _point_expr
+from .dynamics_model import _converter, _metres, _point_expr
 from ..errors import ModelError
 from ..model.mechanism import Mechanism
-from ..symbolic.derivation import Kinematics, derive
+from ..symbolic.loop_equations import Kinematics, derive
 from ..symbolic.texprint import _escape, _join_terms, symbol_latex
 from ..model.units import Kind
 

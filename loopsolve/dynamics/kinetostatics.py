@@ -22,7 +22,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..model.bodies import FRAME, LoadKind
-from .derivation import DynamicsModel, kinematic_coefficients, mass_matrix_terms
+from .dynamics_model import DynamicsModel, kinematic_coefficients, mass_matrix_terms
 from ..model.units import Kind
 
 __all__ = ["Layout", "layout", "inverse_dynamics", "generalized_force", "virtual_work_drive",
@@ -683,7 +683,7 @@ def force_analysis(sweep, *, dynamics: DynamicsModel | None = None, scalar: bool
 
     Returns a :class:`~loopsolve.dynamics.forceresults.ForceSweep`.
     """
-    from .derivation import compile_dynamics
+    from .dynamics_model import compile_dynamics
     from .forceresults import ForceSweep
 
     ck = sweep.compiled
@@ -700,13 +700,13 @@ def force_analysis(sweep, *, dynamics: DynamicsModel | None = None, scalar: bool
 def _checks(dm: DynamicsModel, data: dict, sweep) -> None:
     """The power balance as a check, and the dead-centre warning (see :mod:`loopsolve.dynamics.declcheck`)."""
     from .declcheck import check_power_balance, warn_ill_conditioned
-    from ..kinematics.solve import _input_unit
+    from ..kinematics.solve import input_unit
 
     ck = sweep.compiled
     xs = np.asarray(sweep[ck.inputs[0]], dtype=float)
     _check_determined(dm, data, sweep, xs)
     check_power_balance(dm, data, xs, spurious=data["spurious"])
-    warn_ill_conditioned(dm, data["kappa"], xs, _input_unit(ck))
+    warn_ill_conditioned(dm, data["kappa"], xs, input_unit(ck))
 
 
 def forces(mech, at=None, stop=None, step=None, *, speed=None, accel=None, input=None, mode=None,
@@ -735,7 +735,7 @@ def forces(mech, at=None, stop=None, step=None, *, speed=None, accel=None, input
     >>> round(float(f.drive), 5), round(f["input_torque"], 5), f.units()["drive"]
     (0.03015, 0.03015, 'N*m')
     """
-    from .derivation import compile_dynamics
+    from .dynamics_model import compile_dynamics
 
     ck = mech.compile(input)
     dm = compile_dynamics(mech, compiled=ck)

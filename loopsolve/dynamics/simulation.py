@@ -2,7 +2,7 @@
 
     M(x) ẍ + ½ M′(x) ẋ² = Q(x, ẋ, t) + T(x, ẋ, t)
 
-(see :mod:`loopsolve.dynamics.derivation`). At every evaluation the pose is solved by Newton from the last
+(see :mod:`loopsolve.dynamics.dynamics_model`). At every evaluation the pose is solved by Newton from the last
 one, so the assembly mode is tracked; a limit position (the Jacobian of the loops turning singular)
 is a terminal event, reported, not a crash. Energy is conserved to the integration accuracy when
 no power enters or leaves.
@@ -19,7 +19,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .derivation import DynamicsModel, compile_drive, compile_dynamics, mass_terms_from
+from .dynamics_model import DynamicsModel, compile_drive, compile_dynamics, mass_terms_from
 from ..errors import ModelError, SolveError, warn
 from .kinetostatics import generalized_from, inverse_dynamics
 from ..kinematics.results import Event, EventKind, _clean

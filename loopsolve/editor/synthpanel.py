@@ -109,7 +109,7 @@ def _curve(data: Mapping, point: str) -> tuple[list, dict]:
 
 def path_synthesis(params: Mapping[str, Any], progress: Callable[[float, str], None]) -> dict:
     """Free-timing path generation of a four-bar's coupler point through drawn points (see the module notes)."""
-    from ..design.synthrun import synthesize
+    from ..design.synthesis.run import synthesize
     from ..model.modelfile import dumps, loads
 
     pts = _targets(params.get("points"))
@@ -186,8 +186,8 @@ def shape_synthesis(params: Mapping[str, Any], progress: Callable[[float, str], 
     ``units``. ``atlas`` (from Python only, never from the page): an atlas of the model's point ``P`` to use
     instead of the default one.
     """
-    from ..design.atlasdefault import default_atlas
-    from ..design.synthrun import synthesize
+    from ..design.atlas.defaults import default_atlas
+    from ..design.synthesis.run import synthesize
     from ..model.modelfile import dumps, load, models_dir
 
     pts = _targets(params.get("points"), 5, MAX_SHAPE_TARGETS)
@@ -240,7 +240,7 @@ def shape_synthesis(params: Mapping[str, Any], progress: Callable[[float, str], 
 
 def freudenstein_synthesis(params: Mapping[str, Any], progress: Callable[[float, str], None]) -> dict:
     """Function generation through precision points ``[[input, output], ...]`` (degrees), Freudenstein."""
-    from ..design.classicsynth import classic_synthesize
+    from ..design.synthesis.classical.run import classic_synthesize
     from ..model.modelfile import dumps, loads
 
     rows = params.get("points")

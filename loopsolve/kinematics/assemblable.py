@@ -200,13 +200,13 @@ class AssemblyTest:
         """Nearest assemblable inputs (internal units) below and above ``x0`` for the designs ``cols``,
         none of which is assemblable at ``x0``; None for a design this cannot decide (a length input,
         an undecided sample). The logic of :func:`loopsolve.sweep._nearest_local` on its samples."""
-        from .reach import _input_samples
-        from .kernel import Kernel
+        from .reach import input_samples
+        from .scalar_solver import Kernel
 
         cols = np.asarray(cols)
         if not self.usable or self.ck.kinds[self.ix] is not Kind.ANGLE or not len(cols):
             return [None] * len(cols)
-        xs = _input_samples(self.ck, Kernel(self.ck))
+        xs = input_samples(self.ck, Kernel(self.ck))
         m = len(xs)
         step = xs[1] - xs[0]
         n = len(cols)

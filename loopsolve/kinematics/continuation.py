@@ -55,23 +55,23 @@ import numpy as np
 
 from .rows import RowSolution, fill_node_rows, solve_rows_scalar  # noqa: F401  (kinematics/rows.py; public here before)
 from ..errors import SingularPositionError
-from .kernel import ROUNDOFF as _ROUNDOFF
-from .kernel import Kernel, rho_2x3
+from .scalar_solver import ROUNDOFF as _ROUNDOFF
+from .scalar_solver import Kernel, rho_2x3
 from .results import Event, EventKind
-from .solve import _input_unit, display_value
+from .solve import input_unit, display_value
 
 __all__ = ["StepControl", "Kernel", "Node", "Path", "Tracer", "RowSolution", "first_node", "fill_node_rows",
            "solve_rows_scalar"]
 
 #: nodes whose Jacobian blocks have a Hadamard ratio below this are not accepted: the step
 #: is retried so that it straddles the singular position, which is then located exactly
-_NEAR_SINGULAR = 1e-7
+NEAR_SINGULAR = 1e-7
 #: a sweep does not start where the regularity (≈ 2/cond of the scaled blocks) is below this
 _START_REGULAR = 1e-5
 #: internal steps are at most this fraction of the separation ratio ρ (:meth:`Kernel.rho`)
-_TRUST = 0.25
+TRUST = 0.25
 #: below this ρ the branches touch within round-off (an exact change point) ...
-_RHO_TOUCH = 1e-5
+RHO_TOUCH = 1e-5
 #: ... and the tracer passes the branch point with a step of this length
 _PASS_STEP = 1e-4
 
@@ -161,10 +161,10 @@ class Tracer:
         self.through = through_limits
         self.x_start = x_start
         self.bar = bar
-        self.near = _NEAR_SINGULAR  # regularity below which a node is refused (see trace)
+        self.near = NEAR_SINGULAR  # regularity below which a node is refused (see trace)
         self.cos_turn = math.cos(control.max_turn)
         self.cos_grow = math.cos(control.max_turn / 3)
-        self.fast = None  # compiled fast lane of regular natural steps (loopsolve.kinematics.fastlane), or None
+        self.fast = None  # compiled fast lane of regular natural steps (loopsolve.kinematics.numba_engine.steps), or None
 
     # ------------------------------------------------------------------ helpers
     def _display(self, x):
@@ -173,7 +173,7 @@ class Tracer:
 
     def _unit(self):
 
-        return _input_unit(self.k.ck)
+        return input_unit(self.k.ck)
 
     def _label(self, sig):
         names = [a for a, s in self.k.ck.mechanism.mode_aliases.items() if s == sig]
@@ -522,16 +522,16 @@ class Tracer:
             # trust radius: a fraction of the separation ratio, so that a step cannot reach another
             # piece of the solution set (near change points) nor cut a sharp turn; below the floor
             # the branches touch within round-off (an exact change point): pass straight through
-            if a.rho < _RHO_TOUCH:
+            if a.rho < RHO_TOUCH:
                 if passing is not a:  # first try from this node: one step across the branch point
                     h, passing = _PASS_STEP, a
-                self.near = _NEAR_SINGULAR
+                self.near = NEAR_SINGULAR
             else:
-                h = min(h, max(_TRUST * a.rho, c.min_step * 1e3))
+                h = min(h, max(TRUST * a.rho, c.min_step * 1e3))
                 # a node this close to a singular position is refused so that the step straddles it;
                 # where the steps are short (ρ small: the determinant grows only like ρ·distance) the
                 # bound shrinks with them, or no step could ever get past
-                self.near = min(_NEAR_SINGULAR, 0.01 * a.rho * h)
+                self.near = min(NEAR_SINGULAR, 0.01 * a.rho * h)
             if natural:
                 b, at_bound = self._natural_step(a, prev_natural, h)
                 if b is None and at_bound and a.z[k.ix] == (self.g.hi if a.t[n] > 0 else self.g.lo):

@@ -472,7 +472,7 @@ def _input_internal(ck, at):
     return input_value(ck, at, name)
 
 
-def _modes_at(ck, x: float) -> tuple[Mode, ...]:
+def modes_at(ck, x: float) -> tuple[Mode, ...]:
     from .results import _display, column_units
     from .solve import initial_z
 
@@ -517,17 +517,17 @@ def assembly_modes(mech, at=None, *, input: str | None = None, compiled=None) ->
     [('+-', 10.7119), ('--', -3.6408)]
     """
     ck = compiled if compiled is not None else mech.compile(input)
-    return _modes_at(ck, _input_internal(ck, at))
+    return modes_at(ck, _input_internal(ck, at))
 
 
-def _resolve_signature(mech, mode: str) -> str | None:
+def resolve_signature(mech, mode: str) -> str | None:
     if not isinstance(mode, str):
         return None
     sig = mech.mode_aliases.get(mode, mode)
     return sig
 
 
-def _mode_names(mech, modes) -> str:
+def mode_names(mech, modes) -> str:
     parts = []
     for m in modes:
         parts.append(m.signature + (f" ({', '.join(m.aliases)})" if m.aliases else ""))
@@ -564,26 +564,26 @@ def select_mode(mech, x_internal: float, mode: str, *, compiled=None) -> np.ndar
     name = ck.inputs[0]
     disp = display_value(ck, x_internal, name)
     nb = len(ck.blocks)
-    sig = _resolve_signature(mech, mode)
+    sig = resolve_signature(mech, mode)
     aliases = ", ".join(f"{k} = {v}" for k, v in mech.mode_aliases.items())
     if sig is None or len(sig) != nb or set(sig) - {"+", "-"}:
         raise ModelError(
             f"{mech.source or mech.name}: unknown assembly mode {mode!r}: give a signature of {nb} sign(s) "
             f"(+ or -, one per block of the solve order)" + (f" or one of the aliases {aliases}" if aliases else "")
-            + f"; the modes at {name} = {disp:g} are: {_mode_names(mech, _modes_at(ck, x_internal))}")
-    modes = _modes_at(ck, x_internal)
+            + f"; the modes at {name} = {disp:g} are: {mode_names(mech, modes_at(ck, x_internal))}")
+    modes = modes_at(ck, x_internal)
     if not modes:
         from .reach import nearest_assemblable
 
         near = nearest_assemblable(ck, x_internal)
         raise AssemblyError(
             f"{mech.source or mech.name}: cannot be assembled at {name} = {disp:g}: no real assembly mode there"
-            + _nearest_text(ck, near),
+            + nearest_text(ck, near),
             input_value=disp, nearest=near)
     match = [m for m in modes if m.signature == sig]
     if not match:
         raise ModeError(f"{mech.source or mech.name}: assembly mode {mode!r} ({sig}) does not exist at {name} = "
-                        f"{disp:g}; the modes there are: {_mode_names(mech, modes)}",
+                        f"{disp:g}; the modes there are: {mode_names(mech, modes)}",
                         mode=sig, modes=tuple(m.signature for m in modes), input_value=disp)
     return nearest_solution(ck, match)
 
@@ -610,12 +610,12 @@ def nearest_solution(ck, modes, *, guess: dict | None = None) -> np.ndarray:
     return np.array(min(modes, key=dist).z, dtype=float)
 
 
-def _nearest_text(ck, near) -> str:
-    from .solve import _input_unit
+def nearest_text(ck, near) -> str:
+    from .solve import input_unit
 
     if not near:
         return "; no assemblable input was found nearby: check the link lengths"
-    unit = _input_unit(ck)
+    unit = input_unit(ck)
     vals = " or ".join(f"{v if abs(v) >= 1e-9 else 0.0:.10g}{unit}" for v in near)  # no -4e-15 for 0
     return f"; the nearest assemblable input values are {ck.inputs[0]} = {vals}"
 

@@ -14,7 +14,7 @@ from .continuation import Kernel, StepControl, Tracer, first_node
 from ..errors import AssemblyError, ConvergenceError, SingularPositionError, SolveError
 from .grid import Grid
 from .results import EventKind
-from .solve import _input_unit, display_value, initial_z
+from .solve import input_unit, display_value, initial_z
 from ..model.units import Kind
 
 
@@ -31,16 +31,16 @@ def assembly_failure(ck, x: float, exc: SolveError) -> SolveError:
     >>> type(err).__name__, [round(v, 6) for v in err.nearest]
     ('AssemblyError', [-18.57335, 18.57335])
     """
-    from .modes import _mode_names, _modes_at
+    from .modes import mode_names, modes_at
 
     name = ck.inputs[0]
     disp = display_value(ck, x, name)
     where = ck.mechanism.source or ck.mechanism.name
-    modes = _modes_at(ck, x)
+    modes = modes_at(ck, x)
     if modes:
         return ConvergenceError(
-            f"{where}: Newton from the guesses stalled at {name} = {disp:g}{_input_unit(ck)}, but the mechanism assembles there "
-            f"in mode(s) {_mode_names(ck.mechanism, modes)}: pass --mode (mode=) or improve the guesses",
+            f"{where}: Newton from the guesses stalled at {name} = {disp:g}{input_unit(ck)}, but the mechanism assembles there "
+            f"in mode(s) {mode_names(ck.mechanism, modes)}: pass --mode (mode=) or improve the guesses",
             input_value=disp, result=getattr(exc, "result", None))
     return no_assembly_error(ck, x, nearest_assemblable(ck, x), residual=getattr(exc, "residual", None),
                              result=getattr(exc, "result", None))
@@ -50,14 +50,14 @@ def assembly_failure(ck, x: float, exc: SolveError) -> SolveError:
 def no_assembly_error(ck, x: float, near: tuple[float, ...], *, residual=None, result=None) -> AssemblyError:
     """The :class:`AssemblyError` of input ``x`` (internal units), where no assembly mode exists,
     naming the nearest assemblable inputs ``near`` (display units)."""
-    from .modes import _nearest_text
+    from .modes import nearest_text
 
     name = ck.inputs[0]
     disp = display_value(ck, x, name)
     where = ck.mechanism.source or ck.mechanism.name
     return AssemblyError(
-        f"{where}: cannot be assembled at {name} = {disp:g}{_input_unit(ck)}: the loop equations have no real solution there"
-        + _nearest_text(ck, near),
+        f"{where}: cannot be assembled at {name} = {disp:g}{input_unit(ck)}: the loop equations have no real solution there"
+        + nearest_text(ck, near),
         input_value=disp, residual=residual, nearest=near, result=result)
 
 
@@ -141,7 +141,7 @@ def default_range(ck, step: float, *, mode=None) -> tuple[float, float, bool]:
 
 
 
-def _input_samples(ck, kern, samples: int | None = None) -> list[float]:
+def input_samples(ck, kern, samples: int | None = None) -> list[float]:
     """The input values :func:`reachable_ranges` samples (internal units): a full turn for an
     angle (144 samples from −π), ±4 length scales around the guess for a length (200)."""
     if kern.angle_x:
@@ -190,7 +190,7 @@ def reachable_ranges(ck, *, samples: int | None = None) -> list[tuple[float, flo
     """
     kern = Kernel(ck)
     angle = kern.angle_x
-    xs = _input_samples(ck, kern, samples)
+    xs = input_samples(ck, kern, samples)
     m = len(xs)
     from .modes import _feeds
 
@@ -254,7 +254,7 @@ def nearest_assemblable(ck, x: float) -> tuple[float, ...]:
     [-18.57335, 18.57335]
     """
     kern = Kernel(ck)
-    xs = _input_samples(ck, kern)
+    xs = input_samples(ck, kern)
     if not kern.angle_x and not xs[0] <= x <= xs[-1]:
         return _nearest_from_ranges(ck, kern, x)
     return _nearest_local(ck, kern, xs, x)

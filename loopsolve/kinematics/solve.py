@@ -168,7 +168,7 @@ def solve_position(ck: CompiledKinematics, z0: np.ndarray, *, settings: Newton =
 
 def _raise_failure(ck, res, z, block, display_input):
     name = ck.inputs[0]
-    unit = _input_unit(ck)
+    unit = input_unit(ck)
     where = ck.mechanism.source or ck.mechanism.name
     unknowns = ", ".join(ck.unknowns[c] for c in block.unknowns)
     at = f"{name} = {display_input:g}{unit}" if display_input is not None else "the requested input"
@@ -187,7 +187,7 @@ def _raise_failure(ck, res, z, block, display_input):
     )
 
 
-def _input_unit(ck) -> str:
+def input_unit(ck) -> str:
     kind = ck.kinds[ck.index(ck.inputs[0])]
     if kind is Kind.ANGLE:
         return " deg" if ck.mechanism.units.angle == "deg" else " rad"
@@ -228,7 +228,7 @@ def solve_rates(ck: CompiledKinematics, z: np.ndarray, rates: Sequence[float], *
         cond, indistinct = 1.0, False
     if not math.isfinite(cond) or cond > SINGULAR_COND or indistinct:
         name = ck.inputs[0]
-        at = f"{name} = {display_input:g}{_input_unit(ck)}" if display_input is not None else "this input"
+        at = f"{name} = {display_input:g}{input_unit(ck)}" if display_input is not None else "this input"
         pos = ", ".join(
             f"{n} = {display_value(ck, z[ck.index(n)], n):.6g}" for n in ck.unknowns
         )
@@ -250,7 +250,7 @@ def solve_rates(ck: CompiledKinematics, z: np.ndarray, rates: Sequence[float], *
             zs.append(zk)
         pts = np.stack([ck.point_values(k, *zs[: k + 1]) for k in range(4)]) if ck.points else np.zeros((4, 0, 2))
     if not (all(np.all(np.isfinite(zk)) for zk in zs[1:]) and np.all(np.isfinite(pts))):
-        u = _input_unit(ck).strip()
+        u = input_unit(ck).strip()
         raise ModelError(
             f"{ck.mechanism.source or ck.mechanism.name}: the rates overflow floating point with the input "
             f"{ck.inputs[0]}'s speed {rates[0]:.3g}, accel {rates[1]:.3g}, jerk {rates[2]:.3g} "
@@ -338,20 +338,20 @@ def guessed_mode(ck: CompiledKinematics, x: float | None = None, *, guess: dict 
 
 def _requested_mode(ck: CompiledKinematics, x: float, mode, guess) -> tuple[str | None, str]:
     """``(signature, who asked)`` of the mode to solve in at ``x``: ``mode``, else the guesses'."""
-    from .modes import _mode_names, _modes_at, _resolve_signature
+    from .modes import mode_names, modes_at, resolve_signature
 
     mech = ck.mechanism
     where = mech.source or mech.name
     if mode is not None:
-        sig = _resolve_signature(mech, mode)
+        sig = resolve_signature(mech, mode)
         nb = len(ck.blocks)
         if sig is None or len(sig) != nb or set(sig) - {"+", "-"}:
             aliases = ", ".join(f"{k} = {v}" for k, v in mech.mode_aliases.items())
             raise ModelError(
                 f"{where}: unknown assembly mode {mode!r}: give a signature of {nb} sign(s) (+ or -, one per "
                 "block of the solve order)" + (f" or one of the aliases {aliases}" if aliases else "")
-                + f"; the modes at {ck.inputs[0]} = {display_value(ck, x):g}{_input_unit(ck)} are: "
-                + _mode_names(mech, _modes_at(ck, x)))
+                + f"; the modes at {ck.inputs[0]} = {display_value(ck, x):g}{input_unit(ck)} are: "
+                + mode_names(mech, modes_at(ck, x)))
         return sig, f"--mode {mode}"
     sig = guessed_mode(ck, x, guess=guess)
     if sig is not None and "0" in sig:
@@ -408,9 +408,9 @@ def start_position(ck: CompiledKinematics, x: float, *, mode=None, guess: dict |
             return found
     except (AssemblyError, ConvergenceError) as exc:
         failure = exc
-    from .modes import _mode_names, _modes_at, nearest_solution
+    from .modes import mode_names, modes_at, nearest_solution
 
-    modes = list(_modes_at(ck, x))
+    modes = list(modes_at(ck, x))
     if found is not None and not any(_coincide(ck, [m.z, found[0]]) for m in modes):
         from .modes import Mode
 
@@ -432,7 +432,7 @@ def start_position(ck: CompiledKinematics, x: float, *, mode=None, guess: dict |
         partial = found[0] if found is not None else getattr(failure, "result", None)
         raise ModeError(
             f"{where}: no solution in assembly mode {label} (named by {who}) at {ck.inputs[0]} = {disp:g}"
-            f"{_input_unit(ck)}: the mechanism assembles there only in mode(s) {_mode_names(ck.mechanism, modes)}; "
+            f"{input_unit(ck)}: the mechanism assembles there only in mode(s) {mode_names(ck.mechanism, modes)}; "
             "choose one of them with --mode (mode=) or guesses in it, or another input value",
             mode=sig, modes=tuple(m.signature for m in modes), input_value=disp, result=partial)
     from .reach import assembly_failure
@@ -533,9 +533,9 @@ def solve(mech: Mechanism, at=None, *, speed=None, accel=None, jerk=None, input:
     except SingularPositionError as exc:
         # Newton also converges (linearly) to a near-solution just beyond a limit position: a
         # singular position where no real one exists is an input outside the assemblable range
-        from .modes import _modes_at
+        from .modes import modes_at
 
-        if not _modes_at(ck, x):
+        if not modes_at(ck, x):
             from .reach import assembly_failure
 
             err = assembly_failure(ck, x, exc)
@@ -543,7 +543,7 @@ def solve(mech: Mechanism, at=None, *, speed=None, accel=None, jerk=None, input:
             if not any(abs(v - disp) <= max(_AT_LIMIT, 1e-15 * abs(disp)) for v in near):
                 raise err from None  # beyond the limit, not at it
         # at a limit Newton stops ~sqrt(round-off) short of the position: report the located fold
-        from .kernel import Kernel
+        from .scalar_solver import Kernel
 
         kern = Kernel(ck)
         found = kern.fold_point([float(v) for v in z], kern.jac_f([float(v) for v in z], kern.p))

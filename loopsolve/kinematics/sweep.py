@@ -19,14 +19,15 @@ import numpy as np
 from .grid import Grid, exact_radians, grid  # noqa: F401  (grid, exact_radians: public here before the split)
 from .reach import (assembly_failure, default_range, nearest_assemblable, no_assembly_error,  # noqa: F401
                     reachable_ranges)  # where the input can go: kinematics/reach.py (public here before the split)
-from . import batch, numbakin
+from . import batch
+from .numba_engine import jit as numba_jit
 from .continuation import (Kernel, Path, RowSolution, StepControl, Tracer, fill_node_rows, first_node,
                            solve_rows_scalar)
 from ..errors import AssemblyError, ConvergenceError, ModelError, SingularPositionError, SolveError, warn
-from .kernel import kernel_of
+from .scalar_solver import kernel_of
 from .newton import Newton
 from .results import Event, EventKind, Sweep
-from .solve import _input_unit, display_value, initial_z, input_rates, input_value, plain_value, start_position
+from .solve import input_unit, display_value, initial_z, input_rates, input_value, plain_value, start_position
 from ..model.units import Kind
 
 __all__ = ["StepControl", "sweep", "grid", "reachable_ranges", "default_range", "nearest_assemblable",
@@ -284,7 +285,7 @@ def sweep(mech, start, stop, step, *, speed=None, accel=None, jerk=None, input: 
         the positions there, NaN rates), so that plotted branches meet at their fold.
     engine : {"python", "numba", "auto"}, optional
         Who takes the tracer's regular natural steps: Python, or the compiled fast lane
-        (:mod:`loopsolve.kinematics.fastlane`, needs the ``fast`` extra: numba); ``"auto"`` is numba when
+        (:mod:`loopsolve.kinematics.numba_engine.steps`, needs the ``fast`` extra: numba); ``"auto"`` is numba when
         installed. Default: ``$LOOPSOLVE_ENGINE``, else ``"python"``. The rows agree to round-off.
 
     Returns
@@ -325,22 +326,22 @@ def sweep(mech, start, stop, step, *, speed=None, accel=None, jerk=None, input: 
     settings = Newton() if settings is None else settings
     if derivatives not in (1, 2, 3):
         raise ModelError(f"derivatives={derivatives!r}: expected 1 (velocities), 2 (accelerations) or 3 (jerks)")
-    fast = numbakin.use_numba(engine)
+    fast = numba_jit.use_numba(engine)
     ck = compiled if compiled is not None else mech.compile(input)
     x0, x1, h, kind, deg = _parse_range(ck, start, stop, step)
     g = _make_grid(x0, x1, h, kind, through_limits, deg, max_rows=max_rows)
     x0 = g.value(0)  # start exactly on the first grid value (the two may differ by an ulp)
     rates = input_rates(ck, speed, accel, jerk)
     kern = kernel_of(ck)
-    lane = numbakin.fast_lane(kern, lazy=method != "batched") if fast else None
+    lane = numba_jit.fast_lane(kern, lazy=method != "batched") if fast else None
     started = lane.start(x0, mode=mode, guess=guess, settings=settings) if lane is not None else None
     z0, _, _ = started or start_position(ck, x0, mode=mode, guess=guess, settings=settings)
     d = 1.0 if g.step > 0 else -1.0
     first = first_node(kern, z0, d, allow_fold=True)
     if first.kind == "fold" and abs(display_value(ck, first.z[kern.ix]) - display_value(ck, x0)) > _AT_LIMIT:
-        from .modes import _modes_at
+        from .modes import modes_at
 
-        if not _modes_at(ck, x0):  # Newton found a near-solution beyond the limit: not assemblable
+        if not modes_at(ck, x0):  # Newton found a near-solution beyond the limit: not assemblable
             raise assembly_failure(ck, x0, AssemblyError("beyond a limit position"))
     n_grid = g.kmax - g.kmin + 1
     use_batch = method == "batched" or (method == "auto" and n_grid >= AUTO_BATCH)
@@ -449,7 +450,7 @@ def _insert_limit_rows(ck, path, sol, key, rates, Z, Z1, Z2, Z3, cond, code, res
 
 def _announce_stop(ck, events, through_limits: bool) -> None:
     """One :class:`LoopsolveWarning` line when the sweep stopped before the end of its range."""
-    from .solve import _input_unit
+    from .solve import input_unit
 
     for e in events:
         stop = (e.kind is EventKind.LIMIT and not through_limits) or (
@@ -458,7 +459,7 @@ def _announce_stop(ck, events, through_limits: bool) -> None:
             what = "a limit position (toggle)" if e.kind is EventKind.LIMIT else "a singular position"
             hint = "; --through-limits (through_limits=True) goes around it" if e.kind is EventKind.LIMIT else ""
             warn(f"{ck.mechanism.source or ck.mechanism.name}: the sweep stops at {what} at "
-                 f"{ck.inputs[0]} = {e.input:.10g}{_input_unit(ck)}{hint}")
+                 f"{ck.inputs[0]} = {e.input:.10g}{input_unit(ck)}{hint}")
             return
 
 

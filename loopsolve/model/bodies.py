@@ -4,7 +4,7 @@ A model may add, to its kinematics, the moving rigid bodies (mass, inertia about
 mass, centre of mass as a point expression, orientation, the joints they carry, the guide they
 slide on) and the loads on them (forces at points, torques on bodies, linear springs and viscous
 dampers between two points, torsional springs and dampers on a body). This module parses and
-validates them into frozen declarations; :mod:`loopsolve.dynamics.derivation` derives the equation of motion
+validates them into frozen declarations; :mod:`loopsolve.dynamics.dynamics_model` derives the equation of motion
 and :mod:`loopsolve.dynamics.kinetostatics` the joint forces.
 
 Values are SI (kg, kg·m², N, N·m, N/m, N·s/m, m/s²) when plain numbers — except that, in a model

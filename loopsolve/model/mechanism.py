@@ -251,7 +251,7 @@ class Mechanism:
     # ----------------------------------------------------------- pipeline doors
     def derive(self, input: str | Sequence[str] | None = None):
         """Symbolic derivation (sympy): see :func:`loopsolve.derive`."""
-        from ..symbolic.derivation import derive
+        from ..symbolic.loop_equations import derive
 
         return derive(self, input=input)
 

@@ -1,6 +1,6 @@
 """The symbolic derivation as LaTeX (and PDF), in the notation of the textbook notes.
 
-:func:`to_latex` prints the expressions of :func:`loopsolve.symbolic.derivation.derive` — the very sympy
+:func:`to_latex` prints the expressions of :func:`loopsolve.symbolic.loop_equations.derive` — the very sympy
 objects the solver compiles, so the document and the numbers cannot disagree — as
 
 * the vector loops, in vector form (``\\vec r_2 + \\vec r_3 = \\vec r_1 + \\vec r_4``) and in
@@ -314,7 +314,7 @@ class _Builder:
 
     def point_terms(self, pt) -> list[tuple[bool, str]]:
         """Signed LaTeX terms of a point expression, scalar factors in front of their vectors."""
-        from ..symbolic.derivation import to_sympy
+        from ..symbolic.loop_equations import to_sympy
 
         symbols = dict(zip(self.kin.param_names, self.kin.params))
         k = sp.pi / 180 if self.deg else sp.Integer(1)

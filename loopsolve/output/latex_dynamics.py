@@ -135,7 +135,7 @@ class _Writer:
             items.append(_Eqs(tuple(lines)))
 
     def angle_of(self, body):
-        from ..dynamics.derivation import _converter
+        from ..dynamics.dynamics_model import _converter
 
         conv, k = _converter(self.d.mechanism, self.d.kinematics)
         return k * conv(body.angle)
@@ -199,7 +199,7 @@ class _Writer:
                 items.append(_Text("With the values of the tables:"))
 
 def _at(builder, items):
-    from ..dynamics.derivation import compile_dynamics, kinematic_coefficients, mass_matrix_terms
+    from ..dynamics.dynamics_model import compile_dynamics, kinematic_coefficients, mass_matrix_terms
     from ..dynamics.kinetostatics import generalized_force, virtual_work_drive
 
     mech = builder.mech

@@ -45,7 +45,7 @@ def _motion_sweep(mech, point, motion, closed, mode, rows=360):
 
 
 def candidate_sweeps(result) -> list:
-    """The sweep of every candidate of a :class:`~loopsolve.design.shape.ShapeResult`, best first."""
+    """The sweep of every candidate of a :class:`~loopsolve.design.synthesis.shape.run.ShapeResult`, best first."""
     rep = result.report
     out = []
     for c, cand in zip(rep["candidates"], result.candidates):
@@ -57,9 +57,9 @@ def sweeps_from_report(mech, report) -> list:
     """The candidates' sweeps from a shape report (``--report``) and the model it was made with.
 
     The candidates' parameters are set on the model (on its vector form with the frame parameters
-    when shape synthesis added them: :func:`loopsolve.design.frame.frame_of`).
+    when shape synthesis added them: :func:`loopsolve.design.atlas.frame.frame_of`).
     """
-    from ..design.frame import frame_of
+    from ..design.atlas.frame import frame_of
 
     if not isinstance(report, dict) or report.get("task") != "shape" or not report.get("candidates"):
         raise ModelError("--shape: not the report of a shape synthesis (loopsolve synthesize --shape ... --report R)")

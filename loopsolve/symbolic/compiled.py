@@ -155,7 +155,7 @@ def _function_source(name: str, args: Sequence[str], unpack: dict[str, Sequence[
 
 
 def generate_source(kin) -> tuple[str, dict]:
-    """Python source of the compiled module for a :class:`~loopsolve.symbolic.derivation.Kinematics`."""
+    """Python source of the compiled module for a :class:`~loopsolve.symbolic.loop_equations.Kinematics`."""
     import sympy as sp
     from sympy.printing.numpy import NumPyPrinter
     from sympy.printing.pycode import PythonCodePrinter
@@ -285,7 +285,7 @@ def _module_from_source(source: str, key: str, origin: str) -> ModuleType:
     module.__file__ = origin
     code = compile(source, origin, "exec")
     exec(code, module.__dict__)
-    module._SOURCE = source  # the text, for the numba engine (loopsolve.kinematics.numbakin)
+    module._SOURCE = source  # the text, for the numba engine (loopsolve.kinematics.numba_engine.jit)
     return module
 
 
@@ -299,39 +299,39 @@ def _entry_bytes(source: str, key: str) -> bytes:
     return _HEADER.format(key=key, digest=hashlib.sha256(body).hexdigest()).encode("ascii") + body
 
 
-class _Untrusted(Exception):
+class Untrusted(Exception):
     """A cache directory or entry that must not be executed (the message says why)."""
 
 
-def _check_owner_mode(st: os.stat_result, what: str) -> None:
+def check_owner_mode(st: os.stat_result, what: str) -> None:
     uid = os.getuid() if hasattr(os, "getuid") else None
     if uid is not None and st.st_uid != uid:
-        raise _Untrusted(f"{what} belongs to another user (uid {st.st_uid})")
+        raise Untrusted(f"{what} belongs to another user (uid {st.st_uid})")
     if st.st_mode & (stat.S_IWGRP | stat.S_IWOTH):
-        raise _Untrusted(f"{what} is writable by group or others (mode {stat.S_IMODE(st.st_mode):o})")
+        raise Untrusted(f"{what} is writable by group or others (mode {stat.S_IMODE(st.st_mode):o})")
 
 
-def _check_dir(directory: Path) -> None:
+def check_dir(directory: Path) -> None:
     """The cache directory must be a directory of ours that nobody else can write to."""
     st = os.stat(directory)
     if not stat.S_ISDIR(st.st_mode):
-        raise _Untrusted(f"{directory} is not a directory")
+        raise Untrusted(f"{directory} is not a directory")
     try:
-        _check_owner_mode(st, f"the cache directory {directory}")
-    except _Untrusted as exc:
+        check_owner_mode(st, f"the cache directory {directory}")
+    except Untrusted as exc:
         if hasattr(os, "getuid") and st.st_uid == os.getuid():
             try:  # our own directory, made by an older version under a lax umask: make it private
                 os.chmod(directory, 0o700)  # for the next run; this run trusts none of its entries
-                raise _Untrusted(f"{exc} (now made private to you)") from None
+                raise Untrusted(f"{exc} (now made private to you)") from None
             except OSError:
                 pass
         raise
 
 
-def _read_entry(path: Path, key: str) -> str | None:
+def read_entry(path: Path, key: str) -> str | None:
     """The source stored at ``path`` if it is a trustworthy entry for ``key``; ``None`` if absent.
 
-    Raises :class:`_Untrusted` for a symlink, FIFO, device, foreign or group/other-writable
+    Raises :class:`Untrusted` for a symlink, FIFO, device, foreign or group/other-writable
     file, an oversized file or one whose content does not match its header (key and hash).
     """
     flags = os.O_RDONLY | getattr(os, "O_NOFOLLOW", 0) | getattr(os, "O_NONBLOCK", 0) | getattr(os, "O_NOCTTY", 0)
@@ -340,43 +340,43 @@ def _read_entry(path: Path, key: str) -> str | None:
     except FileNotFoundError:
         return None
     if stat.S_ISLNK(lst.st_mode):
-        raise _Untrusted(f"the cache entry {path} is a symlink")
+        raise Untrusted(f"the cache entry {path} is a symlink")
     if not stat.S_ISREG(lst.st_mode):
-        raise _Untrusted(f"the cache entry {path} is not a regular file")
+        raise Untrusted(f"the cache entry {path} is not a regular file")
     try:
         fd = os.open(path, flags)
     except FileNotFoundError:
         return None
     except OSError as exc:
         if hasattr(os, "getuid") and lst.st_uid == os.getuid() and not lst.st_mode & (stat.S_IWGRP | stat.S_IWOTH):
-            raise _Stale() from None  # our own entry, unreadable (mode 000, an I/O error): a miss, rewritten
-        raise _Untrusted(f"the cache entry {path} cannot be opened ({exc.strerror})") from None
+            raise Stale() from None  # our own entry, unreadable (mode 000, an I/O error): a miss, rewritten
+        raise Untrusted(f"the cache entry {path} cannot be opened ({exc.strerror})") from None
     try:
         st = os.fstat(fd)
         if not stat.S_ISREG(st.st_mode):
-            raise _Untrusted(f"the cache entry {path} is not a regular file")
-        _check_owner_mode(st, f"the cache entry {path}")
+            raise Untrusted(f"the cache entry {path} is not a regular file")
+        check_owner_mode(st, f"the cache entry {path}")
         if st.st_size > MAX_ENTRY_SIZE:
-            raise _Untrusted(f"the cache entry {path} is too large ({st.st_size} bytes)")
+            raise Untrusted(f"the cache entry {path} is too large ({st.st_size} bytes)")
         data = read_capped(fd, MAX_ENTRY_SIZE)
         if data is None:
-            raise _Untrusted(f"the cache entry {path} is too large")
+            raise Untrusted(f"the cache entry {path} is too large")
     except OSError as exc:  # our own regular file that cannot be read to its end (EIO, EISDIR...): a miss
-        raise _Stale() from exc
+        raise Stale() from exc
     finally:
         os.close(fd)
     head, sep, body = data.partition(b"\n")
     expected_head = _HEADER.format(key=key, digest=hashlib.sha256(body).hexdigest()).encode("ascii")
     if not sep or head + sep != expected_head:
-        raise _Stale()
+        raise Stale()
     return body.decode("utf-8")
 
 
-class _Stale(Exception):
+class Stale(Exception):
     """An entry of ours that is truncated, of an older layout or corrupt: regenerate it silently."""
 
 
-def _write_entry(path: Path, source: str, key: str) -> bool:
+def write_entry(path: Path, source: str, key: str) -> bool:
     """Write the entry atomically (temporary file in the directory, then rename); no debris on failure."""
     data = _entry_bytes(source, key)
     try:
@@ -398,7 +398,7 @@ def _write_entry(path: Path, source: str, key: str) -> bool:
         return False
 
 
-def _ensure_dir(directory: Path) -> None:
+def ensure_dir(directory: Path) -> None:
     """Create the cache directory private to the user (0700 whatever the umask)."""
     if not directory.exists():
         directory.parent.mkdir(parents=True, exist_ok=True)
@@ -409,7 +409,7 @@ def _ensure_dir(directory: Path) -> None:
         os.chmod(directory, 0o700)
 
 
-def _warn_untrusted(reason: str) -> None:
+def warn_untrusted(reason: str) -> None:
     import warnings
 
     from ..errors import LoopsolveWarning
@@ -459,32 +459,32 @@ def _cached_module(mech: Mechanism, inputs: tuple[str, ...], cache: bool) -> Mod
     if path is not None:
         try:
             if directory.exists():
-                _check_dir(directory)
-            source = _read_entry(path, key)
+                check_dir(directory)
+            source = read_entry(path, key)
             if source is not None:
                 module = _module_from_source(source, key, str(path))
                 if not _fits(module, mech, inputs):
                     module = None
-        except _Stale:
+        except Stale:
             module = None
-        except _Untrusted as exc:
-            _warn_untrusted(str(exc))
+        except Untrusted as exc:
+            warn_untrusted(str(exc))
             module, writable = None, False
         except (Exception, SystemExit) as exc:  # an entry that fails to run: ours but broken
             module = None
             if isinstance(exc, OSError):
                 writable = False
     if module is None:
-        from .derivation import derive
+        from .loop_equations import derive
 
         kin = derive(mech, input=inputs)
         source, _ = generate_source(kin)
         if writable:
             try:
-                _ensure_dir(directory)
-                _check_dir(directory)
-                _write_entry(path, source, key)
-            except (OSError, _Untrusted):
+                ensure_dir(directory)
+                check_dir(directory)
+                write_entry(path, source, key)
+            except (OSError, Untrusted):
                 pass
         module = _load_source(source, key)
     with _LOCK:

@@ -1,7 +1,7 @@
 """The equations of the higher pairs in sympy: one row of Φ for each constraint, gear pair, cam, slot
 and rolling contact (:mod:`loopsolve.model.pairs`).
 
-:func:`pair_rows` is called by :func:`loopsolve.symbolic.derivation.derive` after the loops' rows,
+:func:`pair_rows` is called by :func:`loopsolve.symbolic.loop_equations.derive` after the loops' rows,
 so the higher pairs are differentiated (Φ_q, b₁–b₃), compiled and solved with the loops: one Φ,
 one Jacobian, one tracker. The rows are:
 

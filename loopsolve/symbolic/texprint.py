@@ -69,7 +69,7 @@ def symbol_latex(name: str) -> str:
 
     A leading lower-case word is the base (Greek by name, other words upright); what follows
     it — digits, capitals, or parts after underscores — is the subscript. Rate symbols of
-    :mod:`loopsolve.symbolic.derivation` (``name__d1``, ``__d2``, ``__d3``) get one, two or three dots.
+    :mod:`loopsolve.symbolic.loop_equations` (``name__d1``, ``__d2``, ``__d3``) get one, two or three dots.
 
     Examples
     --------

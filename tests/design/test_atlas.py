@@ -14,8 +14,8 @@ import numpy as np
 import pytest
 
 import loopsolve as ls
-from loopsolve.design.atlas import build_atlas, open_atlas
-from loopsolve.design.atlasstore import AtlasFileError
+from loopsolve.design.atlas.build import build_atlas, open_atlas
+from loopsolve.design.atlas.store import AtlasFileError
 from loopsolve.kinematics.classic_limits import fourbar_input_range, grashof
 
 pytest.importorskip("zarr", reason="atlases need zarr (the study extra)")
@@ -135,7 +135,7 @@ def test_grown_atlas_equals_the_atlas_built_at_once(fourbar, tmp_path):
 
 
 def test_an_interrupted_build_resumes(fourbar, tmp_path, monkeypatch):
-    from loopsolve.design import atlas as atlas_mod
+    from loopsolve.design.atlas import build as atlas_mod
 
     path = tmp_path / "r.zarr"
     real = atlas_mod._chunk_task

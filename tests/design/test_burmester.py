@@ -225,7 +225,7 @@ class TestFivePoses:
 
 def test_four_pose_design_from_chosen_centre_points():
     # four poses: the planted pivots are centre points; the four-bar through them is the planted one
-    from loopsolve.design.burmester import dyad_for_center, four_bar
+    from loopsolve.design.synthesis.classical.burmester import dyad_for_center, four_bar
 
     c = four_bar(POSES4, tuple(O2), tuple(O4))
     assert c.lengths == pytest.approx((R1, R2, R3, R4), abs=1e-8)

@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 import loopsolve as ls
-from loopsolve.design.classicsynth import classic_synthesize
-from loopsolve.design.targets import read_table
+from loopsolve.design.synthesis.classical.run import classic_synthesize
+from loopsolve.design.synthesis.targets import read_table
 from loopsolve.errors import ModelError
 
 from support.models import planted_pose, R1, R2, R3, R4

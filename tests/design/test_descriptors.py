@@ -8,7 +8,7 @@ import math
 import numpy as np
 import pytest
 
-from loopsolve.design import descriptors as d
+from loopsolve.design.atlas import descriptors as d
 from loopsolve.errors import ModelError
 
 H = 10

@@ -12,7 +12,7 @@ import pytest
 
 import loopsolve as ls
 from loopsolve.errors import ModelError
-from loopsolve.design.freudenstein import chebyshev_spacing, freudenstein, freudenstein_constants, links_from_constants
+from loopsolve.design.synthesis.classical.freudenstein import chebyshev_spacing, freudenstein, freudenstein_constants, links_from_constants
 
 
 def cramer3(a, b):
@@ -161,7 +161,7 @@ class TestStructuralError:
 
 
 def test_design_model_file_round_trip():
-    from loopsolve.design.freudenstein import freudenstein_points
+    from loopsolve.design.synthesis.classical.freudenstein import freudenstein_points
 
     d = freudenstein_points([49.019, 75.0, 100.981], [153.441, 201.633, 222.570])
     mech = ls.loads(ls.dumps(d.mechanism))
@@ -175,7 +175,7 @@ def test_design_model_file_round_trip():
     ((4, 3, 3.5, 5), (30, 60, 90), "branch"),  # non-Grashof: one circuit, the modes meet at limits
 ])
 def test_precision_points_in_two_modes(lengths, inputs, kind):
-    from loopsolve.design.freudenstein import freudenstein_points
+    from loopsolve.design.synthesis.classical.freudenstein import freudenstein_points
 
     # outputs by circle intersection: the first two open, the third crossed
     outs = [math.degrees(fourbar_theta4(*lengths, math.radians(a), o)) for a, o in zip(inputs, (True, True, False))]

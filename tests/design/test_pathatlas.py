@@ -9,9 +9,9 @@ import numpy as np
 import pytest
 
 import loopsolve as ls
-from loopsolve.design.atlas import build_atlas
-from loopsolve.design.pathatlas import atlas_starts, usable
-from loopsolve.design.synthesis import define
+from loopsolve.design.atlas.build import build_atlas
+from loopsolve.design.synthesis.shape.path_starts import atlas_starts, usable
+from loopsolve.design.synthesis.problem import define
 
 pytest.importorskip("zarr", reason="atlases need zarr (the study extra)")
 
@@ -66,9 +66,9 @@ def test_the_starts_are_placed_on_the_targets(fourbar, atlas):
     V, S, X, d = atlas_starts(pr, atlas=atlas)
     assert V.shape[1] == len(pr.names) and X.shape == (pr.T, V.shape[0])
     # the best start's point at its inputs is near the targets already (the similarity of its match)
-    from loopsolve.design.synthlm import _residuals_and_jacobian
+    from loopsolve.design.synthesis.lockstep_lm import residuals_and_jacobian
 
-    r, _, ok, _ = _residuals_and_jacobian(pr, V[:1], X[:, :1], S[:, :1], math.radians(5))
+    r, _, ok, _ = residuals_and_jacobian(pr, V[:1], X[:, :1], S[:, :1], math.radians(5))
     size = float(np.max(np.ptp(t, axis=0)))
     assert ok[0] and np.sqrt(np.mean(r[0] ** 2)) < 0.05 * size
 

@@ -11,8 +11,8 @@ import numpy as np
 import pytest
 
 import loopsolve as ls
-from loopsolve.design.atlas import build_atlas
-from loopsolve.design.shape import synthesize_shape
+from loopsolve.design.atlas.build import build_atlas
+from loopsolve.design.synthesis.shape.run import synthesize_shape
 
 pytest.importorskip("zarr", reason="atlases need zarr (the study extra)")
 

@@ -17,9 +17,9 @@ import numpy as np
 import pytest
 
 import loopsolve as ls
-from loopsolve.design.certify import certify
-from loopsolve.design.synthesis import define, polish
-from loopsolve.design.synthdesign import certify_design, polish_design
+from loopsolve.design.synthesis.certificate import certify
+from loopsolve.design.synthesis.problem import define, polish
+from loopsolve.design.synthesis.design_model import certify_design, polish_design
 
 from support.models import fourbar_angles, fourbar_point, PLANT_INPUTS, PLANTED, VARY6
 
@@ -141,7 +141,7 @@ def test_polish_from_a_perturbed_start_reaches_round_off(fourbar):
 
 def test_lockstep_searches_equal_the_searches_run_alone(fourbar):
     """search_many evaluates the generations of several searches as one batch: same courses as alone."""
-    from loopsolve.design.synthesis import search, search_many
+    from loopsolve.design.synthesis.problem import search, search_many
 
     pr = define(fourbar, path="P", targets=planted_targets(), inputs=PLANT_INPUTS, vary=VARY6, mode="-")
     kw = {"popsize": 6, "maxiter": 12}

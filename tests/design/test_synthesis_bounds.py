@@ -21,9 +21,9 @@ import pytest
 
 import loopsolve as ls
 from loopsolve.cli import main
-from loopsolve.design import burmester as burmester_mod
-from loopsolve.design import freudenstein as freudenstein_mod
-from loopsolve.design import synthrun
+from loopsolve.design.synthesis.classical import burmester as burmester_mod
+from loopsolve.design.synthesis.classical import freudenstein as freudenstein_mod
+from loopsolve.design.synthesis import run as synthesis_run
 
 MODELS = ls.models_dir()
 PATHSYN = MODELS / "fourbar_path_synthesis.toml"
@@ -36,9 +36,9 @@ def no_work(monkeypatch):
     def forbidden(*args, **kwargs):
         raise AssertionError("heavy work started before the refusal")
 
-    monkeypatch.setattr(synthrun, "one_run", forbidden)
-    monkeypatch.setattr(synthrun, "_dask_runs", forbidden)
-    monkeypatch.setattr(burmester_mod, "_dyads", forbidden)
+    monkeypatch.setattr(synthesis_run, "one_run", forbidden)
+    monkeypatch.setattr(synthesis_run, "_dask_runs", forbidden)
+    monkeypatch.setattr(burmester_mod, "pose_dyads", forbidden)
     monkeypatch.setattr(freudenstein_mod, "freudenstein_constants", forbidden)
 
 
@@ -242,8 +242,8 @@ def test_a_byte_order_mark_is_accepted_by_the_general_method(capsys, files, tmp_
 
 
 def test_a_byte_order_mark_is_accepted_by_the_classical_reader(tmp_path):
-    from loopsolve.design.targets import read_table
-    from loopsolve.design.targets import read_targets
+    from loopsolve.design.synthesis.targets import read_table
+    from loopsolve.design.synthesis.targets import read_targets
 
     p = tmp_path / "bom.csv"
     p.write_bytes(b"\xef\xbb\xbfx,y,angle\n1,2,30\n3,4,45\n")
@@ -302,8 +302,8 @@ def test_python_api_bounds_targets_and_inputs(no_work):
 
 def test_the_work_estimate_counts_what_a_run_evaluates():
     """The estimate is an upper bound of a real run's design evaluations (the report's statistics)."""
-    from loopsolve.design.synthesis import define
-    from loopsolve.design.synthlimits import work_estimate
+    from loopsolve.design.synthesis.problem import define
+    from loopsolve.design.synthesis.limits import work_estimate
 
     mech = ls.load(PATHSYN)
     targets = {"x": [1.247635, 1.125070, 0.759129], "y": [2.261923, 2.556968, 2.635152]}

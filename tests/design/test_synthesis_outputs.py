@@ -367,7 +367,7 @@ def test_freudenstein_max_errors_against_the_closed_form():
     # in the function's units: degrees of output times (y1 - y0) / (output span)
     assert d.max_error_y == pytest.approx(np.abs(err).max() * (f(4) - 1) / 90, rel=1e-3)
     # targets only (least squares through seven angle pairs): the largest |output - wanted| at the targets
-    from loopsolve.design.freudenstein import freudenstein_points
+    from loopsolve.design.synthesis.classical.freudenstein import freudenstein_points
 
     xs = np.linspace(1, 4, 7)
     a, b = 30 + 90 * (xs - 1) / 3, 90 + 90 * (f(xs) - 1) / (f(4) - 1)
@@ -407,7 +407,7 @@ def test_to_json_refuses_a_nan():
     res.report["objective"] = float("nan")
     with pytest.raises(ValueError):
         json.dumps(res.report, allow_nan=False)
-    from loopsolve.design.synthrun import SynthesisResult
+    from loopsolve.design.synthesis.run import SynthesisResult
 
     fake = SynthesisResult.__new__(SynthesisResult)
     fake.report = {"objective": float("nan")}
@@ -517,7 +517,7 @@ def test_every_certificate_agrees_with_its_defects(tmp_path):
         check_certificate(c["certificate"])
         assert not c["certified"] and c["rank"] is None
     # the general method through a limit position: the certificate's flags follow its defects
-    from loopsolve.design.certify import certify
+    from loopsolve.design.synthesis.certificate import certify
 
     m = ls.load(MODELS / "double_rocker.toml")
     c = certify(m, np.radians([20.0, 40.0, 60.0, 80.0]), crank=True, transmission=(60, 120))

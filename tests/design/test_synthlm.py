@@ -12,9 +12,9 @@ import numpy as np
 import pytest
 
 import loopsolve as ls
-from loopsolve.design.synthesis import define, periodic
-from loopsolve.design.synthlm import batch_lm, distinct, sample
-from loopsolve.design.synthrun import _polish_floor
+from loopsolve.design.synthesis.problem import define, periodic
+from loopsolve.design.synthesis.lockstep_lm import batch_lm, distinct, sample
+from loopsolve.design.synthesis.run import _polish_floor
 
 from support.models import fourbar_point, PLANT_INPUTS, PLANTED, VARY6
 from support.synthesis import FOURBAR
@@ -124,7 +124,7 @@ def test_searches_of_both_modes_in_one_lockstep_batch_equal_the_searches_alone(f
     """search_many(problems=...) evaluates the generations of a '+' and a '-' search as one batch: same courses."""
     import dataclasses
 
-    from loopsolve.design.synthesis import search, search_many
+    from loopsolve.design.synthesis.problem import search, search_many
 
     t = planted_targets_default()
     pr = define(fourbar, path="P", targets=t, inputs=PLANT_INPUTS, vary=VARY6, mode="any")
@@ -151,16 +151,16 @@ def planted_targets_default():
 
 def _counting(monkeypatch):
     """Count the batch evaluations (one per LM iteration, plus the first) of :func:`batch_lm`."""
-    from loopsolve.design import synthlm
+    from loopsolve.design.synthesis import lockstep_lm
 
     calls = []
-    orig = synthlm._residuals_and_jacobian
+    orig = lockstep_lm.residuals_and_jacobian
 
     def counted(*a, **k):
         calls.append(a[1].shape[0])
         return orig(*a, **k)
 
-    monkeypatch.setattr(synthlm, "_residuals_and_jacobian", counted)
+    monkeypatch.setattr(lockstep_lm, "residuals_and_jacobian", counted)
     return calls
 
 
@@ -202,17 +202,17 @@ def test_synthesize_with_the_lm_stops_recovers_a_planted_design(fourbar, monkeyp
     against the closed form, certified."""
     p = dict(PLANTED, theta0=10.0, phi=20.0)
     pr, t = planted_problem(fourbar, p)
-    from loopsolve.design import synthrun
+    from loopsolve.design.synthesis import run as synthesis_run
 
     calls = _counting(monkeypatch)
     polished = []
-    orig = synthrun.polish
+    orig = synthesis_run.polish
 
     def counted_polish(*a, **k):
         polished.append(1)
         return orig(*a, **k)
 
-    monkeypatch.setattr(synthrun, "polish", counted_polish)
+    monkeypatch.setattr(synthesis_run, "polish", counted_polish)
     res = ls.synthesize(fourbar, path="P", targets={"x": t[:, 0], "y": t[:, 1]}, inputs=PLANT_INPUTS,
                         vary=VARY_TURN, seed=3, popsize=8, maxiter=20, progress=False)
     q = res.report["parameters"]

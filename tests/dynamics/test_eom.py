@@ -1,6 +1,6 @@
 """The equation of motion in symbols (:mod:`loopsolve.dynamics.eom`) and its LaTeX section (:mod:`loopsolve.output.latex_dynamics`).
 
-Independent references written here: the numeric M, M′ and Q of :mod:`loopsolve.dynamics.derivation` and
+Independent references written here: the numeric M, M′ and Q of :mod:`loopsolve.dynamics.dynamics_model` and
 :mod:`loopsolve.dynamics.kinetostatics` (the code the force analysis and the simulations run, itself checked
 against Newton–Euler and Kane's method in test_forces.py) on every shipped model with bodies, with
 springs, dampers and rate-dependent loads added, and for a length input; the four-bar's M from the
@@ -19,7 +19,7 @@ import pytest
 import sympy as sp
 
 import loopsolve as ls
-from loopsolve.dynamics.derivation import compile_dynamics, kinematic_coefficients, mass_matrix_terms
+from loopsolve.dynamics.dynamics_model import compile_dynamics, kinematic_coefficients, mass_matrix_terms
 from loopsolve.dynamics.kinetostatics import generalized_force
 from loopsolve.output.latex import to_latex, write_pdf
 

@@ -20,7 +20,7 @@ import numpy as np
 import pytest
 
 import loopsolve as ls
-from loopsolve.dynamics.derivation import compile_dynamics, kinematic_coefficients, mass_matrix_terms
+from loopsolve.dynamics.dynamics_model import compile_dynamics, kinematic_coefficients, mass_matrix_terms
 from loopsolve.dynamics.kinetostatics import generalized_force, inverse_dynamics, virtual_work_drive
 
 from support.models import with_extra_loads

@@ -22,7 +22,7 @@ import pytest
 
 import loopsolve as ls
 from loopsolve.cli import main
-from loopsolve.dynamics.derivation import compile_dynamics
+from loopsolve.dynamics.dynamics_model import compile_dynamics
 from loopsolve.dynamics.kinetostatics import inverse_dynamics
 
 MODELS = ls.models_dir()

@@ -115,7 +115,7 @@ def _geared_fivebar():
 
 def test_geared_five_bar_forces_agree_with_the_equation_of_motion():
     """Newton–Euler with the tooth force gives the driving torque of the virtual-work equation of motion."""
-    from loopsolve.dynamics.derivation import compile_dynamics
+    from loopsolve.dynamics.dynamics_model import compile_dynamics
     from loopsolve.dynamics.kinetostatics import virtual_work_drive
 
     mech = _geared_fivebar()

@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 
 import loopsolve as ls
-from loopsolve.dynamics.derivation import compile_dynamics
+from loopsolve.dynamics.dynamics_model import compile_dynamics
 from loopsolve.errors import ModelError
 from loopsolve.dynamics.kinetostatics import inverse_dynamics, layout, solve_batched
 

@@ -359,7 +359,7 @@ def test_errors_of_a_radian_model_give_the_input_in_radians():
     singular-position error states the input in rad, with the coupler and rocker in line
     (theta4 towards B from O4, theta3 opposite).
 
-    Kills loopsolve.kinematics.solve.x__input_unit__mutmut_7 (every angle input labelled deg)."""
+    Kills loopsolve.kinematics.solve.x_input_unit__mutmut_7 (every angle input labelled deg)."""
     text = DOUBLE_ROCKER.read_text(encoding="utf-8").replace('angle = "deg"', 'angle = "rad"')
     text = text.replace("guess = 60,", "guess = 1.0472,").replace("guess = -2.5", "guess = -0.0436")
     text = text.replace("guess = 109.5", "guess = 1.911")

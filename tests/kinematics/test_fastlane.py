@@ -24,10 +24,10 @@ import pytest
 import loopsolve as ls
 from loopsolve.kinematics import classic as C
 from loopsolve.symbolic import compiled
-from loopsolve.kinematics import fastlane, numbakin
+from loopsolve.kinematics.numba_engine import jit, steps
 from loopsolve.cli import main
 from loopsolve.errors import LoopsolveWarning, MissingDependencyError
-from loopsolve.kinematics.kernel import Kernel, rho_2x3
+from loopsolve.kinematics.scalar_solver import Kernel, rho_2x3
 from loopsolve.kinematics.modes import assembly_modes
 from loopsolve.kinematics.sweep import Grid, default_range
 
@@ -40,7 +40,7 @@ MODELS = sorted(Path(ls.models_dir()).glob("*.toml"))
 def spy(monkeypatch):
     """Counts the nodes the fast lane takes (appended to the path, or kept whole) and its calls."""
     calls = {"advance": 0, "nodes": 0}
-    orig = fastlane.FastLane.advance
+    orig = steps.FastLane.advance
 
     def advance(self, tracer, path, *args):
         n0 = len(path.nodes)
@@ -49,7 +49,7 @@ def spy(monkeypatch):
         calls["nodes"] += len(path.nodes) - n0 + (len(self.whole[0]) if self.whole is not None else 0)
         return out
 
-    monkeypatch.setattr(fastlane.FastLane, "advance", advance)
+    monkeypatch.setattr(steps.FastLane, "advance", advance)
     return calls
 
 
@@ -161,31 +161,31 @@ def test_template_mirrors_the_python_grid_target_and_rho():
     rng = np.random.default_rng(3)
     for deg in (None, (12.5, 0.7), (-30.0, -2.5)):
         g = Grid(0.2, 0.0123 if deg is None else math.radians(deg[1]), -50, 400, -1.0, 9.0, deg)
-        f = np.zeros(fastlane.F_SIZE)
-        f[fastlane.F_G_START], f[fastlane.F_G_STEP] = g.start, g.step
-        f[fastlane.F_G_LO], f[fastlane.F_G_HI] = g.lo, g.hi
+        f = np.zeros(steps.F_SIZE)
+        f[steps.F_G_START], f[steps.F_G_STEP] = g.start, g.step
+        f[steps.F_G_LO], f[steps.F_G_HI] = g.lo, g.hi
         if deg is not None:
-            f[fastlane.F_DEG0], f[fastlane.F_DEG1] = deg
-        iv = np.zeros(fastlane.I_SIZE, dtype=np.int64)
-        iv[fastlane.I_KMIN], iv[fastlane.I_KMAX], iv[fastlane.I_DEG] = g.kmin, g.kmax, 0 if deg is None else 1
+            f[steps.F_DEG0], f[steps.F_DEG1] = deg
+        iv = np.zeros(steps.I_SIZE, dtype=np.int64)
+        iv[steps.I_KMIN], iv[steps.I_KMAX], iv[steps.I_DEG] = g.kmin, g.kmax, 0 if deg is None else 1
         for k in range(-50, 401, 7):
-            assert fastlane.grid_value(k, f, iv) == g.value(k)
+            assert steps.grid_value(k, f, iv) == g.value(k)
         for x in rng.uniform(-2, 10, 200):
             for d in (1.0, -1.0):
                 kn = g.next_after(float(x), d)
-                assert fastlane.grid_next_after(float(x), d, f, iv) == (fastlane.NOGRID if kn is None else kn)
+                assert steps.grid_next_after(float(x), d, f, iv) == (steps.NOGRID if kn is None else kn)
     for a in rng.normal(size=(200, 6)):
-        assert fastlane.rho_2x3(*a) == rho_2x3(*a)
+        assert steps.rho_2x3(*a) == rho_2x3(*a)
 
 
 def test_compiled_grid_values_are_the_python_ones():
     """numba's math.radians/degrees/nextafter give the exact degree grid of Grid.value."""
     ck = ls.load(ls.models_dir() / "thesis_crank_rocker.toml").compile()
-    mod = numbakin._numba_module(ck)
-    f = np.zeros(fastlane.F_SIZE)
-    f[fastlane.F_DEG0], f[fastlane.F_DEG1] = 0.0, 0.1
-    iv = np.zeros(fastlane.I_SIZE, dtype=np.int64)
-    iv[fastlane.I_DEG] = 1
+    mod = jit._numba_module(ck)
+    f = np.zeros(steps.F_SIZE)
+    f[steps.F_DEG0], f[steps.F_DEG1] = 0.0, 0.1
+    iv = np.zeros(steps.I_SIZE, dtype=np.int64)
+    iv[steps.I_DEG] = 1
     g = Grid(0.0, math.radians(0.1), -7200, 7200, 0, 0, (0.0, 0.1))
     assert all(mod.grid_value(k, f, iv) == g.value(k) for k in range(-7200, 7201, 13))
 
@@ -234,10 +234,10 @@ class TestNumbaCache:
     def test_written_private_and_reused(self, tmp_path, monkeypatch):
         cache = tmp_path / "cache"
         monkeypatch.setenv("LOOPSOLVE_CACHE_DIR", str(cache))
-        monkeypatch.setattr(numbakin, "_MEMO", {})
-        monkeypatch.setattr(numbakin, "_BY_MODULE", {})
+        monkeypatch.setattr(jit, "_MEMO", {})
+        monkeypatch.setattr(jit, "_BY_MODULE", {})
         ck = ls.fourbar(60, 25, 70, 45).compile()
-        mod = numbakin._numba_module(ck)
+        mod = jit._numba_module(ck)
         src = Path(mod.__file__)
         assert src.parent == cache and src.name.startswith("nb_")
         ls.sweep(ck.mechanism, 0, 30, 10, compiled=ck, engine="numba", method="tracked")
@@ -251,7 +251,7 @@ class TestNumbaCache:
         cache = tmp_path / "cache"
         monkeypatch.setenv("LOOPSOLVE_CACHE_DIR", str(cache))
         ck = ls.fourbar(60, 25, 70, 45).compile()
-        stem = "nb_" + hashlib.sha256(f"{numba.__version__}\n{numbakin.numba_source(ck)}".encode()).hexdigest()[:24]
+        stem = "nb_" + hashlib.sha256(f"{numba.__version__}\n{jit.numba_source(ck)}".encode()).hexdigest()[:24]
         pyc = cache / "__pycache__"
         pyc.mkdir(parents=True)
         os.chmod(cache, 0o700)
@@ -259,14 +259,14 @@ class TestNumbaCache:
         (tmp_path / "evil").write_bytes(b"not numba")
         link = pyc / f"{stem}.run2-1.py311.nbi"
         os.symlink(tmp_path / "evil", link)
-        with pytest.raises(compiled._Untrusted, match="not a regular file"):  # a planted symlink
-            numbakin._check_pycache(cache, stem)
+        with pytest.raises(compiled.Untrusted, match="not a regular file"):  # a planted symlink
+            jit._check_pycache(cache, stem)
         link.unlink()
         os.chmod(pyc, 0o775)  # a __pycache__ others can write to: the whole sweep is compiled in memory
-        monkeypatch.setattr(numbakin, "_MEMO", {})
-        monkeypatch.setattr(numbakin, "_BY_MODULE", {})
+        monkeypatch.setattr(jit, "_MEMO", {})
+        monkeypatch.setattr(jit, "_BY_MODULE", {})
         with pytest.warns(LoopsolveWarning, match="not using the compile cache"):
-            mod = numbakin._numba_module(ck)
+            mod = jit._numba_module(ck)
         assert mod.__file__.startswith("<loopsolve numba")
         assert not any(e.startswith(stem) for e in os.listdir(pyc))
         sw = ls.sweep(ck.mechanism, 0, 90, 30, compiled=ck, engine="numba", method="tracked")
@@ -279,7 +279,7 @@ class TestCompiledStart:
 
     def lane(self, mech):
         ck = mech.compile()
-        return ck, numbakin.fast_lane(Kernel(ck))
+        return ck, jit.fast_lane(Kernel(ck))
 
     def test_same_start_as_start_position(self):
         from loopsolve.kinematics.solve import start_position
@@ -317,7 +317,7 @@ def test_compiled_rates_are_rates_v(derivatives):
     from loopsolve.kinematics.batch import rates_v
 
     ck = ls.fourbar(60, 25, 70, 45).compile()
-    lane = numbakin.fast_lane(Kernel(ck))
+    lane = jit.fast_lane(Kernel(ck))
     rng = np.random.default_rng(11)
     Z = rng.uniform(-math.pi, math.pi, (3, 50))
     Z[2, 7] = Z[1, 7]  # Φ_q singular there
@@ -342,7 +342,7 @@ def test_a_model_numba_cannot_compile_falls_back_to_python_with_one_warning(monk
     def broken(*args):
         raise TypingError("Failed in nopython mode pipeline (step: nopython frontend)")
 
-    real = numbakin.fast_lane
+    real = jit.fast_lane
 
     def lane(kern, **kw):
         fl = real(kern, **kw)
@@ -351,7 +351,7 @@ def test_a_model_numba_cannot_compile_falls_back_to_python_with_one_warning(monk
 
     mech = ls.fourbar(60, 25, 70, 45)
     ref = mech.sweep(0, 350, 10, engine="python")
-    monkeypatch.setattr(numbakin, "fast_lane", lane)
+    monkeypatch.setattr(jit, "fast_lane", lane)
     with pytest.warns(LoopsolveWarning, match="numba could not compile") as rec:
         sw = mech.sweep(0, 350, 10, engine="numba")
     assert len([w for w in rec if "numba could not compile" in str(w.message)]) == 1

@@ -19,9 +19,10 @@ import numpy as np
 import pytest
 
 import loopsolve as ls
-from loopsolve.kinematics import batch, fastlane, numbakin
+from loopsolve.kinematics import batch
+from loopsolve.kinematics.numba_engine import jit, steps
 from loopsolve.kinematics import classic as C
-from loopsolve.kinematics.kernel import kernel_of
+from loopsolve.kinematics.scalar_solver import kernel_of
 from loopsolve.kinematics.solve import plain_value
 from loopsolve.model.units import Kind, parse_quantity
 
@@ -50,7 +51,7 @@ def _same(a, b, tol):
 def fused(monkeypatch):
     """Counts the sweeps whose rates came from the step loop (whole_rates) and from a rates pass."""
     calls = {"fused": 0, "pass": 0}
-    whole, rates = fastlane.FastLane.whole_rates, fastlane.FastLane.rates
+    whole, rates = steps.FastLane.whole_rates, steps.FastLane.rates
 
     def whole_rates(self, *a):
         calls["fused"] += 1
@@ -60,8 +61,8 @@ def fused(monkeypatch):
         calls["pass"] += 1
         return rates(self, *a)
 
-    monkeypatch.setattr(fastlane.FastLane, "whole_rates", whole_rates)
-    monkeypatch.setattr(fastlane.FastLane, "rates", rates_pass)
+    monkeypatch.setattr(steps.FastLane, "whole_rates", whole_rates)
+    monkeypatch.setattr(steps.FastLane, "rates", rates_pass)
     return calls
 
 
@@ -194,7 +195,7 @@ def test_plain_and_unit_bounds_give_the_same_sweep():
 
 def test_the_tuple_helpers_put_each_value_where_the_model_has_it():
     ns: dict = {}
-    exec(numbakin._tuple_helpers(5, 3, 1, 4), ns)  # unknowns at 3 and 1, input at 4
+    exec(jit._tuple_helpers(5, 3, 1, 4), ns)  # unknowns at 3 and 1, input at 4
     z = [10.0, 11.0, 12.0, 13.0, 14.0]
     assert ns["ztuple"](z) == (10.0, 11.0, 12.0, 13.0, 14.0)
     assert ns["zset"](z, -1.0, -2.0) == (10.0, -2.0, 12.0, -1.0, 14.0)
@@ -246,14 +247,14 @@ def test_kernels_are_reused_per_mechanism_and_do_not_keep_a_study_alive():
     import gc
     import weakref
 
-    from loopsolve.kinematics import kernel
+    from loopsolve.kinematics import scalar_solver
 
     mech = ls.fourbar(60, 25, 70, 45)
     a, b = mech.compile(), mech.compile()  # equal compiled models of one mechanism
     assert a is not b and kernel_of(a) is kernel_of(b)
     assert kernel_of(mech.with_parameters(r2=20).compile()) is not kernel_of(a)
     refs = []
-    for r2 in np.linspace(20, 26, kernel._KERNELS_MAX + 4):
+    for r2 in np.linspace(20, 26, scalar_solver._KERNELS_MAX + 4):
         m = mech.with_parameters(r2=float(r2))
         refs.append(weakref.ref(m))
         sw = m.sweep(0, 40, 10, engine="numba", progress=False)
@@ -261,8 +262,8 @@ def test_kernels_are_reused_per_mechanism_and_do_not_keep_a_study_alive():
         assert np.max(np.abs(_wrap(sw.z[:, sw.compiled.index("theta4")] - t4))) < 1e-10
     del m, sw
     gc.collect()
-    assert len(kernel._KERNELS) <= kernel._KERNELS_MAX
-    assert sum(r() is not None for r in refs) <= kernel._KERNELS_MAX  # the others were freed
+    assert len(scalar_solver._KERNELS) <= scalar_solver._KERNELS_MAX
+    assert sum(r() is not None for r in refs) <= scalar_solver._KERNELS_MAX  # the others were freed
 
 
 @needs_numba

@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 
 import loopsolve as ls
-from loopsolve.dynamics.derivation import compile_dynamics
+from loopsolve.dynamics.dynamics_model import compile_dynamics
 from loopsolve.dynamics.kinetostatics import virtual_work_drive
 
 MODELS = [p for p in sorted(ls.models_dir().glob("*.toml")) if ls.load(p).dynamics is not None]

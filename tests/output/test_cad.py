@@ -102,7 +102,7 @@ def test_figure_svg_unchanged_without_cad(tmp_path, capsys):
 def test_synthesized_design_exports_the_same_way(tmp_path):
     # a Freudenstein generator (the log10 points as angles): pivots at (0, 0) and (r1, 0), the curve asked for
     from loopsolve.output.cad import export_cad
-    from loopsolve.design.freudenstein import freudenstein_points
+    from loopsolve.design.synthesis.classical.freudenstein import freudenstein_points
 
     d = freudenstein_points([49.019, 75.0, 100.981], [153.441, 201.633, 222.570])
 

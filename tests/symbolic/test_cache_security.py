@@ -87,12 +87,12 @@ def test_directory_is_created_private_whatever_the_umask(cache):
 def test_directory_is_never_more_open_than_0700(cache, monkeypatch):
     """The directory is created 0700 by mkdir itself, not opened up and then closed by a chmod:
     with umask 0 and the follow-up chmod intercepted, it is 0700 from its first instant (kills
-    loopsolve.symbolic.compiled.x__ensure_dir__mutmut_12, ``os.mkdir(directory, 449)``: 449 is 0o701)."""
+    loopsolve.symbolic.compiled.x_ensure_dir__mutmut_12, ``os.mkdir(directory, 449)``: 449 is 0o701)."""
     calls = []
     monkeypatch.setattr(compiled.os, "chmod", lambda path, mode, *a, **k: calls.append((str(path), mode)))
     old = os.umask(0)
     try:
-        compiled._ensure_dir(cache)
+        compiled.ensure_dir(cache)
     finally:
         os.umask(old)
     assert stat.S_IMODE(cache.stat().st_mode) == 0o700

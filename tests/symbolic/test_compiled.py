@@ -200,7 +200,7 @@ def test_math_domain_errors_become_nan_not_exceptions():
 def test_a_warm_disk_cache_is_used_without_deriving(tmp_path, monkeypatch):
     """loopsolve.symbolic.compiled.x__fits__mutmut_17 rejected every good cache file (sympy on every call).
     In-process twin of test_compiled's subprocess test, which mutmut cannot see."""
-    import loopsolve.symbolic.derivation
+    import loopsolve.symbolic.loop_equations
     from loopsolve.symbolic import compiled
 
     monkeypatch.setattr(compiled, "_MEMO", {})
@@ -213,13 +213,13 @@ def test_a_warm_disk_cache_is_used_without_deriving(tmp_path, monkeypatch):
     def no_sympy(*args, **kwargs):
         raise AssertionError("derived again although a valid cache file exists")
 
-    monkeypatch.setattr(loopsolve.symbolic.derivation, "derive", no_sympy)
+    monkeypatch.setattr(loopsolve.symbolic.loop_equations, "derive", no_sympy)
     ck = mech.compile()
     assert ck.points == ("B", "C") and ck.unknowns == ("theta3", "theta4")
 
 
 def test_angle_literals_with_a_unit_in_expressions():
-    """loopsolve.symbolic.derivation.x_to_sympy__mutmut_12 / x__angle_const__mutmut_1 (no test used a literal
+    """loopsolve.symbolic.loop_equations.x_to_sympy__mutmut_12 / x__angle_const__mutmut_1 (no test used a literal
     such as ``30deg`` inside an expression): in a radian model ``theta2 + 30deg`` is theta2 + pi/6,
     in a degree model ``theta2 + 0.5rad`` is theta2 + 28.6479 deg."""
     deg = math.pi / 180

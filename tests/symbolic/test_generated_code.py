@@ -1,5 +1,5 @@
 """The generated code and the derivation give the right numbers: rates, polar splits, the cache
-(written for surviving mutants of loopsolve.symbolic.compiled and loopsolve.symbolic.derivation, issue 13).
+(written for surviving mutants of loopsolve.symbolic.compiled and loopsolve.symbolic.loop_equations, issue 13).
 
 Every expected value is computed here: slider-crank closed forms and their derivatives by hand,
 the polar split of a tip acceleration from its definition, the four-bar by law of cosines.
@@ -90,8 +90,8 @@ def test_block_given_by_components_sliding_split(fresh):
 
     Kills loopsolve.symbolic.compiled.x_generate_source__mutmut_85 (SLIDING held None, not the name),
     _185/_195/_205 (vectors0/1/2 lost the unpacking of z, z1, z2: NameError),
-    loopsolve.symbolic.derivation.x_derive__mutmut_135 (length of a vector by components sqrt(x² + 2y)) and
-    loopsolve.symbolic.derivation.xǁ_DerivǁD__mutmut_21 (d/dt sign(s) = DiracDelta(s) taken as 1, not 0: a
+    loopsolve.symbolic.loop_equations.x_derive__mutmut_135 (length of a vector by components sqrt(x² + 2y)) and
+    loopsolve.symbolic.loop_equations.xǁ_DerivǁD__mutmut_21 (d/dt sign(s) = DiracDelta(s) taken as 1, not 0: a
     spurious 2ṡ² in the slider's acceleration).
     """
     omega, alpha = 10.0, 50.0
@@ -128,7 +128,7 @@ def test_block_given_by_components_sliding_split(fresh):
 def test_unary_minus_and_atan2_in_a_vector_angle(fresh):
     """The offset of prob 2 written as r4 at -atan2(e, 0) + 180 = 90 degrees.
 
-    Kills loopsolve.symbolic.derivation.x_to_sympy__mutmut_37 (unary minus dropped: r4 at 270, offset
+    Kills loopsolve.symbolic.loop_equations.x_to_sympy__mutmut_37 (unary minus dropped: r4 at 270, offset
     reversed) and x_to_sympy__mutmut_67 (atan2 refused as an unknown expression node).
     """
     text = PROB2.read_text(encoding="utf-8").replace('r4 = { length = "e", angle = 90 }',
@@ -167,7 +167,7 @@ equation = "r2 + r3 = r1 + r4"
 
 def test_minus_infinity_in_an_expression_is_refused_naming_the_key(fresh):
     """``r4 ** -abs(tan(90))`` holds -oo (abs of the pole of tan is +oo): refused as a model error
-    that names the key, like +oo and zoo. Kills loopsolve.symbolic.derivation.x__not_finite_real__mutmut_9."""
+    that names the key, like +oo and zoo. Kills loopsolve.symbolic.loop_equations.x__not_finite_real__mutmut_9."""
     text = FOURBAR.format(l3='"r3"', l4='"r4 ** -abs(tan(90))"')
     with pytest.raises(ModelError) as info:
         ls.loads(text).solve(90)
@@ -183,7 +183,7 @@ def test_too_large_derivation_names_the_loop_and_its_vectors(fresh):
     """Two links whose lengths are nested sines of their angles: the third derivative of the loop
     is too large; the error names the loop and its vectors.
 
-    Kills loopsolve.symbolic.derivation.x__check_size__mutmut_6 (AttributeError instead of the ModelError) and
+    Kills loopsolve.symbolic.loop_equations.x__check_size__mutmut_6 (AttributeError instead of the ModelError) and
     x__check_size__mutmut_16 (the vector names run together with 'XX')."""
     text = FOURBAR.format(l3=f'"r3 + {_nest("theta3", 4)}"', l4=f'"r4 + {_nest("theta4", 4)}"')
     with pytest.raises(ModelError) as info:
@@ -198,7 +198,7 @@ def test_long_loop_of_simple_vectors_is_accepted():
     """A crank of 25 mm drawn as 270 collinear pieces of 25/270 mm: each piece adds about 10
     operations to the second derivative of the loop and 20 to the third, so the loop stays under
     the third-derivative limit (8000) while its second derivative passes 8000/3. It is derived,
-    and its Jacobian is the four-bar's. Kills loopsolve.symbolic.derivation.x_derive__mutmut_225 (the
+    and its Jacobian is the four-bar's. Kills loopsolve.symbolic.loop_equations.x_derive__mutmut_225 (the
     second-derivative early refusal at MAX_NODES // 3 instead of // 2)."""
     n = 270
     params = "\n".join(f"c{i} = {25 / n!r}" for i in range(n))
@@ -227,7 +227,7 @@ def test_default_cache_directory_is_created_under_the_home(tmp_path, monkeypatch
     directory.
 
     Kills loopsolve.symbolic.compiled.x_cache_dir__mutmut_9 (base None), x_cache_dir__mutmut_19 (the home
-    not expanded: a relative 'XX~XX/.cache') and x__ensure_dir__mutmut_2 (missing parents of the
+    not expanded: a relative 'XX~XX/.cache') and x_ensure_dir__mutmut_2 (missing parents of the
     cache directory not created, so nothing was cached)."""
     monkeypatch.setattr(compiled, "_MEMO", {})
     monkeypatch.delenv("LOOPSOLVE_CACHE_DIR", raising=False)
@@ -272,7 +272,7 @@ def test_entry_replaced_by_a_fifo_after_the_first_check_is_named_in_the_warning(
     """Another process swaps the entry for a FIFO between the lstat and the open: the open
     descriptor's check refuses it and the warning names the entry.
 
-    Kills loopsolve.symbolic.compiled.x__read_entry__mutmut_49 (the warning said 'None')."""
+    Kills loopsolve.symbolic.compiled.x_read_entry__mutmut_49 (the warning said 'None')."""
     ls.load(THESIS).compile()
     (entry,) = fresh.glob("m_*.py")
     entry.unlink()

@@ -1,0 +1,420 @@
+"""Curve descriptors free of position, orientation, scale and starting point, and the placement they remove.
+
+Pure numpy, no model: curves are ``(K, 2)`` arrays of points (or ``(E, K, 2)`` for many), in any
+length unit. Used by the atlas (:mod:`loopsolve.design.atlas.build`) to store every design's curve and by
+shape synthesis (:mod:`loopsolve.design.synthesis.shape.run`) to match a drawn curve against it.
+
+Closed curves: elliptic Fourier descriptors (Kuhl & Giardina 1982)
+------------------------------------------------------------------
+A closed polygon p_0 … p_{K−1} (p_K = p_0) is a curve x(t), y(t) parametrized by arc length
+t ∈ [0, L) (L its perimeter), linear on every side. Its Fourier series
+
+    x(t) = A0 + Σ_n a_n cos(2πnt/L) + b_n sin(2πnt/L),   y(t) = C0 + Σ_n c_n cos(…) + d_n sin(…)
+
+has the closed-form coefficients of Kuhl & Giardina (Computer Graphics and Image Processing 18,
+1982, eq. 6–7): with Δx_p, Δy_p, Δt_p the p-th side and t_p = Δt_1 + … + Δt_p,
+
+    a_n = L / (2n²π²) Σ_p Δx_p/Δt_p (cos 2πn t_p/L − cos 2πn t_{p−1}/L)       (b_n: sin; c_n, d_n: Δy)
+
+and (A0, C0) the centroid of the polygon as a wire of uniform density. Harmonic n is an ellipse
+traced n times. The normalization (their section 4) removes, in this order:
+
+1. **starting point**: the parameter is shifted by θ₁ = ½ atan2(2(a₁b₁ + c₁d₁), a₁² + c₁² − b₁² − d₁²)
+   so that t = 0 is at an end of the first harmonic's major axis; harmonic n turns by nθ₁;
+2. **orientation**: ψ₁ = atan2(c₁*, a₁*), the major axis' direction, is rotated onto +x;
+3. **scale**: every coefficient is divided by E = √(a₁*² + c₁*²), the semi-major axis;
+4. **position**: A0, C0 are dropped.
+
+Afterwards a₁ = 1, b₁ = c₁ = 0 and d₁ = ±(minor/major axis): positive when the curve runs
+counterclockwise. The descriptor is (d₁, a_n, b_n, c_n, d_n for n = 2 … H): 4H − 3 numbers.
+
+**Ambiguities.** (i) θ₁ + π is the other end of the same major axis and is as good a start:
+it multiplies harmonic n by (−1)ⁿ and turns ψ₁ by π, which multiplies every coefficient by −1,
+so the second normalization is the first with harmonic n multiplied by (−1)^(n+1) (even
+harmonics change sign). Which of the two a rule picks jumps with tiny changes of a curve, so a
+query compares the target in *both* variants with the stored one (:func:`efd_variants`).
+(ii) When the first harmonic is a circle (minor/major → 1) θ₁ and ψ₁ are undefined and the
+descriptor of a nearly circular curve changes fast with noise; :func:`efd_normalize` returns
+the ratio |d₁| so a caller can tell (shape synthesis then ranks by :func:`procrustes` alone).
+(iii) Direction: running the curve the other way (t → L − t) negates b_n and d_n; a match free
+in timing compares both directions.
+
+Open curves: arc length and principal axes
+-------------------------------------------
+An open curve is resampled at n points equally spaced in arc length (:func:`resample`), moved
+to its centroid, divided by its RMS distance from the centroid and rotated so that its
+principal axis (the covariance's major eigenvector) is +x (:func:`open_normalize`). Its
+ambiguities are the axis' sign (a half turn) and the direction (the reversed point order):
+:func:`open_distance` is the smallest distance over the four, so a curve and its reverse have
+distance 0. Shape synthesis matches an open target against *stretches* of the stored curves
+with :func:`procrustes`, which needs no axis at all.
+
+Procrustes matching
+-------------------
+Two point lists w, t (complex numbers, t centred with ‖t‖ = 1) paired point by point are as
+close as a similarity allows when min_a ‖a(w − w̄) − t‖² = 1 − |⟨w − w̄, t⟩|² / ‖w − w̄‖²
+(a complex: rotation and scale); the square root of that, in [0, 1], is the distance used.
+:func:`procrustes` evaluates it for every window of every stored curve at once (every start
+point and several stretch lengths), which makes it free of the starting point as well.
+
+Placement
+---------
+Every normalization returns what it removed — centre (x, y), rotation ``angle`` (radians),
+``scale`` and, for EFD, the start ``theta`` (radians of the first harmonic, i.e. arc length
+θL/2π) — so that ``curve = (x, y) + scale · R(angle) · normalized``.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ...errors import ModelError
+
+__all__ = ["check_curve", "resample", "resample_many", "efd", "efd_normalize", "efd_descriptor", "efd_variants",
+           "open_normalize", "open_normalize_many", "open_distance", "procrustes", "procrustes_both", "MIN_POINTS"]
+
+#: fewest points of a target curve (the contract: any number of points ≥ 5)
+MIN_POINTS = 5
+
+
+# ----------------------------------------------------------------------------- checks
+
+
+def check_curve(xy, *, closed: bool, where: str = "curve") -> np.ndarray:
+    """A target curve ``(K, 2)`` checked: enough points, finite, no repeated consecutive points, not degenerate.
+
+    For a closed curve a last point equal to the first (the curve drawn back to its start) is
+    dropped. Raises :class:`~loopsolve.errors.ModelError` naming the row and what to do.
+    """
+    a = np.asarray(xy, dtype=float)
+    if a.ndim != 2 or a.shape[1] != 2:
+        raise ModelError(f"{where}: expected rows of x,y, got shape {a.shape}")
+    bad = np.flatnonzero(~np.all(np.isfinite(a), axis=1))
+    if bad.size:
+        raise ModelError(f"{where}: point {bad[0] + 1} is not a finite number pair (NaN or infinite); "
+                         "give finite x,y on every row")
+    extent0 = float(np.max(np.ptp(a, axis=0))) if len(a) else 0.0
+    if closed and len(a) > 1 and float(np.hypot(*(a[0] - a[-1]))) <= 1e-9 * extent0:
+        a = a[:-1]  # the curve drawn back to its start (to round-off: 10 + 8 sin 360° is not 10 + 8 sin 0°)
+    if len(a) < MIN_POINTS:
+        raise ModelError(f"{where}: {len(a)} distinct point(s); a shape needs at least {MIN_POINTS} "
+                         f"(an ordered curve: give more rows)")
+    extent = float(np.max(np.ptp(a, axis=0)))
+    if not extent > 0:
+        raise ModelError(f"{where}: every point is the same ({a[0, 0]:g}, {a[0, 1]:g}); a shape needs a curve")
+    step = np.hypot(*np.diff(a, axis=0).T)
+    same = np.flatnonzero(step <= 1e-12 * extent)
+    if same.size:
+        i = int(same[0])
+        raise ModelError(f"{where}: points {i + 1} and {i + 2} are the same ({a[i, 0]:g}, {a[i, 1]:g}); "
+                         "remove the repeated point")
+    if closed and np.hypot(*(a[0] - a[-1])) <= 1e-9 * extent:
+        raise ModelError(f"{where}: the last point repeats the first twice; remove the repeated point")
+    # all points on one line through a point (a segment): fine for an open curve, a degenerate
+    # closed one (no area, but still a shape) is allowed too; only a single point is refused
+    return a
+
+
+# ----------------------------------------------------------------------------- resampling
+
+
+def _arc(xy, closed):
+    seg = np.diff(np.vstack([xy, xy[:1]]) if closed else xy, axis=0)
+    d = np.hypot(seg[:, 0], seg[:, 1])
+    return np.concatenate([[0.0], np.cumsum(d)])
+
+
+def resample(xy, n: int, *, closed: bool) -> np.ndarray:
+    """``n`` points equally spaced in arc length along the polygon ``xy`` ``(K, 2)`` (closed: around it)."""
+    xy = np.asarray(xy, dtype=float)
+    s = _arc(xy, closed)
+    pts = np.vstack([xy, xy[:1]]) if closed else xy
+    L = s[-1]
+    u = np.arange(n) * (L / n) if closed else np.linspace(0.0, L, n)
+    return np.stack([np.interp(u, s, pts[:, 0]), np.interp(u, s, pts[:, 1])], axis=1)
+
+
+def resample_many(curves, counts, n: int, closed) -> np.ndarray:
+    """Resample many polylines at once: ``curves`` ``(E, K, 2)`` with ``counts[e]`` valid rows each.
+
+    ``closed`` (E,) bool: closed curves get ``n`` points around (the closing side included),
+    open ones ``n`` points from the first row to the last. Returns ``(E, n, 2)``; a curve with
+    fewer than 2 rows or no length is NaN.
+    """
+    C = np.asarray(curves, dtype=float)
+    E, K, _ = C.shape
+    counts = np.asarray(counts, dtype=int)
+    closed = np.broadcast_to(np.asarray(closed, dtype=bool), (E,))
+    idx = np.arange(K + 1)
+    # the polyline with the closing point appended (closed) or the last valid row repeated (open)
+    last = np.clip(counts - 1, 0, K - 1)
+    ext = np.empty((E, K + 1, 2))
+    ext[:, :K] = C
+    ext[:, K] = np.where(closed[:, None], C[:, 0], C[np.arange(E), last])
+    valid = idx[None, :] < counts[:, None]
+    # rows past the valid ones repeat the end point (zero-length sides)
+    endp = np.where(closed[:, None], C[:, 0], C[np.arange(E), last])
+    ext = np.where(valid[:, :, None], ext, endp[:, None, :])
+    seg = np.hypot(*np.moveaxis(np.diff(ext, axis=1), 2, 0))
+    seg = np.where(np.isfinite(seg), seg, 0.0)
+    s = np.concatenate([np.zeros((E, 1)), np.cumsum(seg, axis=1)], axis=1)  # (E, K+1)
+    L = s[:, -1]
+    k = np.arange(n)
+    u = np.where(closed[:, None], k[None, :] * (L[:, None] / n), k[None, :] * (L[:, None] / max(n - 1, 1)))
+    # segment of every u: the last index with s <= u (s nondecreasing)
+    j = np.empty((E, n), dtype=int)
+    for e0 in range(0, E, 4096):  # bounded memory: (chunk, n, K+1) booleans
+        sl = slice(e0, e0 + 4096)
+        j[sl] = np.sum(s[sl, None, :] <= u[sl, :, None] + 0.0, axis=2) - 1
+    j = np.clip(j, 0, K - 1)
+    rows = np.arange(E)[:, None]
+    s0, s1 = s[rows, j], s[rows, j + 1]
+    w = np.where(s1 > s0, (u - s0) / np.where(s1 > s0, s1 - s0, 1.0), 0.0)
+    out = ext[rows, j] * (1 - w)[..., None] + ext[rows, j + 1] * w[..., None]
+    bad = (counts < 2) | ~(L > 0)
+    out[bad] = np.nan
+    return out
+
+
+# ----------------------------------------------------------------------------- elliptic Fourier
+
+
+def efd(xy, harmonics: int = 10) -> np.ndarray:
+    """Kuhl–Giardina coefficients of closed polygons: ``(…, H, 4)`` as (a_n, b_n, c_n, d_n), n = 1 … H.
+
+    ``xy`` ``(K, 2)`` or ``(E, K, 2)``; the polygon is closed by its last side back to the first
+    point. The zeroth harmonic (A0, C0) is the wire centroid: :func:`centroid`.
+    """
+    P = np.asarray(xy, dtype=float)
+    single = P.ndim == 2
+    if single:
+        P = P[None]
+    d = np.diff(np.concatenate([P, P[:, :1]], axis=1), axis=1)  # (E, K, 2): side p from p-1 to p
+    dt = np.hypot(d[..., 0], d[..., 1])
+    t = np.concatenate([np.zeros((P.shape[0], 1)), np.cumsum(dt, axis=1)], axis=1)  # (E, K+1)
+    L = t[:, -1:]
+    safe = np.where(dt > 0, dt, 1.0)
+    rx, ry = np.where(dt > 0, d[..., 0] / safe, 0.0), np.where(dt > 0, d[..., 1] / safe, 0.0)
+    n = np.arange(1, harmonics + 1)[None, :, None]  # (1, H, 1)
+    phi = 2 * math.pi * n * (t[:, None, :] / L[:, :, None])  # (E, H, K+1)
+    dc = np.cos(phi[..., 1:]) - np.cos(phi[..., :-1])
+    ds = np.sin(phi[..., 1:]) - np.sin(phi[..., :-1])
+    const = L / (2 * math.pi ** 2 * n[..., 0] ** 2)  # (E, H)
+    a = const * np.sum(rx[:, None, :] * dc, axis=2)
+    b = const * np.sum(rx[:, None, :] * ds, axis=2)
+    c = const * np.sum(ry[:, None, :] * dc, axis=2)
+    dd = const * np.sum(ry[:, None, :] * ds, axis=2)
+    out = np.stack([a, b, c, dd], axis=-1)
+    return out[0] if single else out
+
+
+def centroid(xy) -> np.ndarray:
+    """Centroid of closed polygons as wires of uniform density (A0, C0 of the series): ``(…, 2)``."""
+    P = np.asarray(xy, dtype=float)
+    Q = np.roll(P, -1, axis=-2)
+    w = np.hypot(*np.moveaxis(Q - P, -1, 0))
+    mid = 0.5 * (P + Q)
+    return np.sum(mid * w[..., None], axis=-2) / np.sum(w, axis=-1)[..., None]
+
+
+def efd_normalize(coef):
+    """Normalize EFD coefficients ``(…, H, 4)``: ``(normalized (…, H, 4), theta, angle, scale, roundness)``.
+
+    ``theta`` the start shift (radians of the first harmonic), ``angle`` the rotation removed,
+    ``scale`` the semi-major axis E, ``roundness`` |minor/major| of the first harmonic (near 1:
+    the normalization is ill-conditioned, see the module docstring).
+    """
+    C = np.asarray(coef, dtype=float)
+    a1, b1, c1, d1 = (C[..., 0, i] for i in range(4))
+    theta = 0.5 * np.arctan2(2 * (a1 * b1 + c1 * d1), a1 * a1 + c1 * c1 - b1 * b1 - d1 * d1)
+    H = C.shape[-2]
+    n = np.arange(1, H + 1)
+    ct, st = np.cos(n * theta[..., None]), np.sin(n * theta[..., None])  # (…, H)
+    a, b, c, d = (C[..., i] for i in range(4))
+    # [a* b*; c* d*] = [a b; c d] [cos nθ, −sin nθ; sin nθ, cos nθ]
+    a_s, b_s = a * ct + b * st, -a * st + b * ct
+    c_s, d_s = c * ct + d * st, -c * st + d * ct
+    psi = np.arctan2(c_s[..., 0], a_s[..., 0])
+    E = np.hypot(a_s[..., 0], c_s[..., 0])
+    cp, sp = np.cos(psi)[..., None], np.sin(psi)[..., None]
+    Es = np.where(E > 0, E, 1.0)[..., None]
+    na, nb = (cp * a_s + sp * c_s) / Es, (cp * b_s + sp * d_s) / Es
+    nc, nd = (-sp * a_s + cp * c_s) / Es, (-sp * b_s + cp * d_s) / Es
+    out = np.stack([na, nb, nc, nd], axis=-1)
+    return out, theta, psi, E, np.abs(out[..., 0, 3])
+
+
+def efd_descriptor(normalized) -> np.ndarray:
+    """The descriptor vector of normalized coefficients: (d₁, a_n, b_n, c_n, d_n for n ≥ 2): ``(…, 4H − 3)``."""
+    N = np.asarray(normalized)
+    return np.concatenate([N[..., 0, 3:4], N[..., 1:, :].reshape(N.shape[:-2] + (-1,))], axis=-1)
+
+
+def efd_variants(xy, harmonics: int = 10) -> np.ndarray:
+    """Descriptors of a closed curve ``(K, 2)`` under its ambiguities: ``(4, 4H − 3)``.
+
+    Rows: start θ₁ and θ₁ + π (harmonic n × (−1)^(n+1)), each for the curve as given and reversed.
+    """
+    xy = np.asarray(xy, dtype=float)
+    out = []
+    sign = (-1.0) ** (np.arange(1, harmonics + 1) + 1)
+    for curve in (xy, xy[::-1]):
+        N = efd_normalize(efd(curve, harmonics))[0]
+        out.append(efd_descriptor(N))
+        out.append(efd_descriptor(N * sign[:, None]))
+    return np.array(out)
+
+
+# ----------------------------------------------------------------------------- open curves
+
+
+def open_normalize(xy, n: int = 64):
+    """An open curve resampled at ``n`` points and normalized: ``(points (n, 2), (x, y, angle, scale))``.
+
+    Centroid at 0, RMS distance from it 1, principal axis along +x, the axis' sign chosen so
+    that the first point has x ≤ 0 (one of the four variants, see :func:`open_distance`).
+    """
+    Q, place = open_normalize_many(resample(xy, n, closed=False)[None])
+    if not np.all(np.isfinite(Q)):
+        raise ModelError("open curve: every point is the same; a shape needs a curve")
+    return Q[0], tuple(float(v) for v in place[0])
+
+
+def open_normalize_many(R):
+    """:func:`open_normalize` of curves already resampled ``(E, n, 2)``: ``(normalized, (E, 4) x, y, angle, scale)``."""
+    R = np.asarray(R, dtype=float)
+    c = R.mean(axis=1)
+    Q = R - c[:, None, :]
+    s = np.sqrt(np.mean(np.sum(Q * Q, axis=2), axis=1))
+    with np.errstate(all="ignore"):
+        Q = Q / np.where(s > 0, s, np.nan)[:, None, None]
+    sxx = np.sum(Q[..., 0] ** 2, axis=1)
+    syy = np.sum(Q[..., 1] ** 2, axis=1)
+    sxy = np.sum(Q[..., 0] * Q[..., 1], axis=1)
+    ang = 0.5 * np.arctan2(2 * sxy, sxx - syy)  # the major axis of the 2x2 covariance
+    z = (Q[..., 0] + 1j * Q[..., 1]) * np.exp(-1j * ang)[:, None]
+    flip = z[:, 0].real > 0
+    z = np.where(flip[:, None], -z, z)
+    ang = np.where(flip, ang + math.pi, ang)
+    ang = np.remainder(ang + math.pi, 2 * math.pi) - math.pi
+    return np.stack([z.real, z.imag], axis=-1), np.stack([c[:, 0], c[:, 1], ang, s], axis=1)
+
+
+def open_distance(a, b, n: int = 64) -> float:
+    """Distance of two open curves: the RMS point distance of their normalizations, least over the
+    ambiguities of ``b`` (its axis' sign, its direction). A curve and its reverse are at distance 0."""
+    A = open_normalize(a, n)[0]
+    best = math.inf
+    for curve in (np.asarray(b, dtype=float), np.asarray(b, dtype=float)[::-1]):
+        B = open_normalize(curve, n)[0]
+        for sgn in (1.0, -1.0):
+            best = min(best, math.sqrt(float(np.mean(np.sum((A - sgn * B) ** 2, axis=1)))))
+    return best
+
+
+# ----------------------------------------------------------------------------- Procrustes windows
+
+
+def _as_complex(xy):
+    xy = np.asarray(xy)
+    return xy[..., 0] + 1j * xy[..., 1]
+
+
+def target_vector(xy):
+    """A target's points as a centred, unit-norm complex vector: ``(t, centre, norm)``."""
+    z = _as_complex(np.asarray(xy, dtype=float))
+    c = z.mean()
+    t = z - c
+    nrm = float(np.linalg.norm(t))
+    return t / nrm, c, nrm
+
+
+_BLOCK = 16384
+
+
+def procrustes(curves, closed, target, strides=(1,)):
+    """Best similarity fit of a target to a window of every stored curve.
+
+    Parameters
+    ----------
+    curves : ``(E, N, 2)`` stored curves (N points equally spaced in arc length).
+    closed : ``(E,)`` bool: a closed curve's windows wrap around, an open one's do not.
+    target : ``(m, 2)`` points of the target, equally spaced in arc length (the window has m
+        points too: stored points s, s + Δ, …, s + (m − 1)Δ).
+    strides : the Δ to try (window lengths (m − 1)Δ + 1 points of the N).
+
+    Returns
+    -------
+    ``(dist (E,), start (E,), stride (E,), factor (E,) complex, mean (E,) complex)``: the least
+    distance (see the module docstring) over every start and stride, and the fit there: the target's
+    normalized points t ≈ factor · (window − mean). Entries with no valid window get distance inf.
+    """
+    return procrustes_both(curves, closed, target, strides, both=False)[0]
+
+
+def procrustes_both(curves, closed, target, strides=(1,), *, both: bool = True):
+    """:func:`procrustes` of the target and (``both``) of the target reversed: a list of one or two results.
+
+    The window sums over every start are circular correlations of each stored curve with a sparse
+    kernel (the target's points at every Δ-th place), so they are computed with FFTs: one transform
+    of the curves and of their squared moduli, then one inverse per sum, stride and direction —
+    about 30 transforms of the atlas' curves for an open target's seven strides and two directions.
+    """
+    curves = np.asarray(curves)
+    E = curves.shape[0]
+    closed = np.broadcast_to(np.asarray(closed, dtype=bool), (E,))
+    if E > _BLOCK:  # in blocks: a few arrays of a block's size at a time (an atlas is 10⁵ curves)
+        parts = [procrustes_both(curves[a:a + _BLOCK], closed[a:a + _BLOCK], target, strides, both=both)
+                 for a in range(0, E, _BLOCK)]
+        return [tuple(np.concatenate([p[d][i] for p in parts]) for i in range(5)) for d in range(len(parts[0]))]
+    # a large batch (an atlas' curves, stored in single precision anyway) in single precision: the ranking needs
+    # distances to ~1e-3, and it halves the transforms; a small one (a rerank, a test) in double
+    Z = _as_complex(curves).astype(np.complex64 if E >= _BLOCK // 4 else np.complex128)
+    N = Z.shape[1]
+    t_f, _, _ = target_vector(target)
+    targets = [t_f, t_f[::-1]] if both else [t_f]
+    m = len(t_f)
+    Zf = np.fft.fft(Z, axis=1)
+    A2f = np.fft.fft((np.abs(Z) ** 2).astype(Z.real.dtype), axis=1)
+    starts = np.arange(N)
+    rows = np.arange(E)
+    res = [[np.full(E, np.inf), np.zeros(E, dtype=int), np.ones(E, dtype=int), np.zeros(E, dtype=complex),
+            np.zeros(E, dtype=complex)] for _ in targets]
+    for dlt in strides:
+        span = (m - 1) * dlt
+        if span > N - 1:  # a window longer than the stored curve
+            continue
+        ones = np.zeros(N)
+        for j in range(m):
+            ones[(j * dlt) % N] += 1.0
+        # Σ_j x[s + jΔ] k_j over every start s: the circular correlation of x with the kernel
+        on = np.conj(np.fft.fft(ones)).astype(Z.dtype)
+        S1 = np.fft.ifft(Zf * on, axis=1)
+        S2 = np.fft.ifft(A2f * on, axis=1).real
+        var = S2 - np.abs(S1) ** 2 / m
+        ok = var > 1e-12 * np.maximum(S2, 1e-300)
+        wraps = starts + span >= N
+        ok &= ~(wraps[None, :] & ~closed[:, None])
+        for t, r in zip(targets, res):
+            kern = np.zeros(N, dtype=complex)
+            for j in range(m):
+                kern[(j * dlt) % N] += np.conj(t[j])
+            C = np.fft.ifft(Zf * np.conj(np.fft.fft(np.conj(kern))).astype(Z.dtype), axis=1)
+            with np.errstate(all="ignore"):
+                d2 = 1.0 - np.abs(C) ** 2 / var
+            d2 = np.where(ok, np.maximum(d2, 0.0), np.inf)
+            s = np.argmin(d2, axis=1)
+            v = d2[rows, s]
+            better = v < r[0]
+            r[0] = np.where(better, v, r[0])
+            r[1] = np.where(better, s, r[1])
+            r[2] = np.where(better, dlt, r[2])
+            with np.errstate(all="ignore"):
+                # C = Σ w conj(t): the factor a with a (w − w̄) ≈ t is ⟨w − w̄, t⟩ / ‖w − w̄‖² = conj(C)/var
+                fac = np.conj(C[rows, s]) / var[rows, s]
+            r[3] = np.where(better, fac, r[3])
+            r[4] = np.where(better, S1[rows, s] / m, r[4])
+    out = [(np.sqrt(r[0]), r[1], r[2], r[3], r[4]) for r in res]
+    return out

@@ -1,0 +1,293 @@
+"""The ``numba`` engine: the generated kinematics and the tracer's fast lane compiled to machine code.
+
+:func:`fast_lane` takes the scalar functions Φ, Φ_q and b₁–b₃ that :mod:`loopsolve.symbolic.compiled`
+generated for a model (plain ``math`` code), rewrites them to return tuples, appends the fast
+lane's step loop (:mod:`loopsolve.kinematics.numba_engine.steps`) and compiles the module with
+``numba.njit(cache=True)``. The module is written to the loopsolve cache directory as
+``nb_<hash>.py`` (the hash of its text), and numba keeps the machine code next to it in
+``__pycache__``, so a model compiled once is loaded in later processes without the JIT.
+
+Unreadable entries: a truncated, corrupt or unreadable numba index or data file is a cache miss
+(:class:`_MissOnError`): the function is compiled again and its entry rewritten, never an error;
+a generated ``nb_<hash>.py`` whose content does not match its header is rewritten likewise.
+
+Security: numba's cache holds pickled data and machine code, so the same rules as the
+generated modules (:func:`loopsolve.symbolic.compiled.check_dir`, ``read_entry``) apply: the cache
+directory and its ``__pycache__`` must belong to the user and be writable by nobody else,
+the module file must be a regular file of the user's whose content matches the hash in its
+first line, and no entry of ``__pycache__`` for it may be a symlink, foreign or writable by
+others. Otherwise the module is compiled in memory (no disk cache) with one
+:class:`~loopsolve.errors.LoopsolveWarning` naming the reason.
+
+Engines (``engine=`` of :func:`loopsolve.sweep.sweep`, ``--engine`` of the CLI, default from
+the ``LOOPSOLVE_ENGINE`` environment variable, else ``"python"``):
+
+``"python"``
+    the pure-Python tracer (no numba import);
+``"numba"``
+    the fast lane; :class:`~loopsolve.errors.MissingDependencyError` when numba is not installed;
+``"auto"``
+    the fast lane when numba is installed, else Python.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import importlib.util
+import os
+import stat
+import sys
+import threading
+from pathlib import Path
+from types import ModuleType
+
+from ...errors import MissingDependencyError, ModelError
+
+__all__ = ["ENGINES", "use_numba", "fast_lane", "numba_source"]
+
+ENGINES = ("python", "numba", "auto")
+FORMAT = 4  # bump when the generated numba module or its compile options change
+_MEMO: dict[str, ModuleType] = {}
+_LOCK = threading.Lock()
+#: the numba module of each generated kinematics module (held with it: ids are not reused)
+_BY_MODULE: dict[int, tuple[ModuleType, ModuleType]] = {}
+#: the model's generated functions the fast lane calls
+_MODEL_FUNCTIONS = ("phi", "jac", "rhs1", "rhs2", "rhs3")
+#: the generated tuple helpers (inlined)
+_HELPERS = ("ztuple", "zset", "rvec")
+
+
+def use_numba(engine: str | None) -> bool:
+    """Whether ``engine`` (None: ``$LOOPSOLVE_ENGINE``, else ``"python"``) selects the compiled fast lane.
+
+    Raises :class:`MissingDependencyError` for ``"numba"`` without numba installed, and
+    :class:`ModelError` for an unknown engine name.
+
+    Examples
+    --------
+    >>> from loopsolve.kinematics.numba_engine.jit import use_numba
+    >>> use_numba("python")
+    False
+    >>> use_numba("cuda")
+    Traceback (most recent call last):
+    ...
+    loopsolve.errors.ModelError: engine='cuda': expected one of python, numba, auto
+    """
+    src = "engine"
+    if engine is None:
+        engine = os.environ.get("LOOPSOLVE_ENGINE") or "python"
+        src = "LOOPSOLVE_ENGINE"
+    if engine not in ENGINES:
+        raise ModelError(f"{src}={engine!r}: expected one of {', '.join(ENGINES)}")
+    if engine == "python":
+        return False
+    installed = importlib.util.find_spec("numba") is not None
+    if engine == "numba" and not installed:
+        raise MissingDependencyError(f"{src}='numba' needs numba: pip install 'loopsolve[fast]' (or use "
+                                     "engine='python')")
+    if not installed:
+        return False
+    try:
+        import numba  # noqa: F401
+    except Exception as exc:  # installed but broken (e.g. a numpy it does not support)
+        if engine == "auto":
+            return False
+        raise MissingDependencyError(f"{src}='numba': numba is installed but does not import "
+                                     f"({type(exc).__name__}: {exc}); use engine='python'") from None
+    return True
+
+
+def _model_function(source: str, name: str) -> str:
+    """The scalar function ``name`` of a generated module's source, returning a tuple instead of a list."""
+    start = source.find(f"\ndef {name}(")
+    if start < 0:
+        raise ValueError(f"generated module without {name}()")
+    end = source.find("\n\n", start + 1)
+    lines = source[start + 1:end if end >= 0 else len(source)].split("\n")
+    last = lines[-1]
+    if not (last.startswith("    return [") and last.endswith("]")):
+        raise ValueError(f"unexpected end of {name}(): {last[:40]!r}")
+    lines[-1] = "    return (" + last[len("    return ["):-1] + ",)"
+    return "\n".join(lines)
+
+
+def _tuple_helpers(nv: int, i0: int, i1: int, ix: int) -> str:
+    """Tuple helpers with the model's indices written in (compile-time constants; they are part of
+    the module's text, hence of its cache key): ``ztuple(z)``, a node's values; ``zset(z, u0, u1)``,
+    ``z`` with the unknowns replaced; ``rvec(rx, u0, u1)``, a rate vector (``rx`` at the input, the
+    unknowns' rates, 0 elsewhere). The compiled steps pass tuples, not arrays, to the model's
+    functions: nothing in memory separates two calls at one point, so LLVM computes the sines and
+    cosines they share once, and hoists those of the input (fixed during a corrector) out of its loop."""
+    def entries(at):
+        return ", ".join(at(i) for i in range(nv))
+
+    def z_or(i):
+        return "u0" if i == i0 else "u1" if i == i1 else f"z[{i}]"
+
+    def r_or(i):
+        return "rx" if i == ix else "u0" if i == i0 else "u1" if i == i1 else "0.0"
+
+    return (f"def ztuple(z):\n    return ({entries(lambda i: f'z[{i}]')},)\n\n\n"
+            f"def zset(z, u0, u1):\n    return ({entries(z_or)},)\n\n\n"
+            f"def rvec(rx, u0, u1):\n    return ({entries(r_or)},)\n")
+
+
+def numba_source(ck) -> str:
+    """Text of the numba module of ``ck``: its Φ, Φ_q, b₁ and the fast lane's template."""
+    from ... import __version__
+    from .steps import template_source
+
+    source = getattr(ck.module, "_SOURCE", None)
+    if source is None:
+        raise ValueError("compiled module without its source")
+    # no model name in the text: models whose generated functions are the same share one module
+    parts = [f"# Generated by loopsolve {__version__} (numba engine, format {FORMAT}). Do not edit.",
+             "import math", "import numpy as np", ""]
+    parts += [_model_function(source, name) + "\n" for name in _MODEL_FUNCTIONS]
+    iu, ix = [int(i) for i in ck.unknown_idx], int(ck.input_idx[0])
+    parts.append(_tuple_helpers(len(ck.variables), iu[0] if len(iu) > 0 else -1, iu[1] if len(iu) > 1 else -1, ix))
+    parts.append(template_source())
+    return "\n".join(parts) + "\n"
+
+
+def _check_pycache(directory: Path, stem: str) -> None:
+    """numba's ``__pycache__`` next to the module: private to the user, no foreign or linked entry for it."""
+    from ...symbolic.compiled import check_dir, check_owner_mode, Untrusted
+
+    pyc = directory / "__pycache__"
+    if not pyc.exists():
+        try:
+            os.mkdir(pyc, 0o700)
+        except FileExistsError:
+            pass
+        os.chmod(pyc, 0o700)
+    check_dir(pyc)
+    for entry in os.scandir(pyc):
+        if not entry.name.startswith(stem + "."):
+            continue
+        st = os.lstat(entry.path)
+        if not stat.S_ISREG(st.st_mode):
+            raise Untrusted(f"the numba cache entry {entry.path} is not a regular file")
+        check_owner_mode(st, f"the numba cache entry {entry.path}")
+
+
+class _MissOnError:
+    """numba's disk cache of one function, where an entry that cannot be read is a miss, never a failure.
+
+    numba unpickles the function's index (``.nbi``) and data (``.nbc``) in ``__pycache__`` when it
+    first compiles the function; a truncated, corrupt or unreadable file raised out of the first
+    call (``UnpicklingError`` on every sweep of the model until the cache was cleared). Here any
+    exception of a load is a miss: the index is replaced by an empty one (the data files it named
+    are overwritten by the next save), numba compiles, and the save writes a good entry. A save
+    that fails (a corrupt index read back) starts the index afresh once more; if that fails too
+    the machine code is simply not cached.
+    """
+
+    def __init__(self, inner):
+        self._inner = inner
+
+    def __getattr__(self, name):
+        return getattr(self._inner, name)
+
+    def load_overload(self, sig, target_context):
+        try:
+            return self._inner.load_overload(sig, target_context)
+        except Exception:  # noqa: BLE001 — whatever an unreadable entry raises, it is a miss
+            self._reset()
+            return None
+
+    def save_overload(self, sig, data):
+        try:
+            self._inner.save_overload(sig, data)
+        except Exception:  # noqa: BLE001
+            self._reset()
+            try:
+                self._inner.save_overload(sig, data)
+            except Exception:  # noqa: BLE001 — not cached: the compiled function still runs
+                pass
+
+    def _reset(self) -> None:
+        try:
+            self._inner.flush()  # an empty index, written atomically
+        except Exception:  # noqa: BLE001
+            pass
+
+
+def _miss_on_error(dispatcher):
+    """``dispatcher`` with its disk cache wrapped by :class:`_MissOnError` (when it has one)."""
+    cache = getattr(dispatcher, "_cache", None)
+    if cache is not None and type(cache).__name__ != "NullCache" and not isinstance(cache, _MissOnError):
+        dispatcher._cache = _MissOnError(cache)
+    return dispatcher
+
+
+def _numba_module(ck) -> ModuleType:
+    """The compiled numba module of ``ck`` (from the in-process memo, numba's disk cache or the JIT)."""
+    hit = _BY_MODULE.get(id(ck.module))
+    if hit is not None and hit[0] is ck.module:
+        return hit[1]
+    import numba
+
+    from ...symbolic.compiled import (check_dir, ensure_dir, read_entry, Stale, Untrusted, warn_untrusted, write_entry,
+                           cache_dir)
+
+    source = numba_source(ck)
+    key = hashlib.sha256(f"{numba.__version__}\n{source}".encode()).hexdigest()[:24]
+    with _LOCK:
+        if key in _MEMO:
+            _BY_MODULE[id(ck.module)] = (ck.module, _MEMO[key])
+            return _MEMO[key]
+    directory = cache_dir()
+    origin, cache = f"<loopsolve numba {key}>", False
+    if directory is not None:
+        path = directory / f"nb_{key}.py"
+        try:
+            ensure_dir(directory)
+            check_dir(directory)
+            _check_pycache(directory, f"nb_{key}")
+            try:
+                text = read_entry(path, key)
+            except Stale:
+                text = None
+            if text != source:
+                if not write_entry(path, source, key) or read_entry(path, key) != source:
+                    raise OSError("not written")
+            origin, cache = str(path), True
+        except Untrusted as exc:
+            warn_untrusted(str(exc))
+        except (OSError, Stale):
+            pass  # an unwritable cache: compile in memory
+    module = ModuleType(f"loopsolve_numba_{key}")
+    module.__file__ = origin
+    # numba finds a function's globals by importing its module by name (also when it loads the
+    # machine code from its cache): the module must be registered
+    sys.modules[module.__name__] = module
+    # the entry's first line is its header (a comment): one blank line keeps the line numbers
+    exec(compile("\n" + source, origin, "exec"), module.__dict__)
+    jit = numba.njit(cache=cache, error_model="numpy")
+    # the model's functions are inlined where they are called, so that LLVM shares the sines and
+    # cosines that Φ_q and b₁–b₃ take of the same angles (the rates of a row)
+    inline = numba.njit(cache=cache, error_model="numpy", inline="always")
+    from .steps import TEMPLATE_FUNCTIONS, TEMPLATE_INLINE
+
+    inlined = _MODEL_FUNCTIONS + _HELPERS + tuple(fn.__name__ for fn in TEMPLATE_INLINE)
+    for name in inlined:
+        setattr(module, name, _miss_on_error(inline(getattr(module, name))))
+    for name in tuple(fn.__name__ for fn in TEMPLATE_FUNCTIONS if fn.__name__ not in inlined):
+        setattr(module, name, _miss_on_error(jit(getattr(module, name))))
+    with _LOCK:
+        _MEMO[key] = module
+        _BY_MODULE[id(ck.module)] = (ck.module, module)
+    return module
+
+
+def fast_lane(kern, *, lazy: bool = False):
+    """The compiled fast lane of a :class:`~loopsolve.kinematics.scalar_solver.Kernel`, or None where it has none
+    (more than one block or a block larger than 2×2: the tracer then runs in Python)."""
+    if not kern.single2:
+        return None
+    from .steps import FastLane
+
+    module = _numba_module(kern.ck)
+    return FastLane(kern, module.run2, lazy=lazy, start=module.start2, rates=module.rates2,
+                    fill=module.fill_rates)
