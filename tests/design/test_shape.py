@@ -264,19 +264,19 @@ def test_a_stalled_polish_ends_early_with_its_best_design(fourbar, atlas, monkey
     """MINPACK's polish of a curve no four-bar traces exactly (a kidney of 36 points) stops once its objective
     no longer falls (shape._STALL), keeping the best design it evaluated: it needs far fewer evaluations than
     the polish run to its cap, and its designs are as good to a fraction of a per cent."""
-    import loopsolve.design.shape as shape
-    import loopsolve.design.synthlm as synthlm
+    import loopsolve.design.synthesis.shape.run as shape
+    import loopsolve.design.synthesis.lockstep_lm as synthlm
 
     t = np.radians(np.arange(0, 360, 10))
     xy = np.stack([4 + 3 * np.cos(t) * (1 + 0.3 * np.cos(2 * t)), 1.8 * np.sin(t) + 0.6 * np.sin(2 * t)], axis=1)
-    real = synthlm._residuals_and_jacobian
+    real = synthlm.residuals_and_jacobian
     calls = {"n": 0}
 
     def counted(problem, V, *a, **k):
         calls["n"] += V.shape[0] == 1  # the single-design evaluations are MINPACK's
         return real(problem, V, *a, **k)
 
-    monkeypatch.setattr(synthlm, "_residuals_and_jacobian", counted)
+    monkeypatch.setattr(synthlm, "residuals_and_jacobian", counted)
     got, default = {}, shape._STALL_DROP
     for drop in (default, 0.0):  # 0: a polish never stalls and runs to its cap
         monkeypatch.setattr(shape, "_STALL_DROP", drop)
@@ -291,8 +291,8 @@ def test_a_stalled_polish_ends_early_with_its_best_design(fourbar, atlas, monkey
 def test_the_lockstep_polish_returns_the_positions_its_last_trace_found(fourbar):
     """batch_lm(..., poses=True) gives, for every design it returns, the positions at every target that a fresh
     trace through the targets in its mode finds (so shape synthesis need not trace them again)."""
-    from loopsolve.design.synthesis import define
-    from loopsolve.design.synthlm import batch_lm, sample
+    from loopsolve.design.synthesis.problem import define
+    from loopsolve.design.synthesis.lockstep_lm import batch_lm, sample
 
     sw = fourbar.sweep(0, 360, 30, progress=False)
     targets = {"x": sw.columns["P_x"][:-1] + 0.05, "y": sw.columns["P_y"][:-1]}
