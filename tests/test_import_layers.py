@@ -182,3 +182,53 @@ def test_the_cycle_check_sees_a_cycle_made_only_of_lazy_imports(tmp_path, monkey
     (pkg / "design" / "c.py").write_text("from typing import TYPE_CHECKING\nif TYPE_CHECKING:\n    from .a import f\n")
     monkeypatch.setitem(globals(), "PACKAGE", pkg)
     assert _cycles() == {frozenset({"design.a", "design.b"})}
+
+
+def _private_name_imports():
+    """``module imports _name from target`` for every underscored name one loopsolve module imports from
+    another (``from .spec import _check``); private modules (``from . import _moved``) and dunders are fine."""
+    found = []
+    for path in sorted(PACKAGE.rglob("*.py")):
+        if "__pycache__" in path.parts:
+            continue
+        module = _module_name(path)
+        package = module if path.name == "__init__.py" else module.rsplit(".", 1)[0]
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            if not isinstance(node, ast.ImportFrom):
+                continue
+            if node.level:
+                base = package.split(".")[: len(package.split(".")) - node.level + 1]
+                target = ".".join(base + ([node.module] if node.module else []))
+            else:
+                target = node.module or ""
+            if not target.startswith("loopsolve"):
+                continue
+            where = PACKAGE.parent.joinpath(*target.split("."))
+            for alias in node.names:
+                name = alias.name
+                if not name.startswith("_") or name.startswith("__"):
+                    continue
+                if (where / f"{name}.py").is_file() or (where / name / "__init__.py").is_file():
+                    continue  # a private module of the package: its own business
+                found.append(f"{module} imports {name} from {target}")
+    return found
+
+
+def test_no_module_imports_another_modules_private_name():
+    """A name with a leading underscore belongs to its module: a helper two modules share gets a public
+    name in the module that owns it (or lives in a private module of its layer, e.g. ``cli/_shared.py``)."""
+    assert _private_name_imports() == []
+
+
+def test_the_private_import_check_sees_a_private_name_and_allows_a_private_module(tmp_path, monkeypatch):
+    """The check itself: ``from .a import _helper`` is reported, ``from . import _private`` and
+    ``from .a import __version__`` are not."""
+    pkg = tmp_path / "loopsolve"
+    (pkg / "model").mkdir(parents=True)
+    (pkg / "__init__.py").write_text("from . import _private\nfrom .model.a import __version__\n")
+    (pkg / "_private.py").write_text("")
+    (pkg / "model" / "__init__.py").write_text("")
+    (pkg / "model" / "a.py").write_text("__version__ = '0'\n\ndef _helper():\n    return 1\n")
+    (pkg / "model" / "b.py").write_text("def f():\n    from .a import _helper\n    return _helper()\n")
+    monkeypatch.setitem(globals(), "PACKAGE", pkg)
+    assert _private_name_imports() == ["loopsolve.model.b imports _helper from loopsolve.model.a"]

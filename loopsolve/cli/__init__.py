@@ -6,7 +6,7 @@ solver failed (also: a numeric overflow or division by zero, or an unexpected in
 Errors are one line on stderr naming the cause, warnings one line ``loopsolve: warning: ...``
 each (``LOOPSOLVE_DEBUG=1`` shows the traceback).
 
-Every command that writes a file goes through :func:`_write` (text) or :func:`_output` (a
+Every command that writes a file goes through :func:`write_output` (text) or :func:`temporary_output` (a
 path for a writer such as a figure): the output never replaces an input file, is written to a
 temporary file in the target's directory and renamed when complete, so a failure (missing
 directory, read-only place, full disk) leaves any old file intact.
@@ -22,14 +22,14 @@ import warnings
 from pathlib import Path
 
 from ..errors import LoopsolveError
-from .cams import _cam_parser
-from .common import (EXIT_OK, EXIT_SOLVE, EXIT_USAGE, _INPUTS, _check_output, _load, _one_line, _output, _Parser,
-                     _rate_args, _render, _text_output, _write)
-from .edit import _edit_parser
+from .cams import add_cam_parser
+from .common import (EXIT_OK, EXIT_SOLVE, EXIT_USAGE, INPUTS, Parser, add_rate_args, add_text_output, check_writable,
+                     load_model, one_line, render, temporary_output, write_output)
+from .edit import add_edit_parser
 from .fileargs import check_files, file_argument, input_files
-from .forces import _force_parsers
-from .synthesis import _synthesis_parser
-from .atlas import _atlas_parsers
+from .forces import add_force_parsers
+from .synthesis import add_synthesis_parser
+from .atlas import add_atlas_parsers
 
 __all__ = ["main", "build_parser"]
 
@@ -37,17 +37,17 @@ __all__ = ["main", "build_parser"]
 def cmd_solve(args) -> int:
     from ..kinematics.solve import solve
 
-    _check_output(args.output)
-    mech = _load(args.model)
+    check_writable(args.output)
+    mech = load_model(args.model)
     state = solve(mech, args.at, speed=args.speed, accel=args.accel, jerk=args.jerk, input=args.input,
                   mode=args.mode)
-    _write(_render(state, args.format), args.output)
+    write_output(render(state, args.format), args.output)
     return EXIT_OK
 
 
 def cmd_sweep(args) -> int:
-    _check_output(args.output)
-    _write(_render(_sweep_for(args), args.format), args.output)
+    check_writable(args.output)
+    write_output(render(_sweep_for(args), args.format), args.output)
     return EXIT_OK
 
 
@@ -56,31 +56,31 @@ def cmd_info(args) -> int:
 
     from ..kinematics.info import format_info, info
 
-    mech = _load(args.model)
+    mech = load_model(args.model)
     data = info(mech, input=args.input)
     if args.format == "json":
-        _write(json.dumps(data, indent=1, allow_nan=False) + "\n", None)
+        write_output(json.dumps(data, indent=1, allow_nan=False) + "\n", None)
     else:
-        _write(format_info(data), None)
+        write_output(format_info(data), None)
     return EXIT_OK
 
 
 def build_parser() -> argparse.ArgumentParser:
     from .. import __version__
 
-    parser = _Parser(prog="loopsolve", description="Kinematics of planar mechanisms from their vector loops.",
+    parser = Parser(prog="loopsolve", description="Kinematics of planar mechanisms from their vector loops.",
                      epilog="Exit status: 0 success, 2 usage or model error, 3 cannot assemble / solver failure.")
     parser.add_argument("--version", action="version", version=f"loopsolve {__version__}")
-    sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=Parser)
     sub.required = True
 
     p = sub.add_parser("solve", help="positions, velocities, accelerations and jerks at one input value")
     file_argument(p, "model", role="input", help="model file (TOML)")
     p.add_argument("--at", help="input value in the model's unit (degrees by default) or with a unit: 90, 1.2rad, "
                    "30mm (default: the input's guess)")
-    _rate_args(p)
+    add_rate_args(p)
     p.add_argument("--format", choices=("table", "csv", "json"), default="table")
-    _text_output(p)
+    add_text_output(p)
     p.set_defaults(func=cmd_solve)
 
     p = sub.add_parser("sweep", help="sweep the input, tracking the assembly mode")
@@ -91,7 +91,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--step", required=True, help="output step, positive (the direction is from --from to --to; "
                    "the internal step adapts)")
     p.add_argument("--max-rows", type=int, default=1_000_000, help="refuse a grid of more rows (default 1000000)")
-    _rate_args(p)
+    add_rate_args(p)
     p.add_argument("--through-limits", action="store_true",
                    help="at a limit position, continue around the fold onto the other mode")
     p.add_argument("--method", choices=("auto", "tracked", "batched"), default="auto",
@@ -101,7 +101,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help="who takes the tracer's regular steps: python, or numba (the compiled fast lane, needs "
                    "the fast extra; auto: numba when installed); default $LOOPSOLVE_ENGINE, else python")
     p.add_argument("--format", choices=("table", "csv", "json"), default="table")
-    _text_output(p)
+    add_text_output(p)
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=cmd_sweep)
 
@@ -210,11 +210,11 @@ def build_parser() -> argparse.ArgumentParser:
                   help=".nc (netCDF), .zarr or .csv (long format)")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=cmd_study)
-    _synthesis_parser(sub)
-    _atlas_parsers(sub)
-    _force_parsers(sub)
-    _edit_parser(sub)
-    _cam_parser(sub)
+    add_synthesis_parser(sub)
+    add_atlas_parsers(sub)
+    add_force_parsers(sub)
+    add_edit_parser(sub)
+    add_cam_parser(sub)
     return parser
 
 
@@ -225,7 +225,7 @@ def _sweep_args(p: argparse.ArgumentParser) -> None:
                    "reachable range, traced around its limits)")
     p.add_argument("--step", default="4", help="output step, positive (default 4)")
     p.add_argument("--max-rows", type=int, default=1_000_000, help="refuse a grid of more rows (default 1000000)")
-    _rate_args(p)
+    add_rate_args(p)
     p.add_argument("--through-limits", action="store_true", help="continue around limit positions")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
 
@@ -233,7 +233,7 @@ def _sweep_args(p: argparse.ArgumentParser) -> None:
 def _sweep_for(args):
     from ..kinematics.sweep import sweep
 
-    mech = _load(args.model)
+    mech = load_model(args.model)
     start, stop, through = args.start, args.stop, args.through_limits
     if start is None or stop is None:
         from ..kinematics.solve import display_value, input_value
@@ -255,18 +255,18 @@ def _sweep_for(args):
 def cmd_vectors(args) -> int:
     from ..model.diagram import to_vector_model
 
-    _check_output(args.output)
-    _write(to_vector_model(_load(args.model)), args.output)
+    check_writable(args.output)
+    write_output(to_vector_model(load_model(args.model)), args.output)
     return EXIT_OK
 
 
 def cmd_modes(args) -> int:
     from ..kinematics.modes import assembly_modes, format_modes, modes_to_json
 
-    mech = _load(args.model)
+    mech = load_model(args.model)
     modes = assembly_modes(mech, args.at, input=args.input)
     if args.format == "json":
-        _write(modes_to_json(modes) + "\n", None)
+        write_output(modes_to_json(modes) + "\n", None)
         return EXIT_OK
     from .. import guessed_mode
     from ..kinematics.export import mode_label
@@ -278,7 +278,7 @@ def cmd_modes(args) -> int:
         note = f"the guesses sit on a singular configuration ({named}): they name no mode there; pass --mode"
     else:
         note = f"the guesses name mode {mode_label(mech, named)}: solve, sweep, study and forces use it"
-    _write(format_modes(modes) + note + "\n", None)
+    write_output(format_modes(modes) + note + "\n", None)
     return EXIT_OK
 
 
@@ -289,20 +289,20 @@ def cmd_latex(args) -> int:
     out = args.output or (Path(args.model).stem + ".pdf") if args.pdf else args.output
     suffix = Path(out).suffix.lower() if out else ""
     if args.pdf and suffix == ".tex":  # a PDF named .tex, or TeX named .pdf, opens as neither
-        raise ModelError(f"--pdf writes a PDF, not LaTeX source, to {_one_line(out)}: name it .pdf "
-                         f"(-o {_one_line(Path(out).with_suffix('.pdf').name)}), or leave out --pdf for the .tex")
+        raise ModelError(f"--pdf writes a PDF, not LaTeX source, to {one_line(out)}: name it .pdf "
+                         f"(-o {one_line(Path(out).with_suffix('.pdf').name)}), or leave out --pdf for the .tex")
     if not args.pdf and suffix == ".pdf":
-        raise ModelError(f"-o {_one_line(out)}: without --pdf the output is LaTeX source; add --pdf to compile "
+        raise ModelError(f"-o {one_line(out)}: without --pdf the output is LaTeX source; add --pdf to compile "
                          "it, or name it .tex")
-    _check_output(out)
-    mech = _load(args.model)
+    check_writable(out)
+    mech = load_model(args.model)
     tex = to_latex(mech, input=args.input, at=args.at, snippet=args.snippet)
     if args.pdf:
-        with _output(out) as tmp:
+        with temporary_output(out) as tmp:
             write_pdf(tex, tmp)
-        print(f"wrote {_one_line(out)}", file=sys.stderr)
+        print(f"wrote {one_line(out)}", file=sys.stderr)
     else:
-        _write(tex, args.output)
+        write_output(tex, args.output)
     return EXIT_OK
 
 
@@ -310,11 +310,11 @@ def cmd_plot(args) -> int:
     from ..output.plotting import check_output, plot_sweep
 
     check_output(args.output, "figure")
-    _check_output(args.output)
+    check_writable(args.output)
     sw = _sweep_for(args)
-    with _output(args.output) as tmp:
+    with temporary_output(args.output) as tmp:
         plot_sweep(sw, args.vars, output=tmp)
-    print(f"wrote {_one_line(args.output)}", file=sys.stderr)
+    print(f"wrote {one_line(args.output)}", file=sys.stderr)
     return EXIT_OK
 
 
@@ -328,11 +328,11 @@ def cmd_draw(args) -> int:
 
         raise ModelError("--curve and --no-curves are for CAD drawings (-o FILE.dxf, or .svg with --cad)")
     check_output(args.output, "figure")
-    _check_output(args.output)
-    mech = _load(args.model)
-    with _output(args.output) as tmp:
+    check_writable(args.output)
+    mech = load_model(args.model)
+    with temporary_output(args.output) as tmp:
         draw(mech, args.at, input=args.input, mode=args.mode, vectors=args.vectors, output=tmp)
-    print(f"wrote {_one_line(args.output)}", file=sys.stderr)
+    print(f"wrote {one_line(args.output)}", file=sys.stderr)
     return EXIT_OK
 
 
@@ -344,12 +344,12 @@ def _draw_cad(args) -> int:
         raise ModelError("--vectors draws the loop vectors on a figure (.png, .svg or .pdf without --cad), not in "
                          "a CAD drawing")
     check_cad_output(args.output)
-    _check_output(args.output)
-    mech = _load(args.model)
+    check_writable(args.output)
+    mech = load_model(args.model)
     curves = [] if args.no_curves else args.curve
-    with _output(args.output) as tmp:
+    with temporary_output(args.output) as tmp:
         export_cad(mech, tmp, args.at, input=args.input, mode=args.mode, curves=curves)
-    print(f"wrote {_one_line(args.output)}", file=sys.stderr)
+    print(f"wrote {one_line(args.output)}", file=sys.stderr)
     return EXIT_OK
 
 
@@ -357,14 +357,14 @@ def cmd_animate(args) -> int:
     from ..output.plotting import animate, check_frames, check_output, frames_before_sweep
 
     check_output(args.output, "animation")
-    _check_output(args.output)
-    n = frames_before_sweep(_load(args.model), args.start, args.stop, args.step, input=args.input, mode=args.mode)
+    check_writable(args.output)
+    n = frames_before_sweep(load_model(args.model), args.start, args.stop, args.step, input=args.input, mode=args.mode)
     check_frames(n or 0, args.max_frames)
     sw = _sweep_for(args)
-    with _output(args.output) as tmp:
+    with temporary_output(args.output) as tmp:
         animate(sw, output=tmp, fps=args.fps, progress=None if not args.quiet else False,
                 max_frames=args.max_frames)
-    print(f"wrote {_one_line(args.output)}", file=sys.stderr)
+    print(f"wrote {one_line(args.output)}", file=sys.stderr)
     return EXIT_OK
 
 
@@ -372,12 +372,12 @@ def cmd_view(args) -> int:
     from ..output.view import check_output, to_html
 
     check_output(args.output)
-    _check_output(args.output)
+    check_writable(args.output)
     if args.shape:
         from .atlas import view_shape
 
         return view_shape(args)
-    _write(to_html(_sweep_for(args), args.vars), args.output)
+    write_output(to_html(_sweep_for(args), args.vars), args.output)
     return EXIT_OK
 
 
@@ -386,8 +386,8 @@ def cmd_study(args) -> int:
     from ..errors import ModelError
     from ..design.studies import study
 
-    _check_output(args.output)
-    mech = _load(args.model)
+    check_writable(args.output)
+    mech = load_model(args.model)
     vary = {}
     box = args.samples is not None or args.lhs is not None
     for text in args.vary:
@@ -415,13 +415,13 @@ def cmd_study(args) -> int:
 def _show_warning(message, category, filename, lineno, file=None, line=None) -> None:
     """Warnings as one line ``loopsolve: warning: <message>`` (never a source line)."""
     try:
-        print(f"loopsolve: warning: {_one_line(message)}", file=sys.stderr if file is None else file)
+        print(f"loopsolve: warning: {one_line(message)}", file=sys.stderr if file is None else file)
     except (OSError, ValueError):  # stderr closed
         pass
 
 
 def _fail(message: str, status: int) -> int:
-    print(f"loopsolve: {_one_line(message)}", file=sys.stderr)
+    print(f"loopsolve: {one_line(message)}", file=sys.stderr)
     return status
 
 
@@ -436,7 +436,7 @@ def main(argv: list[str] | None = None) -> int:
     with warnings.catch_warnings():
         warnings.showwarning = _show_warning
         try:
-            _INPUTS[:] = input_files(parser, args)
+            INPUTS[:] = input_files(parser, args)
             check_files(parser, args)  # outputs onto inputs, onto each other, wrong extensions: before any work
             return args.func(args)
         except LoopsolveError as exc:
@@ -471,7 +471,7 @@ def main(argv: list[str] | None = None) -> int:
             return _fail(f"internal error: {type(exc).__name__}: {exc} (please report it; LOOPSOLVE_DEBUG=1 "
                          "shows the traceback)", EXIT_SOLVE)
         finally:
-            _INPUTS.clear()
+            INPUTS.clear()
     # no imports or formatting helpers here: memory may be short
     sys.stderr.write(f"loopsolve: error: out of memory or too deeply nested ({exhausted}); the model or the "
                      "requested output is too large for this machine\n")

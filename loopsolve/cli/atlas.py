@@ -11,10 +11,11 @@ import math
 import os
 import sys
 
-from .common import EXIT_OK, _check_output, _load, _write
+from .common import EXIT_OK, check_writable, load_model, write_output
 
 
-def _atlas_parsers(sub) -> None:
+def add_atlas_parsers(sub) -> None:
+    """Add ``loopsolve atlas`` (``build``, ``default``, ``info``) to the subcommands ``sub``."""
     p = sub.add_parser("atlas", help="atlases of coupler curves for shape synthesis (build, info)")
     asub = p.add_subparsers(dest="atlas_command", metavar="ACTION")
     asub.required = True
@@ -81,7 +82,7 @@ def cmd_atlas_build(args) -> int:
         raise ModelError("-o: an atlas is a directory (ATLAS.zarr), not standard output")
     if os.path.exists(out) and not os.path.isdir(out):
         raise ModelError(f"-o {out}: exists and is not an atlas (a file); choose another name")
-    mech = _load(args.model)
+    mech = load_model(args.model)
     atlas = build_atlas(mech, point=args.point, vary=parse_vary(args.vary), size=args.size, seed=args.seed,
                         out=out, chunk=args.chunk or DEFAULT_CHUNK, workers=args.workers, scheduler=args.scheduler,
                         max_size=args.max_size or MAX_SIZE, progress=None if not args.quiet else False)
@@ -99,7 +100,7 @@ def cmd_atlas_default(args) -> int:
     from ..design.studies import check_cluster
 
     check_cluster(args.workers, None)
-    mech = _load(args.model)
+    mech = load_model(args.model)
     t0 = time.perf_counter()
     a = default_atlas(mech, args.point, progress=None if not args.quiet else False, workers=args.workers)
     s = a.summary()
@@ -113,7 +114,7 @@ def cmd_atlas_info(args) -> int:
     from ..design.atlas.build import open_atlas
 
     a = open_atlas(args.atlas)
-    _write(json.dumps(a.summary(), indent=1) + "\n", None)
+    write_output(json.dumps(a.summary(), indent=1) + "\n", None)
     return EXIT_OK
 
 
@@ -129,12 +130,12 @@ def cmd_shape(args) -> int:
         if given:
             raise ModelError(f"{flag} is not used by --shape (shape synthesis is free in timing; see --help)")
     for out in (args.output, args.report):
-        _check_output(out)
+        check_writable(out)
     if args.atlas is not None and not os.path.isdir(args.atlas):
         from ..design.atlas.store import check_tree
 
         check_tree(args.atlas)  # a one-line error naming what is wrong
-    mech = _load(args.model)
+    mech = load_model(args.model)
     vary = parse_vary(args.vary, allow_fixed=True)
     rep = synthesis_output(args, lambda: synthesize_shape(
         mech, shape=args.shape, targets=args.targets, closed=not args.open, atlas=args.atlas, top=args.top,
@@ -160,11 +161,11 @@ def view_shape(args) -> int:
         report = json.loads(read_regular(args.shape, 100_000_000, what="report").decode("utf-8"))
     except (OSError, ValueError) as exc:
         raise ModelError(f"--shape {args.shape}: cannot read the report ({exc})") from None
-    mech = _load(args.model)
+    mech = load_model(args.model)
     sweeps = sweeps_from_report(mech, report)
     try:
         xy = np.array([[t["x"], t["y"]] for t in report["targets"]], dtype=float)
     except (KeyError, TypeError, ValueError):
         raise ModelError(f"--shape {args.shape}: the report has no target coordinates") from None
-    _write(shape_html(xy, report, sweeps), args.output)
+    write_output(shape_html(xy, report, sweeps), args.output)
     return EXIT_OK

@@ -2,11 +2,12 @@
 
 from __future__ import annotations
 
-from .common import EXIT_OK, _check_output, _load, _output, _write
+from .common import EXIT_OK, check_writable, load_model, temporary_output, write_output
 from .fileargs import file_argument
 
 
-def _cam_parser(sub) -> None:
+def add_cam_parser(sub) -> None:
+    """Add ``loopsolve cam`` to the subcommands ``sub``."""
     p = sub.add_parser("cam", help="a cam's SVAJ, pressure angle and radius of curvature over one turn, and its "
                        "profile (DXF, SVG or CSV)")
     file_argument(p, "model", role="input", help="model file (TOML) with [cams.NAME]")
@@ -27,17 +28,17 @@ def cmd_cam(args) -> int:
     from ..output.camprofile import cam_report, format_cam, write_cam_profile
 
     if args.output:
-        _check_output(args.output)
+        check_writable(args.output)
         fmt = Path(args.output).suffix.lower().lstrip(".")
         if fmt == "dxf":
             from ..output.cad import check_cad_output
 
             check_cad_output(args.output)
-    mech = _load(args.model)
+    mech = load_model(args.model)
     report = cam_report(mech, args.name, step=args.step)
-    _write(format_cam(report, args.format, svaj=args.svaj), None)
+    write_output(format_cam(report, args.format, svaj=args.svaj), None)
     if args.output:
-        with _output(args.output) as tmp:
+        with temporary_output(args.output) as tmp:
             write_cam_profile(mech, args.name, tmp)
         import sys
 

@@ -16,12 +16,14 @@ from .fileargs import file_argument
 EXIT_OK, EXIT_USAGE, EXIT_SOLVE = 0, 2, 3
 
 # The input files of the running command: an output never replaces one of them.
-_INPUTS: list[str] = []
+INPUTS: list[str] = []
 
 
-class _Parser(argparse.ArgumentParser):
+class Parser(argparse.ArgumentParser):
+    """The argument parser of every ``loopsolve`` command: a usage error is one line and exit 2."""
+
     def error(self, message):  # one line, exit 2
-        self.exit(EXIT_USAGE, f"loopsolve: error: {_one_line(message)} (see `{self.prog} --help`)\n")
+        self.exit(EXIT_USAGE, f"loopsolve: error: {one_line(message)} (see `{self.prog} --help`)\n")
 
     def _get_values(self, action, arg_strings):
         # `--at=--` is the value "--" (argparse would drop it and pass an empty list on)
@@ -31,7 +33,7 @@ class _Parser(argparse.ArgumentParser):
 
 
 
-def _one_line(text: str) -> str:
+def one_line(text: str) -> str:
     """One line of printable text (control characters shown as escapes)."""
     from ..kinematics.export import printable
 
@@ -40,7 +42,7 @@ def _one_line(text: str) -> str:
 
 
 
-def _text_output(p: argparse.ArgumentParser) -> None:
+def add_text_output(p: argparse.ArgumentParser) -> None:
     """``-o/--output`` of a command whose ``--format`` is table, csv or json (the extension follows it)."""
     file_argument(p, "-o", "--output", role="output", fmt="text", help="write to this file instead of standard "
                   "output (.txt for a table, .csv or .json as --format)")
@@ -48,7 +50,7 @@ def _text_output(p: argparse.ArgumentParser) -> None:
 
 
 @contextlib.contextmanager
-def _output(path: str | os.PathLike, inputs: Iterable[str] | None = None):
+def temporary_output(path: str | os.PathLike, inputs: Iterable[str] | None = None):
     """A temporary path (same extension) for a writer; renamed onto ``path`` when the block succeeds.
 
     For commands that hand a file name to a writer (figures, PDFs, pages): refuses an input
@@ -56,19 +58,20 @@ def _output(path: str | os.PathLike, inputs: Iterable[str] | None = None):
     """
     from ..model.files import atomic_output
 
-    with atomic_output(path, _INPUTS if inputs is None else inputs) as tmp:
+    with atomic_output(path, INPUTS if inputs is None else inputs) as tmp:
         yield tmp
 
 
 
-def _load(path: str):
+def load_model(path: str):
+    """The mechanism of the model file ``path`` (imported when first needed)."""
     from ..model.modelfile import load
 
     return load(path)
 
 
 
-def _write(text: str | Iterable[str], out: str | None, inputs: Iterable[str] | None = None) -> None:
+def write_output(text: str | Iterable[str], out: str | None, inputs: Iterable[str] | None = None) -> None:
     """Write text (or text chunks, streamed) as UTF-8 to standard output or, atomically, to ``out``."""
     if out in (None, "-"):
         chunks = [text] if isinstance(text, str) else text
@@ -84,21 +87,21 @@ def _write(text: str | Iterable[str], out: str | None, inputs: Iterable[str] | N
     else:
         from ..model.files import write_text
 
-        write_text(out, text, _INPUTS if inputs is None else inputs)
-        print(f"wrote {_one_line(out)}", file=sys.stderr)
+        write_text(out, text, INPUTS if inputs is None else inputs)
+        print(f"wrote {one_line(out)}", file=sys.stderr)
 
 
 
-def _check_output(out: str | None) -> None:
+def check_writable(out: str | None) -> None:
     """Fail before any work when ``out`` can never be written (an input, a directory, no such folder)."""
     if out not in (None, "-"):
         from ..model.files import check_target
 
-        check_target(out, _INPUTS)
+        check_target(out, INPUTS)
 
 
 
-def _render(obj, fmt: str):
+def render(obj, fmt: str):
     """The text of a state or sweep: a string (table) or text chunks (CSV/JSON, streamed)."""
     from ..kinematics import export
 
@@ -116,7 +119,8 @@ def _chain(chunks, tail: str):
 
 
 
-def _rate_args(p: argparse.ArgumentParser) -> None:
+def add_rate_args(p: argparse.ArgumentParser) -> None:
+    """Add ``--speed``, ``--accel``, ``--jerk``, ``--input`` and ``--mode`` to the command ``p``."""
     p.add_argument("--speed", help="input speed, e.g. 10rpm, 10.5 (rad/s), 2rad/s, 5mm/s (default: the "
                    "model's, else 1: rates are then kinematic coefficients)")
     p.add_argument("--accel", help="input acceleration, e.g. 0, 2rad/s^2 (default: the model's, else 0)")
@@ -137,13 +141,13 @@ def synthesis_output(args, run, label: str):
         res = run()
     except SynthesisError as exc:
         if args.report and exc.report is not None:
-            _write(json.dumps(exc.report, indent=2, allow_nan=False) + "\n", args.report)
+            write_output(json.dumps(exc.report, indent=2, allow_nan=False) + "\n", args.report)
         raise
     text = json.dumps(res.report, indent=2, allow_nan=False) + "\n"  # strict JSON: a NaN is a bug, not output
     if args.report:
-        _write(text, args.report)
+        write_output(text, args.report)
     if args.output:
-        _write(res.to_toml(), args.output)
+        write_output(res.to_toml(), args.output)
     if not args.report:
         sys.stdout.write(text)
         return None

@@ -11,7 +11,8 @@ from .common import EXIT_OK
 from .fileargs import file_argument
 
 
-def _edit_parser(sub) -> None:
+def add_edit_parser(sub) -> None:
+    """Add ``loopsolve edit`` to the subcommands ``sub``."""
     p = sub.add_parser("edit", help="a local editor in the browser: drag joints, analyse, synthesize, save")
     file_argument(p, "model", role="input", nargs="?", help="model file (TOML) to edit, or a share link of the "
                   "editor; without it the editor starts from a template four-bar and asks for a name when saving "

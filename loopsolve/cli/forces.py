@@ -6,11 +6,12 @@ from __future__ import annotations
 import math
 import sys
 
-from .common import EXIT_OK, _check_output, _load, _one_line, _output, _rate_args, _text_output, _write
+from .common import (EXIT_OK, add_rate_args, add_text_output, check_writable, load_model, one_line, temporary_output,
+                     write_output)
 from .fileargs import file_argument
 
 
-def _force_parsers(sub) -> None:
+def add_force_parsers(sub) -> None:
     """``loopsolve forces`` and ``loopsolve simulate`` (see :mod:`loopsolve.dynamics.kinetostatics`, :mod:`loopsolve.simulate`)."""
     p = sub.add_parser("forces", help="driving torque, joint forces, shaking force and energies (at one input "
                        "or along a sweep)")
@@ -19,7 +20,7 @@ def _force_parsers(sub) -> None:
     p.add_argument("--from", dest="start", help="first input value of a sweep")
     p.add_argument("--to", dest="stop", help="last input value of a sweep")
     p.add_argument("--step", help="output step of a sweep")
-    _rate_args(p)
+    add_rate_args(p)
     p.add_argument("--through-limits", action="store_true", help="continue around limit positions")
     p.add_argument("--flywheel", metavar="CS", type=float, help="size a flywheel for this coefficient of speed "
                    "fluctuation (e.g. 0.02) over a cycle at constant speed: the --from/--to range (360 or 720 "
@@ -27,7 +28,7 @@ def _force_parsers(sub) -> None:
     file_argument(p, "--plot", role="output", fmt="figure", metavar="FILE", help="also write the driving torque (and joint-force and "
                    "shaking-force polar plots for a sweep) to this image file (.png/.svg/.pdf)")
     p.add_argument("--format", choices=("table", "csv", "json"), default="table")
-    _text_output(p)
+    add_text_output(p)
     p.set_defaults(func=cmd_forces)
 
     p = sub.add_parser("simulate", help="integrate the equation of motion (forward dynamics)")
@@ -43,7 +44,7 @@ def _force_parsers(sub) -> None:
     p.add_argument("--input", metavar="NAME", help="drive this variable instead of the declared input")
     p.add_argument("--mode", metavar="SIGNATURE", help="assembly mode")
     p.add_argument("--format", choices=("table", "csv", "json"), default="table")
-    _text_output(p)
+    add_text_output(p)
     p.set_defaults(func=cmd_simulate)
 
 
@@ -52,13 +53,13 @@ def cmd_forces(args) -> int:
     from ..errors import ModelError
     from ..dynamics.kinetostatics import forces
 
-    _check_output(args.output)
+    check_writable(args.output)
     if args.plot:
         from ..output.plotting import check_output
 
         check_output(args.plot, "figure")
-        _check_output(args.plot)
-    mech = _load(args.model)
+        check_writable(args.plot)
+    mech = load_model(args.model)
     sweep_args = (args.start, args.stop, args.step)
     if args.flywheel is not None and all(a is None for a in sweep_args):
         # one cycle of the input by default (from --at, else 0), 360 rows
@@ -86,9 +87,9 @@ def cmd_forces(args) -> int:
     if args.plot:
         from ..output.forceplots import plot_forces
 
-        with _output(args.plot) as tmp:
+        with temporary_output(args.plot) as tmp:
             plot_forces(result, output=tmp, flywheel=fw)
-        print(f"wrote {_one_line(args.plot)}", file=sys.stderr)
+        print(f"wrote {one_line(args.plot)}", file=sys.stderr)
     if args.format == "json":
         text = result.to_json(flywheel=fw) + "\n"
     elif args.format == "csv":
@@ -97,7 +98,7 @@ def cmd_forces(args) -> int:
         text = result.table() + (f"\n{fw}\n" if fw is not None else "")
     if fw is not None and args.format == "csv":
         print(str(fw), file=sys.stderr)
-    _write(text, args.output)
+    write_output(text, args.output)
     return EXIT_OK
 
 
@@ -105,10 +106,10 @@ def cmd_forces(args) -> int:
 def cmd_simulate(args) -> int:
     from ..dynamics.simulation import simulate
 
-    _check_output(args.output)
-    mech = _load(args.model)
+    check_writable(args.output)
+    mech = load_model(args.model)
     sim = simulate(mech, args.duration, step=args.step, torque=args.torque, speed0=args.speed0, at=args.at,
                    input=args.input, mode=args.mode, max_steps=args.max_steps)
-    _write(sim.to_json() + "\n" if args.format == "json" else sim.to_csv() if args.format == "csv"
+    write_output(sim.to_json() + "\n" if args.format == "json" else sim.to_csv() if args.format == "csv"
            else sim.table(), args.output)
     return EXIT_OK

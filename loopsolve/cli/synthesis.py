@@ -6,11 +6,12 @@ from __future__ import annotations
 import math
 import sys
 
-from .common import EXIT_OK, _check_output, _load, synthesis_output
+from .common import EXIT_OK, check_writable, load_model, synthesis_output
 from .fileargs import file_argument
 
 
-def _synthesis_parser(sub) -> None:
+def add_synthesis_parser(sub) -> None:
+    """Add ``loopsolve synthesize`` to the subcommands ``sub``."""
     p = sub.add_parser("synthesize", help="find parameter values for a path, a function or a motion "
                        "(certified designs only)")
     file_argument(p, "model", role="input", help="model file (TOML)")
@@ -85,7 +86,7 @@ def cmd_synthesize(args) -> int:
         raise ModelError("--atlas/--no-atlas are for shape synthesis and for path synthesis with free timing")
 
     for out in (args.output, args.report):
-        _check_output(out)
+        check_writable(out)
     input_range = _parse_range(args.input_range) if args.input_range else None
     if input_range is not None and not args.function:
         raise ModelError("--range is for function generation (--function OUT)")
@@ -94,7 +95,7 @@ def cmd_synthesize(args) -> int:
     if not args.vary:
         raise ModelError("synthesize: the general method needs the design variables (--vary NAME=LOW:HIGH, "
                          "repeatable), or --method freudenstein|burmester on a four-bar model")
-    mech = _load(args.model)
+    mech = load_model(args.model)
     vary = {}
     for text in args.vary:
         name, sep, rest = text.partition("=")
@@ -153,7 +154,7 @@ def _classic_synthesize(args, input_range) -> int:
                         ("--workers", args.workers), ("--scheduler", args.scheduler)):
         if given is not None and given is not False:
             raise ModelError(f"{flag} is not used by --method {args.method} (it is for the general method)")
-    mech = _load(args.model)
+    mech = load_model(args.model)
     rep = synthesis_output(args, lambda: synthesize(mech, method=args.method, targets=args.targets,
                                                      function=args.function, motion=args.motion, link=args.link,
                                                      input_range=input_range, runs=args.runs, seed=args.seed,

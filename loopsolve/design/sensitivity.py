@@ -87,7 +87,7 @@ def phi_p_module(ck) -> ModuleType:
     >>> phi_p_module(ck).NPARAM
     4
     """
-    return _generated(ck, "phip", generate_phi_p_source, "phi_p_v")
+    return generated_module(ck, "phip", generate_phi_p_source, "phi_p_v")
 
 
 def generate_fused_source(kin) -> str:
@@ -125,10 +125,10 @@ def fused_module(ck) -> ModuleType:
     >>> bool(np.allclose(out[:2, 0], ck.phi(Z[:, 0])) and np.allclose(out[2:, 0], ck.jac(Z[:, 0]).ravel()))
     True
     """
-    return _generated(ck, "fused", generate_fused_source, "phi_jac_v")
+    return generated_module(ck, "fused", generate_fused_source, "phi_jac_v")
 
 
-def _generated(ck, tag: str, generate, fname: str) -> ModuleType:
+def generated_module(ck, tag: str, generate, fname: str) -> ModuleType:
     """The generated module ``tag`` of ``ck``: from the memo, the disk cache or sympy.
 
     The disk entry (``<tag>_<key>.py`` in :func:`~loopsolve.symbolic.compiled.cache_dir`) follows the

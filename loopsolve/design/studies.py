@@ -40,7 +40,7 @@ from ..errors import MissingDependencyError, ModelError, warn
 from .designops import DesignOps
 from .lockstep import sweep_chunk
 from .metrics import evaluate_metrics, parse_metric
-from ..kinematics.results import _display, angle_turns
+from ..kinematics.results import angle_turns, in_display_units
 from ..model.units import Kind
 
 __all__ = ["study", "write", "to_long_frame", "MAX_CELLS"]
@@ -86,7 +86,7 @@ def _display_columns(ch, ck, P, derivatives=3):
                 continue  # the coordinate
             v = Zs[k][i]
             if k == 0 and ck.kinds[i] is Kind.ANGLE:
-                v = _display(ck, name, 0, v, wrap=False) + 0.0  # as a sweep's table, to the bit
+                v = in_display_units(ck, name, 0, v, wrap=False) + 0.0  # as a sweep's table, to the bit
                 if name not in inputs:  # continuous along each design's rows, as in a sweep
                     v = v - (360.0 if deg else 2 * math.pi) * angle_turns(v, "deg" if deg else "rad")
             out[name + _SUFFIX[k]] = v

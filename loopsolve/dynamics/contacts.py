@@ -143,7 +143,7 @@ def contact_geometry(dm, c: Contact, Z, Z1, e: dict) -> dict:
 
 
 def _values(dm):
-    from ..kinematics.pairchecks import _values as values
+    from ..kinematics.pairchecks import pair_evaluator as values
 
     return values(dm.ck)
 
@@ -196,12 +196,12 @@ def _slot_geometry(dm, c, Z):
 def _rolling_geometry(dm, c, Z):
     """The contact point (the wheel's instant centre relative to the base) with the normal from the base
     into the wheel and the tangent."""
-    from ..kinematics.pairchecks import _instant_centre, _Motion, unit_rates
+    from ..kinematics.pairchecks import Motion, instant_centre, unit_rates
 
     r = c.elem
     ck = dm.ck
-    motion = _Motion(ck, Z.T, unit_rates(ck, Z.T))
-    P = _instant_centre(motion, r.angle, r.on if r.circle else "")
+    motion = Motion(ck, Z.T, unit_rates(ck, Z.T))
+    P = instant_centre(motion, r.angle, r.on if r.circle else "")
     if P is None:
         raise ModelError(f"{_where(dm)}: {r.key}: the contact point is unknown (the wheel {r.angle!r} has no bar in "
                          "the loops or points): add a point on its rim for the force analysis")

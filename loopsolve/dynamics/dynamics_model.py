@@ -106,7 +106,8 @@ class DynamicsModel:
         return out
 
 
-def _metres(mech: Mechanism) -> float:
+def metres_per_unit(mech: Mechanism) -> float:
+    """Metres per length unit of ``mech`` (a model error when the unit is not a physical length)."""
     try:
         return length_factor(mech.units.length, "m")
     except ModelError:
@@ -118,7 +119,8 @@ def _sym_value(v, conv):
     return sp.Float(v) if isinstance(v, (int, float)) else conv(v)
 
 
-def _point_expr(kin: Kinematics, pt, conv) -> sp.Matrix:
+def point_expr(kin: Kinematics, pt, conv) -> sp.Matrix:
+    """The position ``(2, 1)`` of point ``pt`` in symbols of ``kin`` (factors converted by ``conv``)."""
     pos = sp.zeros(2, 1)
     for i, (sign, vn) in enumerate(pt.terms):
         f = pt.factor(i)
@@ -126,7 +128,8 @@ def _point_expr(kin: Kinematics, pt, conv) -> sp.Matrix:
     return pos
 
 
-def _converter(mech: Mechanism, kin: Kinematics):
+def sympy_converter(mech: Mechanism, kin: Kinematics):
+    """``(conv, k)``: model expressions to sympy in the symbols of ``kin``, and the angle factor ``k``."""
     k = sp.pi / 180 if mech.units.angle == "deg" else sp.Integer(1)
     symbols = dict(zip(kin.param_names, kin.params))
     symbols.update(dict(zip(kin.variables, kin.z)))
@@ -212,19 +215,19 @@ def compile_dynamics(mech: Mechanism, input=None, *, compiled: CompiledKinematic
     return DynamicsModel(ck=ck, dynamics=dyn, bodies=dyn.bodies, point_names=tuple(points),
                          guide_vectors=tuple(guides), load_slots=tuple(slots), input_body=input_body,
                          input_kind=input_kind, input_guide=input_guide,
-                         length_factor=_metres(mech), gravity=np.array(dyn.gravity, dtype=float),
+                         length_factor=metres_per_unit(mech), gravity=np.array(dyn.gravity, dtype=float),
                          loads_use_rates=fns[2], _fn=fns[0], _fn_scalar=fns[1])
 
 
 def _derive_function(mech, inputs, dyn, points, guides, slots):
     kin = derive(mech, input=inputs)
-    conv, k = _converter(mech, kin)
+    conv, k = sympy_converter(mech, kin)
     D = kin.time_derivative
     by_point = {p.name: p for p in mech.points}
     exprs: list = []
     G, vG, aG, th, om, al = [], [], [], [], [], []
     for b in dyn.bodies:
-        g = _point_expr(kin, b.com, conv)
+        g = point_expr(kin, b.com, conv)
         v = g.applyfunc(D)
         a = v.applyfunc(D)
         G += list(g)
@@ -242,7 +245,7 @@ def _derive_function(mech, inputs, dyn, points, guides, slots):
             al += [sp.Integer(0)]
     P, vP, aP = [], [], []
     for name in points:
-        pe = _point_expr(kin, by_point[name], conv)
+        pe = point_expr(kin, by_point[name], conv)
         ve = pe.applyfunc(D)
         P += list(pe)
         vP += list(ve)

@@ -32,11 +32,11 @@ from dataclasses import dataclass
 import sympy as sp
 
 from ..model.bodies import FRAME, LoadKind
-from .dynamics_model import _converter, _metres, _point_expr
+from .dynamics_model import metres_per_unit, point_expr, sympy_converter
 from ..errors import ModelError
 from ..model.mechanism import Mechanism
 from ..symbolic.loop_equations import Kinematics, derive
-from ..symbolic.texprint import _escape, _join_terms, symbol_latex
+from ..symbolic.texprint import escape, join_terms, symbol_latex
 from ..model.units import Kind
 
 __all__ = ["DynamicsDerivation", "EomTerm", "EomGroup", "derive_dynamics"]
@@ -170,7 +170,7 @@ class DynamicsDerivation:
 
 
 def _label(name: str) -> str:
-    return r"\mathrm{%s}" % _escape(name)
+    return r"\mathrm{%s}" % escape(name)
 
 
 def derive_dynamics(mech: Mechanism, input=None) -> DynamicsDerivation:
@@ -213,8 +213,8 @@ def derive_dynamics(mech: Mechanism, input=None) -> DynamicsDerivation:
     x = kin.inputs[0]
     ix = kin.variables.index(x)
     kind = kin.kinds[ix]
-    conv, k = _converter(mech, kin)
-    lf = _metres(mech)
+    conv, k = sympy_converter(mech, kin)
+    lf = metres_per_unit(mech)
     D = kin.time_derivative
     names: dict = {}  # symbol -> LaTeX
     values: dict = {}
@@ -251,7 +251,7 @@ def derive_dynamics(mech: Mechanism, input=None) -> DynamicsDerivation:
     def coef2(e):
         return sp.expand(D(D(e)).xreplace(prime))
 
-    lam = new("lambda", r"\lambda", lf, r"\mathrm{m/%s}" % _escape(mech.units.length),
+    lam = new("lambda", r"\lambda", lf, r"\mathrm{m/%s}" % escape(mech.units.length),
               "model length unit in metres") if lf != 1 else sp.Integer(1)
     s = sp.Integer(1) if kind is Kind.ANGLE else lam  # SI generalized coordinate per model unit
     coefficients: dict = {}
@@ -293,7 +293,7 @@ def derive_dynamics(mech: Mechanism, input=None) -> DynamicsDerivation:
 
     def minus(f, a_tex: str, sym) -> str:  # (a − value of sym), the value's sign kept
         neg, t = f(sym)
-        return r"\left(%s\right)" % _join_terms([(False, a_tex), (not neg, t)])
+        return r"\left(%s\right)" % join_terms([(False, a_tex), (not neg, t)])
 
     def times(f, sym, b_tex: str) -> tuple[bool, str]:
         neg, t = f(sym)
@@ -320,13 +320,13 @@ def derive_dynamics(mech: Mechanism, input=None) -> DynamicsDerivation:
         lab = _label(b.name)
         m = new(f"m_{b.name}", r"m_{%s}" % lab, b.mass, r"\mathrm{kg}", f"mass of {b.name}")
         mass[b.name] = m
-        xp, yp, xpp, ypp = point_coefficients(f"G_{b.name}", _point_expr(kin, b.com, conv), r"G_{%s}" % lab)
+        xp, yp, xpp, ypp = point_coefficients(f"G_{b.name}", point_expr(kin, b.com, conv), r"G_{%s}" % lab)
         m_terms.append(EomTerm(m, xp**2 + yp**2, lambda f, a=xp, c=yp: r"\left(%s + %s\right)" % (sq(a), sq(c))))
         dm_terms.append(EomTerm(m, xp * xpp + yp * ypp, lambda f, a=xp, c=yp, a2=xpp, c2=ypp:
                                 r"\left(%s\,%s + %s\,%s\right)" % (tx(a), tx(a2), tx(c), tx(c2))))
         if gx and gy:
             grav_terms.append(EomTerm(m, gsym[0] * xp + gsym[1] * yp, lambda f, a=xp, c=yp:
-                                      r"\left(%s\right)" % _join_terms([times(f, gsym[0], tx(a)),
+                                      r"\left(%s\right)" % join_terms([times(f, gsym[0], tx(a)),
                                                                            times(f, gsym[1], tx(c))])))
         elif (gx or gy) and coefficients[xp if gx else yp] != 0:  # (a term m·0 is left out)
             cp = xp if gx else yp
@@ -364,7 +364,7 @@ def derive_dynamics(mech: Mechanism, input=None) -> DynamicsDerivation:
     def spring_geometry(ld):
         if tuple(ld.ends) in springs:
             return springs[tuple(ld.ends)]
-        a, b = (_point_expr(kin, by_point[e], conv) for e in ld.ends)
+        a, b = (point_expr(kin, by_point[e], conv) for e in ld.ends)
         d = a - b
         length = sp.sqrt(d[0] ** 2 + d[1] ** 2)
         lab = _label(ends_label(ld))
@@ -373,7 +373,7 @@ def derive_dynamics(mech: Mechanism, input=None) -> DynamicsDerivation:
         coefficients[L] = length
         coefficients[Lp] = sp.expand(D(d[0]).xreplace(prime) * d[0] + D(d[1]).xreplace(prime) * d[1]) / length
         for e in ld.ends:
-            point_coefficients(e, _point_expr(kin, by_point[e], conv), symbol_latex(e))
+            point_coefficients(e, point_expr(kin, by_point[e], conv), symbol_latex(e))
         springs[tuple(ld.ends)] = (L, Lp)
         return L, Lp
 
@@ -382,7 +382,7 @@ def derive_dynamics(mech: Mechanism, input=None) -> DynamicsDerivation:
             if ld.body == FRAME:
                 continue
             lab = load_label(ld, ld.at)
-            xp, yp = point_coefficients(ld.at, _point_expr(kin, by_point[ld.at], conv), symbol_latex(ld.at))[:2]
+            xp, yp = point_coefficients(ld.at, point_expr(kin, by_point[ld.at], conv), symbol_latex(ld.at))[:2]
             for c, (axis, cp) in enumerate((("x", xp), ("y", yp))):
                 v = ld.values[c]
                 if isinstance(v, (int, float)) and v == 0:
@@ -408,7 +408,7 @@ def derive_dynamics(mech: Mechanism, input=None) -> DynamicsDerivation:
                 kk = new("k" + ("_" + lab if lab else ""), "k" + sub, ld.stiffness, r"\mathrm{N/m}",
                          f"stiffness of the spring {ld.ends[0]}-{ld.ends[1]}")
                 L0 = new("L_0" + ("_" + lab if lab else ""), r"L_{0%s}" % ("," + _label(lab) if lab else ""),
-                         ld.free, r"\mathrm{%s}" % _escape(mech.units.length),
+                         ld.free, r"\mathrm{%s}" % escape(mech.units.length),
                          f"free length of the spring {ld.ends[0]}-{ld.ends[1]}")
                 spring_terms.append(EomTerm(kk, (L - L0) * Lp, lambda f, L=L, Lp=Lp, L0=L0:
                                             r"%s %s" % (minus(f, tx(L), L0), tx(Lp))))

@@ -18,7 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import ModelError
-from ..kinematics.results import Event, EventKind, _clean, column_units
+from ..kinematics.results import Event, EventKind, column_units, finite_or_none
 from ..model.units import Kind
 
 __all__ = ["ForceSweep", "Flywheel", "force_units"]
@@ -68,7 +68,7 @@ class Flywheel:
     at_min: float
 
     def to_dict(self) -> dict:
-        return {k: _clean(getattr(self, k)) for k in ("mean_torque", "energy_fluctuation", "inertia", "speed",
+        return {k: finite_or_none(getattr(self, k)) for k in ("mean_torque", "energy_fluctuation", "inertia", "speed",
                                                        "cs", "at_max", "at_min")}
 
     def units(self, angle_unit: str = "deg") -> dict[str, str]:
@@ -279,7 +279,7 @@ class ForceSweep:
         cols = self.columns
         keys = list(cols)
         lists = [list(cols[k]) if k == "mode" else np.asarray(cols[k], dtype=float).tolist() for k in keys]
-        return [{k: (str(v) if k == "mode" else _clean(v)) for k, v in zip(keys, vals)} for vals in zip(*lists)]
+        return [{k: (str(v) if k == "mode" else finite_or_none(v)) for k, v in zip(keys, vals)} for vals in zip(*lists)]
 
     def units(self) -> dict[str, str]:
         """Unit of every column, and of the attributes (``drive``, ``joint_forces``, ...): SI."""
@@ -441,10 +441,10 @@ def flywheel(fs: ForceSweep, cs: float) -> Flywheel:
     energy = work(cand) - work(xo[0]) - mean * (cand - xo[0])
     dE = float(energy.max() - energy.min())
     omega = abs(float(w[0]))
-    from ..kinematics.results import _display
+    from ..kinematics.results import in_display_units
 
     def shown(v):
-        return float(_display(ck, inp, 0, v, wrap=False))
+        return float(in_display_units(ck, inp, 0, v, wrap=False))
 
     return Flywheel(mean, dE, dE / (cs * omega**2), omega, float(cs),
                     shown(cand[int(np.argmax(energy))]), shown(cand[int(np.argmin(energy))]))

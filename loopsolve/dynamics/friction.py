@@ -115,7 +115,8 @@ def friction_terms(dm, lay, e, G, vG, om, geo, rigid_v) -> list[FrictionTerm]:
     return out
 
 
-def _magnitude(u, cols):
+def column_magnitude(u, cols):
+    """The magnitude ``(N,)`` of the force components ``cols`` (one or two) of the solutions ``u``."""
     if len(cols) == 1:
         return np.abs(u[:, cols[0]])
     return np.sqrt(u[:, cols[0]] ** 2 + u[:, cols[1]] ** 2)
@@ -124,7 +125,7 @@ def _magnitude(u, cols):
 def _residual(A, u, b, terms):
     F = np.einsum("nij,nj->ni", A, u) - b
     for t in terms:
-        F += (t.c * _magnitude(u, t.cols))[:, None] * t.g
+        F += (t.c * column_magnitude(u, t.cols))[:, None] * t.g
     return F
 
 
@@ -148,7 +149,7 @@ def solve_with_friction(entries, rhs, lay, n, terms, u0):
         J = A[todo].copy()
         for t in terms:
             uc = u[todo][:, list(t.cols)]
-            m = _magnitude(u[todo], t.cols)
+            m = column_magnitude(u[todo], t.cols)
             grad = np.where(m[:, None] > 0, uc / np.where(m > 0, m, 1.0)[:, None], 0.0)
             if len(t.cols) == 1:
                 grad = np.sign(uc)
@@ -184,6 +185,6 @@ def lost_power(terms, u) -> dict:
     """``{joint: (N,) W}``: the power each joint's friction dissipates (≥ 0)."""
     out: dict = {}
     for t in terms:
-        p = t.c * _magnitude(u, t.cols) * t.speed
+        p = t.c * column_magnitude(u, t.cols) * t.speed
         out[t.name] = out.get(t.name, 0.0) + p
     return out

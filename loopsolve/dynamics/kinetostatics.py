@@ -473,13 +473,13 @@ def _solve_system(entries, rhs, lay, n):
 
 def _friction_residual(entries, rhs, lay, n, terms, u):
     """The Newton–Euler residuals ``A u + friction − b`` of the solution with friction."""
-    from .friction import _magnitude
+    from .friction import column_magnitude
 
     res = -rhs.copy()
     for r, c, v in entries:
         res[:, r] += v * u[:, c]
     for t in terms:
-        res += (t.c * _magnitude(u, t.cols))[:, None] * t.g
+        res += (t.c * column_magnitude(u, t.cols))[:, None] * t.g
     return res
 
 

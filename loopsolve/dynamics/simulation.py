@@ -22,7 +22,7 @@ import numpy as np
 from .dynamics_model import DynamicsModel, compile_drive, compile_dynamics, mass_terms_from
 from ..errors import ModelError, SolveError, warn
 from .kinetostatics import generalized_from, inverse_dynamics
-from ..kinematics.results import Event, EventKind, _clean
+from ..kinematics.results import Event, EventKind, finite_or_none
 from ..model.units import Kind, unit_label
 
 __all__ = ["Simulation", "simulate", "equation_of_motion_rhs", "NonFiniteError", "MAX_STEPS", "MIN_STEP"]
@@ -124,7 +124,7 @@ class Simulation:
         keys = list(cols)
         out = []
         for i in range(len(self.t)):
-            r = {k: _clean(cols[k][i]) for k in keys}
+            r = {k: finite_or_none(cols[k][i]) for k in keys}
             r["mode"] = self.modes[i] if i < len(self.modes) else ""
             out.append(r)
         return out
@@ -307,9 +307,10 @@ def _safe_acc(dm, pose, x, xd, t, drive) -> float:
 def _nonfinite_message(dm, z, loads, T, t, x, xd) -> str:
     ck = dm.ck
     mech = ck.mechanism
-    from ..kinematics.results import _display
+    from ..kinematics.results import in_display_units
 
-    where = ", ".join(f"{n} = {float(_display(ck, n, 0, z[ck.index(n)], wrap=False)):.6g}" for n in ck.variables)
+    where = ", ".join(f"{n} = {float(in_display_units(ck, n, 0, z[ck.index(n)], wrap=False)):.6g}"
+                      for n in ck.variables)
     what = "the equation of motion (the mass properties or the kinematic coefficients)"
     if not np.isfinite(T):
         what = f"the driving {'torque' if dm.input_kind.name == 'ANGLE' else 'force'} (--torque) is {T} there"

@@ -55,7 +55,7 @@ class AssemblyTest:
     """
 
     def __init__(self, ck, ops, P, scale):
-        from .modes import _feeds
+        from .modes import block_feeds
         from .solve import initial_z
 
         self.ck, self.ops, self.P, self.scale = ck, ops, P, np.asarray(scale, dtype=float)
@@ -63,7 +63,7 @@ class AssemblyTest:
         self.ix = int(ck.input_idx[0])
         blocks = list(ck.blocks)
         self.usable = bool(blocks)
-        self.feeds = _feeds(ck)
+        self.feeds = block_feeds(ck)
         self.blocks = []
         for b in blocks:
             eqs, cols = tuple(b.eqs), tuple(b.unknowns)

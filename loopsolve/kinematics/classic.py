@@ -59,14 +59,14 @@ __all__ = [
     "quick_return",
 ]
 
-_TWO_PI = 2.0 * math.pi
+TWO_PI = 2.0 * math.pi
 #: relative slack (w.r.t. the sum of the link lengths) under which a distance that
 #: violates an assembly inequality by rounding only is snapped onto the limit (toggle)
-_ASSEMBLY_TOL = 64.0 * np.finfo(float).eps
+ASSEMBLY_TOL = 64.0 * np.finfo(float).eps
 
 
 # --------------------------------------------------------------------------- helpers
-def _out(x):
+def scalar_or_array(x):
     """Return 0-d arrays as numpy float scalars, leave other arrays alone."""
     x = np.asarray(x, dtype=float)
     return x[()] if x.ndim == 0 else x
@@ -75,11 +75,12 @@ def _out(x):
 def _wrap(angle):
     """Map angles onto (-pi, pi] (an exact no-op for angles already in range)."""
     angle = np.asarray(angle, dtype=float)
-    angle = np.where(angle > math.pi, angle - _TWO_PI, angle)
-    return np.where(angle <= -math.pi, angle + _TWO_PI, angle)
+    angle = np.where(angle > math.pi, angle - TWO_PI, angle)
+    return np.where(angle <= -math.pi, angle + TWO_PI, angle)
 
 
-def _positive(name, value):
+def positive_length(name, value):
+    """``value`` as a float array; a model error naming link ``name`` unless every entry is positive."""
     value = np.asarray(value, dtype=float)
     if np.any(value <= 0):
         raise ModelError(f"link length {name} must be positive, got {value!r}")
@@ -95,7 +96,7 @@ def _mode(mode):
 
 def _snap(gap, scale):
     """Snap slightly negative assembly gaps (rounding noise) to zero."""
-    return np.where((gap < 0) & (gap >= -_ASSEMBLY_TOL * scale), 0.0, gap)
+    return np.where((gap < 0) & (gap >= -ASSEMBLY_TOL * scale), 0.0, gap)
 
 
 def _half_angle_root(a, b, c, sqrt_disc, mode):
@@ -170,7 +171,7 @@ def fourbar_position(r1, r2, r3, r4, theta2, mode=+1, theta1=0.0):
     >>> round(float(np.degrees(t3)), 2), round(float(np.degrees(t4)), 2)
     (16.1, 80.72)
     """
-    r1, r2, r3, r4 = (_positive(n, v) for n, v in zip(("r1", "r2", "r3", "r4"), (r1, r2, r3, r4)))
+    r1, r2, r3, r4 = (positive_length(n, v) for n, v in zip(("r1", "r2", "r3", "r4"), (r1, r2, r3, r4)))
     mode = _mode(mode)
     theta2 = np.asarray(theta2, dtype=float)
     theta1 = np.asarray(theta1, dtype=float)
@@ -190,7 +191,7 @@ def fourbar_position(r1, r2, r3, r4, theta2, mode=+1, theta1=0.0):
         r1 * np.cos(theta1) + r4 * np.cos(theta4) - r2 * np.cos(theta2),
     )
     theta3 = np.where(ok, theta3, np.nan)
-    return _out(theta3), _out(theta4)
+    return scalar_or_array(theta3), scalar_or_array(theta4)
 
 
 def freudenstein_residual(r1, r2, r3, r4, theta2, theta4):
@@ -227,7 +228,7 @@ def freudenstein_residual(r1, r2, r3, r4, theta2, theta4):
     k1 = r1 / r2
     k2 = r1 / r4
     k3 = (r1**2 + r2**2 + r4**2 - r3**2) / (2 * r2 * r4)
-    return _out(k1 * np.cos(theta4) - k2 * np.cos(theta2) + k3 - np.cos(theta2 - theta4))
+    return scalar_or_array(k1 * np.cos(theta4) - k2 * np.cos(theta2) + k3 - np.cos(theta2 - theta4))
 
 
 def fourbar_velocity(r2, r3, r4, theta2, theta3, theta4, omega2):
@@ -270,7 +271,7 @@ def fourbar_velocity(r2, r3, r4, theta2, theta3, theta4, omega2):
         s43 = np.sin(theta4 - theta3)
         omega4 = r2 * np.sin(theta2 - theta3) / (r4 * s43) * omega2
         omega3 = r2 * np.sin(theta2 - theta4) / (r3 * s43) * omega2
-    return _out(omega3), _out(omega4)
+    return scalar_or_array(omega3), scalar_or_array(omega4)
 
 
 def fourbar_acceleration(r2, r3, r4, theta2, theta3, theta4, omega2, omega3, omega4, alpha2):
@@ -323,7 +324,7 @@ def fourbar_acceleration(r2, r3, r4, theta2, theta3, theta4, omega2, omega3, ome
         s43 = np.sin(theta4 - theta3)
         alpha3 = (e * c4 - g * s4) / (r3 * s43)
         alpha4 = (e * c3 - g * s3) / (r4 * s43)
-    return _out(alpha3), _out(alpha4)
+    return scalar_or_array(alpha3), scalar_or_array(alpha4)
 
 
 # --------------------------------------------------------------------- slider-crank
@@ -364,8 +365,8 @@ def slider_crank_position(r2, r3, theta2, offset=0.0, mode=+1, theta1=0.0):
     >>> round(float(r1), 4), round(float(np.degrees(t3)), 4)
     (10.7119, -26.2278)
     """
-    r2 = _positive("r2", r2)
-    r3 = _positive("r3", r3)
+    r2 = positive_length("r2", r2)
+    r3 = positive_length("r3", r3)
     mode = _mode(mode)
     theta2, offset, theta1 = (np.asarray(v, dtype=float) for v in (theta2, offset, theta1))
     r4 = offset
@@ -384,7 +385,7 @@ def slider_crank_position(r2, r3, theta2, offset=0.0, mode=+1, theta1=0.0):
         r1 * np.cos(theta1) + r4 * np.cos(theta4) - r2 * np.cos(theta2),
     )
     theta3 = np.where(ok, theta3, np.nan)
-    return _out(r1), _out(theta3)
+    return scalar_or_array(r1), scalar_or_array(theta3)
 
 
 def slider_crank_velocity(r2, r3, theta2, theta3, omega2, theta1=0.0):
@@ -427,7 +428,7 @@ def slider_crank_velocity(r2, r3, theta2, theta3, omega2, theta1=0.0):
         c31 = np.cos(theta3 - theta1)
         r1_dot = -r2 * omega2 * np.sin(theta2 - theta3) / c31
         omega3 = -r2 * omega2 * np.cos(theta2 - theta1) / (r3 * c31)
-    return _out(r1_dot), _out(omega3)
+    return scalar_or_array(r1_dot), scalar_or_array(omega3)
 
 
 def slider_crank_acceleration(r2, r3, theta2, theta3, omega2, omega3, alpha2, theta1=0.0):
@@ -483,7 +484,7 @@ def slider_crank_acceleration(r2, r3, theta2, theta3, omega2, omega3, alpha2, th
         c31 = np.cos(theta3 - theta1)
         r1_ddot = -(e * c3 + f * s3) / c31
         alpha3 = (f * np.cos(theta1) - e * np.sin(theta1)) / (r3 * c31)
-    return _out(r1_ddot), _out(alpha3)
+    return scalar_or_array(r1_ddot), scalar_or_array(alpha3)
 
 
 def slider_crank_inversion_position(r1, r2, r3, offset=0.0, mode=+1, theta1=0.0):
@@ -529,8 +530,8 @@ def slider_crank_inversion_position(r1, r2, r3, offset=0.0, mode=+1, theta1=0.0)
     >>> round(float(np.degrees(t2)), 6), round(float(np.degrees(t3)), 4)
     (45.0, -26.2278)
     """
-    r2 = _positive("r2", r2)
-    r3 = _positive("r3", r3)
+    r2 = positive_length("r2", r2)
+    r3 = positive_length("r3", r3)
     mode = _mode(mode)
     r1, offset, theta1 = (np.asarray(v, dtype=float) for v in (r1, offset, theta1))
     r4 = offset
@@ -553,7 +554,7 @@ def slider_crank_inversion_position(r1, r2, r3, offset=0.0, mode=+1, theta1=0.0)
         r1 * np.cos(theta1) + r4 * np.cos(theta4) - r2 * np.cos(theta2),
     )
     theta3 = np.where(ok, theta3, np.nan)
-    return _out(theta2), _out(theta3)
+    return scalar_or_array(theta2), scalar_or_array(theta3)
 
 
 # The limits and classes (Grashof, input range, toggles, transmission angle, mobility, quick

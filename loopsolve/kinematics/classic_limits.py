@@ -14,7 +14,7 @@ import operator
 import numpy as np
 
 from ..errors import ModelError
-from .classic import _ASSEMBLY_TOL, _TWO_PI, _out, _positive
+from .classic import ASSEMBLY_TOL, TWO_PI, positive_length, scalar_or_array
 
 #: relative tolerance of the Grashof equality S + L == P + Q
 _GRASHOF_RTOL = 1e-9
@@ -122,7 +122,7 @@ def _limit_angle(r1, r2, ell):
     ``"above"`` if ``BD < ell`` at every angle; gaps within rounding snap to 0 or pi.
     """
     lo, hi = abs(r1 - r2), r1 + r2
-    tol = _ASSEMBLY_TOL * (r1 + r2 + ell)
+    tol = ASSEMBLY_TOL * (r1 + r2 + ell)
     g0, gpi = ell - lo, hi - ell
     g0 = 0.0 if abs(g0) <= tol else g0
     gpi = 0.0 if abs(gpi) <= tol else gpi
@@ -135,7 +135,7 @@ def _limit_angle(r1, r2, ell):
 
 
 def _limits(r1, r2, r3, r4):
-    r1, r2, r3, r4 = (float(_positive(n, v)) for n, v in zip(("r1", "r2", "r3", "r4"), (r1, r2, r3, r4)))
+    r1, r2, r3, r4 = (float(positive_length(n, v)) for n, v in zip(("r1", "r2", "r3", "r4"), (r1, r2, r3, r4)))
     return _limit_angle(r1, r2, r3 + r4), _limit_angle(r1, r2, abs(r3 - r4))
 
 
@@ -177,7 +177,7 @@ def fourbar_input_range(r1, r2, r3, r4):
     if a_in == 0.0:
         return [(-a_out, a_out)]
     if a_out == math.pi:
-        return [(a_in, _TWO_PI - a_in)]
+        return [(a_in, TWO_PI - a_in)]
     return [(-a_out, -a_in), (a_in, a_out)]
 
 
@@ -234,7 +234,7 @@ def transmission_angle(theta3, theta4):
     20.0
     """
     d = np.asarray(theta4, dtype=float) - np.asarray(theta3, dtype=float)
-    return _out(np.abs(np.arctan2(np.sin(d), np.cos(d))))
+    return scalar_or_array(np.abs(np.arctan2(np.sin(d), np.cos(d))))
 
 
 
@@ -261,10 +261,10 @@ def transmission_angle_range(r1, r2, r3, r4):
     >>> round(float(np.degrees(lo)), 2), round(float(np.degrees(hi)), 2)
     (25.21, 92.73)
     """
-    r1, r2, r3, r4 = (float(_positive(n, v)) for n, v in zip(("r1", "r2", "r3", "r4"), (r1, r2, r3, r4)))
+    r1, r2, r3, r4 = (float(positive_length(n, v)) for n, v in zip(("r1", "r2", "r3", "r4"), (r1, r2, r3, r4)))
     bd_lo = max(abs(r1 - r2), abs(r3 - r4))
     bd_hi = min(r1 + r2, r3 + r4)
-    if bd_lo > bd_hi + _ASSEMBLY_TOL * (r1 + r2 + r3 + r4):
+    if bd_lo > bd_hi + ASSEMBLY_TOL * (r1 + r2 + r3 + r4):
         return (math.nan, math.nan)
 
     def mu(bd):
@@ -348,7 +348,7 @@ def quick_return(r2, d):
     >>> round(float(ratio), 4), round(float(np.degrees(rock)), 4)
     (2.0, 60.0)
     """
-    r2 = _positive("r2", r2)
+    r2 = positive_length("r2", r2)
     d = np.asarray(d, dtype=float)
     if np.any(d <= r2):
         raise ModelError(
@@ -357,8 +357,8 @@ def quick_return(r2, d):
         )
     beta = 2 * np.arccos(r2 / d)
     return (
-        _out((_TWO_PI - beta) / beta),
-        _out(_TWO_PI - beta),
-        _out(beta),
-        _out(2 * np.arcsin(r2 / d)),
+        scalar_or_array((TWO_PI - beta) / beta),
+        scalar_or_array(TWO_PI - beta),
+        scalar_or_array(beta),
+        scalar_or_array(2 * np.arcsin(r2 / d)),
     )

@@ -14,7 +14,7 @@ import math
 
 import numpy as np
 
-from .results import State, Sweep, _turns_of, column_units
+from .results import State, Sweep, column_units, turns_of
 from ..model.units import Kind, unit_label
 
 __all__ = ["to_json", "to_csv", "to_table", "state_table", "sweep_table", "iter_json", "iter_csv", "printable",
@@ -49,7 +49,7 @@ def _chunks(sweep: Sweep, size: int = CHUNK):
     last = None  # angles stay continuous across the chunks (each continues the one before)
     for i in range(0, n, size):
         j = min(n, i + size)
-        turns, last = _turns_of(sweep.compiled, sweep.z[i:j], last)
+        turns, last = turns_of(sweep.compiled, sweep.z[i:j], last)
         yield Sweep.from_arrays(sweep.compiled, sweep.z[i:j], sweep.z1[i:j], sweep.z2[i:j], sweep.z3[i:j],
                                 modes=sweep.modes[i:j], residual=sweep.residual[i:j], n_iter=sweep.n_iter[i:j],
                                 cond=sweep.cond[i:j], mode=sweep.mode, method=sweep.method, copy=False,

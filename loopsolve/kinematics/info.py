@@ -224,7 +224,7 @@ def _transmission(g, a, b, c, phis: list) -> tuple[float, float]:
     return (mu(cmax), mu(cmin))
 
 
-def _walk(loop) -> list:
+def loop_walk(loop) -> list:
     """The closed walk of a loop: the left side forward, the right side backward."""
     if loop.rhs:
         return list(loop.lhs) + [(-s, n) for s, n in reversed(loop.rhs)]
@@ -246,7 +246,7 @@ def _vector_candidates(mech: Mechanism, ck, z) -> list:
     nudged = {name: lv for name, lv in zip(ck.vectors, ck.vector_values(0, z + 1e-6))}
     out = []
     for loop in mech.loops:
-        walk = _walk(loop)
+        walk = loop_walk(loop)
         if len(walk) != 4 or len({n for _, n in walk}) != 4:
             continue
         sides, ok = [], True

@@ -376,7 +376,7 @@ def _block_roots(ck, z, block) -> list[np.ndarray]:
     return _multistart_roots(ck, z, block)
 
 
-def _feeds(ck) -> list[bool]:
+def block_feeds(ck) -> list[bool]:
     """For each block in solve order: whether a later block's equations involve its unknowns."""
     n = len(ck.unknowns)
     eq_block, col_block = {}, {}
@@ -406,7 +406,7 @@ def branch_solutions(ck, z0, *, feeds=None) -> list[np.ndarray]:
     >>> len(branch_solutions(ck, np.array([0.5, 0.0, 1.0]))), len(branch_solutions(ck, np.array([0.0, 0.0, 1.0])))
     (1, 0)
     """
-    feeds = _feeds(ck) if feeds is None else feeds
+    feeds = block_feeds(ck) if feeds is None else feeds
     return _solutions(ck, z0, [not f for f in feeds])
 
 
@@ -473,7 +473,7 @@ def _input_internal(ck, at):
 
 
 def modes_at(ck, x: float) -> tuple[Mode, ...]:
-    from .results import _display, column_units
+    from .results import column_units, in_display_units
     from .solve import initial_z
 
     mech = ck.mechanism
@@ -485,7 +485,7 @@ def modes_at(ck, x: float) -> tuple[Mode, ...]:
     for z in all_solutions(ck, z0):
         sig = ck.signature(z)
         aliases = tuple(k for k, v in mech.mode_aliases.items() if v == sig)
-        pos = {n: float(_display(ck, n, 0, z[ck.index(n)], wrap=n not in inputs)) for n in ck.variables}
+        pos = {n: float(in_display_units(ck, n, 0, z[ck.index(n)], wrap=n not in inputs)) for n in ck.variables}
         out.append(Mode(sig, aliases, pos, z, float(np.max(np.abs(ck.phi(z)))),
                         {n: units[n] for n in ck.variables}))
     out.sort(key=lambda m: (m.signature, tuple(round(v, 9) for v in m.positions.values())))

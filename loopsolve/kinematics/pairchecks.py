@@ -35,7 +35,7 @@ def _vec_xy(lv, dlv=None):
     return xy, v
 
 
-class _Motion:
+class Motion:
     """Positions and velocities of the vectors of rows ``Z`` ``(nv, N)`` with rates ``Z1``."""
 
     def __init__(self, ck, Z, Z1):
@@ -71,7 +71,7 @@ class _Motion:
         return np.asarray(P, dtype=float), np.asarray(V, dtype=float)
 
 
-def link_point(motion: _Motion, angle: str):
+def link_point(motion: Motion, angle: str):
     """A point of the link turning with ``angle`` (a bar's tail) with its velocity; None when none is placed."""
     for v in link_vectors(motion.ck.mechanism, angle):
         if v in motion.place.tail:
@@ -83,7 +83,7 @@ def _omega(motion, var):
     return motion.Z1[motion.ck.index(var)] if var else np.zeros(motion.n)
 
 
-def _instant_centre(motion, link: str, carrier: str):
+def instant_centre(motion, link: str, carrier: str):
     """The instant centre ``(N, 2)`` of ``link`` relative to ``carrier`` (NaN where they turn together)."""
     A = link_point(motion, link) if link else (np.zeros((motion.n, 2)), np.zeros((motion.n, 2)))
     B = link_point(motion, carrier) if carrier else (np.zeros((motion.n, 2)), np.zeros((motion.n, 2)))
@@ -109,13 +109,13 @@ def gear_centres(ck, Z, Z1, pair):
     A frame gear turns about its own instant centre relative to the carrier too (when the carrier
     turns); a declared ``centers`` entry is used as it is.
     """
-    motion = _Motion(ck, Z, Z1)
+    motion = Motion(ck, Z, Z1)
     out = []
     for i, member in enumerate((pair.gear, pair.mate)[: 1 if pair.rack else 2]):
         if pair.centers:
             out.append(motion.point(pair.centers[i])[0])
         else:
-            out.append(_instant_centre(motion, member, pair.carrier))
+            out.append(instant_centre(motion, member, pair.carrier))
     return tuple(out) + ((None,) if pair.rack else ())
 
 
@@ -158,7 +158,7 @@ def check_gears(ck, Z, xs=None) -> None:
     ok_rows = np.all(np.isfinite(Z), axis=0) & np.all(np.isfinite(Z1), axis=0)
     if not ok_rows.any():
         return
-    values = _values(ck)
+    values = pair_evaluator(ck)
     where = mech.source or mech.name
     unit = mech.units.length
     for pair in mech.pairs.gears:
@@ -209,7 +209,7 @@ def _moves_on_carrier(ck, Z, Z1, carrier, centre, ok_rows):
     """``(row, distance)`` where a gear centre moves relative to its carrier, else None."""
     if centre is None:
         return None
-    motion = _Motion(ck, Z, Z1)
+    motion = Motion(ck, Z, Z1)
     if carrier:
         B = link_point(motion, carrier)
         if B is None:
@@ -231,7 +231,8 @@ def _moves_on_carrier(ck, Z, Z1, carrier, centre, ok_rows):
     return None
 
 
-def _values(ck):
+def pair_evaluator(ck):
+    """``values(node, kind)`` of the mechanism of ``ck``: its parameter expressions in internal units."""
     from ..model.pairs import evaluator
 
     return evaluator(ck.mechanism)

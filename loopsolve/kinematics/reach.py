@@ -192,9 +192,9 @@ def reachable_ranges(ck, *, samples: int | None = None) -> list[tuple[float, flo
     angle = kern.angle_x
     xs = input_samples(ck, kern, samples)
     m = len(xs)
-    from .modes import _feeds
+    from .modes import block_feeds
 
-    feeds = _feeds(ck)
+    feeds = block_feeds(ck)
     sols = [_assemblable_at(ck, x, feeds) for x in xs]
     if not any(sols):
         return []
@@ -265,9 +265,9 @@ def _nearest_local(ck, kern, xs, x):
     """:func:`nearest_assemblable` without the whole :func:`reachable_ranges`: the same samples and
     the same traces, but only those of the sampling intervals from ``x`` outwards to the first
     assemblable sample on each side (the ends of the ranges next to ``x``, the same numbers)."""
-    from .modes import _feeds
+    from .modes import block_feeds
 
-    feeds = _feeds(ck)
+    feeds = block_feeds(ck)
     m, step = len(xs), xs[1] - xs[0]
     angle = kern.angle_x
     n_int = m if angle else m - 1  # sampling intervals [xs[i], xs[i] + step]

@@ -100,7 +100,7 @@ class Event:
     message: str
 
     def to_dict(self) -> dict:
-        return {"kind": self.kind.value, "input": _clean(self.input), "message": self.message}
+        return {"kind": self.kind.value, "input": finite_or_none(self.input), "message": self.message}
 
 
 @dataclass(frozen=True, slots=True)
@@ -126,7 +126,8 @@ class AccelerationComponents:
         return {k: [float(v) for v in getattr(self, k)] for k in ("tangential", "normal", "slip", "coriolis", "total")}
 
 
-def _clean(v: float) -> float | None:
+def finite_or_none(v: float) -> float | None:
+    """``v`` as a float for JSON: ``None`` when not finite, ``-0.0`` written as ``0.0``."""
     v = float(v)
     if not math.isfinite(v):
         return None
@@ -199,7 +200,8 @@ def column_units(compiled) -> dict[str, str]:
     return out
 
 
-def _display(compiled, name: str, order: int, value, *, wrap: bool):
+def in_display_units(compiled, name: str, order: int, value, *, wrap: bool):
+    """The internal ``value`` of variable ``name`` (rate ``order``) in display units, angles wrapped if ``wrap``."""
     kind = compiled.kinds[compiled.index(name)]
     if kind is Kind.ANGLE and order == 0:
         unit = compiled.mechanism.units.angle
@@ -218,7 +220,7 @@ def _period(compiled) -> float:
     return 360.0 if compiled.mechanism.units.angle == "deg" else 2 * math.pi
 
 
-def _turns_of(ck, z, after=None):
+def turns_of(ck, z, after=None):
     """:func:`angle_turns` of every unknown angle of rows ``z`` ``(N, nvar)``, internal units.
 
     Returns ``(turns, last)``: ``(N, nvar)`` integers and, per variable, the last finite displayed
@@ -230,7 +232,7 @@ def _turns_of(ck, z, after=None):
     period = _period(ck)
     for i, (name, kind) in enumerate(zip(ck.variables, ck.kinds)):
         if kind is Kind.ANGLE and name not in ck.inputs and len(z):
-            v = np.asarray(_display(ck, name, 0, z[:, i], wrap=False), dtype=float)
+            v = np.asarray(in_display_units(ck, name, 0, z[:, i], wrap=False), dtype=float)
             t[:, i] = angle_turns(v, unit, after=last[i])
             ok = np.flatnonzero(np.isfinite(v))
             if len(ok):
@@ -305,7 +307,8 @@ class State:
     @property
     def input_value(self) -> float:
         """The driving input in display units."""
-        return float(_display(self.compiled, self.input, 0, self.z[self.compiled.index(self.input)], wrap=False))
+        ck = self.compiled
+        return float(in_display_units(ck, self.input, 0, self.z[ck.index(self.input)], wrap=False))
 
     def row(self) -> dict[str, float]:
         """One row of the output contract (display units), input first."""
@@ -317,14 +320,14 @@ class State:
             i = ck.index(name)
             for k, (suffix, arr) in enumerate(zip(_SUFFIX, (self.z, self.z1, self.z2, self.z3))):
                 if k == 0 and self.turns is not None and name not in inputs and ck.kinds[i] is Kind.ANGLE:
-                    v = _display(ck, name, 0, arr[i], wrap=False) - _period(ck) * self.turns[i]
+                    v = in_display_units(ck, name, 0, arr[i], wrap=False) - _period(ck) * self.turns[i]
                 else:
-                    v = _display(ck, name, k, arr[i], wrap=name not in inputs)
-                out[name + suffix] = _clean(v)
+                    v = in_display_units(ck, name, k, arr[i], wrap=name not in inputs)
+                out[name + suffix] = finite_or_none(v)
         for j, p in enumerate(ck.points):
             for c, axis in (("x", 0), ("y", 1)):
                 for k, suffix in enumerate(_SUFFIX):
-                    out[f"{p}_{c}{suffix}"] = _clean(self.points[k, j, axis])
+                    out[f"{p}_{c}{suffix}"] = finite_or_none(self.points[k, j, axis])
         return out
 
     def __getitem__(self, key: str) -> float:
@@ -488,7 +491,7 @@ class Sweep:
         and follows the motion after it, so the rows never jump by a turn.
         """
         if "turns" not in self._cache:
-            t, _ = _turns_of(self.compiled, self.z)
+            t, _ = turns_of(self.compiled, self.z)
             t.setflags(write=False)
             self._cache["turns"] = t
         return self._cache["turns"]
@@ -550,7 +553,7 @@ class Sweep:
             for name in order:
                 i = ck.index(name)
                 for k, (suffix, arr) in enumerate(zip(_SUFFIX, (self.z, self.z1, self.z2, self.z3))):
-                    v = np.asarray(_display(ck, name, k, arr[:, i], wrap=False), dtype=float)
+                    v = np.asarray(in_display_units(ck, name, k, arr[:, i], wrap=False), dtype=float)
                     if k == 0 and name not in inputs and ck.kinds[i] is Kind.ANGLE:
                         v = v - period * turns[:, i]  # continuous along the rows (angle_turns)
                     out[name + suffix] = v + 0.0
@@ -571,7 +574,7 @@ class Sweep:
         cols = self.columns
         keys = list(cols)
         lists = [cols[k].tolist() for k in keys]
-        return [{k: v if k == "mode" else _clean(v) for k, v in zip(keys, vals)} for vals in zip(*lists)]
+        return [{k: v if k == "mode" else finite_or_none(v) for k, v in zip(keys, vals)} for vals in zip(*lists)]
 
     def __getitem__(self, key: str) -> np.ndarray:
         cols = self.columns

@@ -13,7 +13,7 @@ from collections.abc import Mapping
 from typing import Any, Callable
 
 from ..errors import TopologyError
-from .spec import _Problems
+from .spec import Problems
 from .topology import GROUND, Link, PrismaticJoint, Topology
 
 __all__ = ["parse_bodies", "body_specs"]
@@ -22,7 +22,7 @@ __all__ = ["parse_bodies", "body_specs"]
 BODY_KEYS = {"mass", "inertia", "bar", "com", "at"}
 
 
-def parse_bodies(bspec, links: list[Link], joints: list, length: Callable, problems: _Problems) -> list:
+def parse_bodies(bspec, links: list[Link], joints: list, length: Callable, problems: Problems) -> list:
     """The ``[bodies]`` of a diagram: ``(link, mass properties, com)`` with ``com`` a drawn
     position ``(x, y)`` or the name of a point of the link; problems collected.
 
@@ -38,7 +38,7 @@ def parse_bodies(bspec, links: list[Link], joints: list, length: Callable, probl
     length : callable
         ``length(value, key)``: a drawn coordinate in the model's length unit (``None`` and a
         problem recorded when it cannot be read).
-    problems : _Problems
+    problems : Problems
         Collects every problem with its key.
 
     Returns
@@ -47,11 +47,11 @@ def parse_bodies(bspec, links: list[Link], joints: list, length: Callable, probl
 
     Examples
     --------
-    >>> from loopsolve.model.spec import _Problems
+    >>> from loopsolve.model.spec import Problems
     >>> from loopsolve.model.topology import Link
     >>> links = [Link("ground", ("O2", "O4")), Link("crank", ("O2", "B"))]
     >>> ls.model.diagrambodies.parse_bodies({"crank": {"mass": 1, "at": [0, 5]}}, links, [],
-    ...                               lambda v, key: float(v), _Problems(None))
+    ...                               lambda v, key: float(v), Problems(None))
     [('crank', {'mass': 1}, (0.0, 5.0))]
     """
     if bspec is None:

@@ -13,7 +13,7 @@ from typing import Any
 
 from .diagrambodies import parse_bodies
 from ..errors import ModelError
-from .spec import _check_name, _name_and_units, _Problems
+from .spec import Problems, check_name, name_and_units
 from .topology import Link, PrismaticJoint, RevoluteJoint, Topology
 from .units import Kind, parse_quantity
 
@@ -63,7 +63,7 @@ class Diagram:
 
 
 
-def _as_names(value, key: str, problems: _Problems) -> list[str]:
+def _as_names(value, key: str, problems: Problems) -> list[str]:
     if isinstance(value, str):
         return [value]
     if isinstance(value, list) and value and all(isinstance(v, str) for v in value):
@@ -87,7 +87,7 @@ def parse_diagram(data: Mapping[str, Any], *, source: str | None = None) -> Diag
     >>> d.topology.mobility().gruebler
     0
     """
-    problems = _Problems(source)
+    problems = Problems(source)
     if not isinstance(data, Mapping):
         problems.add("", "a model is a table of keys (name, units, joints, links, input)")
         problems.raise_if_any()
@@ -99,7 +99,7 @@ def parse_diagram(data: Mapping[str, Any], *, source: str | None = None) -> Diag
         elif k not in _TOP_KEYS:
             problems.add(str(k), f"unknown key {k!r} in a kinematic-diagram model (expected one of: "
                          + ", ".join(sorted(_TOP_KEYS)) + ")")
-    name, units = _name_and_units(data, problems)
+    name, units = name_and_units(data, problems)
     length_unit, angle_unit = units.length, units.angle
 
     def length(v, key):
@@ -116,7 +116,7 @@ def parse_diagram(data: Mapping[str, Any], *, source: str | None = None) -> Diag
         jspec = {}
     for jname, jdef in jspec.items():
         key = f"joints.{jname}"
-        if not _check_name(jname, key, problems):
+        if not check_name(jname, key, problems):
             continue
         if not isinstance(jdef, Mapping):
             problems.add(key, f"expected a table like {{ at = [0, 25] }}, got {jdef!r}")
@@ -174,7 +174,7 @@ def parse_diagram(data: Mapping[str, Any], *, source: str | None = None) -> Diag
         lspec = {}
     for lname, ldef in lspec.items():
         key = f"links.{lname}"
-        if not _check_name(lname, key, problems):
+        if not check_name(lname, key, problems):
             continue
         if not isinstance(ldef, list) or not all(isinstance(j, str) for j in ldef):
             problems.add(key, f"expected the list of joints the link carries, e.g. [\"B\", \"C\"], got {ldef!r}")

@@ -4,13 +4,13 @@ Every model expression is a small tree (:mod:`loopsolve.model.expr`); before sym
 three times and expands the result, these checks refuse what would hang the derivation, what
 cannot be compiled, or what would be read in the wrong unit:
 
-* :func:`_constant_size` -- constant subexpressions: division by zero, ``sqrt(-1)``, ``acos(2)``,
+* :func:`constant_size` -- constant subexpressions: division by zero, ``sqrt(-1)``, ``acos(2)``,
   overflow, constant exponents beyond :data:`MAX_EXPONENT`;
-* :func:`_degree` -- nested powers multiply (``((t**64)**64)**64``), bounded by :data:`MAX_DEGREE`;
-* :func:`_nesting` -- functions nested deeper than :data:`MAX_CALL_NESTING` (``sin(sin(...))``);
-* :func:`_check_terms` -- the number of terms of the expanded expression and its first three time
+* :func:`degree_bound` -- nested powers multiply (``((t**64)**64)**64``), bounded by :data:`MAX_DEGREE`;
+* :func:`nesting_depth` -- functions nested deeper than :data:`MAX_CALL_NESTING` (``sin(sin(...))``);
+* :func:`check_terms` -- the number of terms of the expanded expression and its first three time
   derivatives (Leibniz, Faà di Bruno, multinomial counts), bounded by :data:`MAX_TERMS`;
-* :func:`_check_literals` -- a number with a unit must be of the kind its place expects
+* :func:`check_literals` -- a number with a unit must be of the kind its place expects
   (``angle = "30 m"`` is not 30000 degrees), and plain numbers stay within
   :data:`~loopsolve.model.units.MAX_MAGNITUDE`.
 
@@ -41,8 +41,8 @@ _LIMITS = (f"constants must stay finite and real, and constant exponents within 
            "(the symbolic derivation would otherwise try to expand them)")
 
 
-class _TooLarge(Exception):
-    pass
+class ExpressionTooLarge(Exception):
+    """An expression the derivation could not handle (too large a constant, degree, nesting or expansion)."""
 
 
 def _call_value(func: str, args: list[float]) -> float:
@@ -54,15 +54,15 @@ def _call_value(func: str, args: list[float]) -> float:
     return float(fn(*args))
 
 
-def _constant_size(node) -> float | None:
+def constant_size(node) -> float | None:
     """Float value of a name-free subtree (``None`` if it has names).
 
-    Raises :class:`_TooLarge` for a constant exponent beyond ``MAX_EXPONENT``, a constant that
+    Raises :class:`ExpressionTooLarge` for a constant exponent beyond ``MAX_EXPONENT``, a constant that
     overflows, a division by zero or a function outside its domain (``sqrt(-1)``, ``acos(2)``):
     sympy evaluates integer powers such as ``10**10**10`` exactly (and expands
     ``(a + b)**1000000``), which would hang the derivation, and a complex or infinite constant
     cannot be compiled. Literals with units count by their number (their kind is checked by
-    :func:`_check_literals`); function values are computed in radians, a sufficient test of
+    :func:`check_literals`); function values are computed in radians, a sufficient test of
     the domain of the inverse functions and sqrt.
     """
     if isinstance(node, _expr.Num):
@@ -70,43 +70,43 @@ def _constant_size(node) -> float | None:
     if isinstance(node, _expr.Const):
         return math.pi
     if isinstance(node, _expr.Unary):
-        v = _constant_size(node.operand)
+        v = constant_size(node.operand)
         return None if v is None else (-v if node.op == "-" else v)
     if isinstance(node, _expr.Call):
-        vals = [_constant_size(a) for a in node.args]
+        vals = [constant_size(a) for a in node.args]
         if any(v is None for v in vals):
             return None
         try:
             v = _call_value(node.func, vals)
         except (ValueError, OverflowError):
-            raise _TooLarge(f"{_expr.to_text(node)} is not a real number (math domain error)") from None
+            raise ExpressionTooLarge(f"{_expr.to_text(node)} is not a real number (math domain error)") from None
         if not math.isfinite(v):
-            raise _TooLarge(f"the constant {_expr.to_text(node)} overflows")
+            raise ExpressionTooLarge(f"the constant {_expr.to_text(node)} overflows")
         return v
     if isinstance(node, _expr.Binary):
-        a, b = _constant_size(node.left), _constant_size(node.right)
+        a, b = constant_size(node.left), constant_size(node.right)
         if node.op == "**" and b is not None and abs(b) > MAX_EXPONENT:
-            raise _TooLarge(f"exponent {b:g} is too large: {_LIMITS}")
+            raise ExpressionTooLarge(f"exponent {b:g} is too large: {_LIMITS}")
         if node.op == "/" and b == 0:
-            raise _TooLarge(f"division by zero in {_expr.to_text(node)}")
+            raise ExpressionTooLarge(f"division by zero in {_expr.to_text(node)}")
         if a is None or b is None:
             return None
         try:
             v = {"+": lambda: a + b, "-": lambda: a - b, "*": lambda: a * b,
                  "/": lambda: a / b, "**": lambda: math.pow(a, b)}[node.op]()
         except ZeroDivisionError:
-            raise _TooLarge(f"{_expr.to_text(node)} divides by zero") from None
+            raise ExpressionTooLarge(f"{_expr.to_text(node)} divides by zero") from None
         except OverflowError:
-            raise _TooLarge(f"the constant {_expr.to_text(node)} overflows: {_LIMITS}") from None
+            raise ExpressionTooLarge(f"the constant {_expr.to_text(node)} overflows: {_LIMITS}") from None
         except ValueError:
-            raise _TooLarge(f"the constant {_expr.to_text(node)} is not a real number") from None
+            raise ExpressionTooLarge(f"the constant {_expr.to_text(node)} is not a real number") from None
         if math.isinf(v):
-            raise _TooLarge(f"the constant {_expr.to_text(node)} overflows: {_LIMITS}")
+            raise ExpressionTooLarge(f"the constant {_expr.to_text(node)} overflows: {_LIMITS}")
         return None if math.isnan(v) else v
     return None
 
 
-def _degree(node) -> float:
+def degree_bound(node) -> float:
     """Bound on the polynomial degree of an expression in its names (0 for a constant).
 
     Nested constant powers multiply (``((t**64)**64)**64`` has degree 262144, which sympy
@@ -118,20 +118,20 @@ def _degree(node) -> float:
     if isinstance(node, _expr.Name):
         return 1
     if isinstance(node, _expr.Unary):
-        return _degree(node.operand)
+        return degree_bound(node.operand)
     if isinstance(node, _expr.Call):
-        return 1 if any(_degree(a) for a in node.args) else 0
+        return 1 if any(degree_bound(a) for a in node.args) else 0
     if isinstance(node, _expr.Binary):
-        a, b = _degree(node.left), _degree(node.right)
+        a, b = degree_bound(node.left), degree_bound(node.right)
         if node.op in "+-":
             d = max(a, b)
         elif node.op in "*/":
             d = a + b
         else:
-            e = _constant_size(node.right)
+            e = constant_size(node.right)
             d = a * abs(e) if e is not None else a + b
         if d > MAX_DEGREE:
-            raise _TooLarge(f"{_expr.to_text(node)[:60]} has degree {d:g} in its names (limit {MAX_DEGREE}); "
+            raise ExpressionTooLarge(f"{_expr.to_text(node)[:60]} has degree {d:g} in its names (limit {MAX_DEGREE}); "
                             "the derivation differentiates it three times: write a simpler expression")
         return d
     return 0
@@ -142,17 +142,17 @@ def _degree(node) -> float:
 MAX_CALL_NESTING = 10
 
 
-def _nesting(node) -> int:
+def nesting_depth(node) -> int:
     """Deepest nesting of calls and variable powers; refused past :data:`MAX_CALL_NESTING`."""
     best = 0
     stack = [(node, 0)]
     while stack:
         n, d = stack.pop()
         if isinstance(n, _expr.Call) or (isinstance(n, _expr.Binary) and n.op == "**"
-                                         and _constant_size(n.right) is None):
+                                         and constant_size(n.right) is None):
             d += 1
             if d > MAX_CALL_NESTING:
-                raise _TooLarge(f"functions are nested more than {MAX_CALL_NESTING} deep (the derivation "
+                raise ExpressionTooLarge(f"functions are nested more than {MAX_CALL_NESTING} deep (the derivation "
                                 "differentiates three times and the terms grow with the cube of the "
                                 "nesting): write a simpler expression")
         best = max(best, d)
@@ -186,7 +186,7 @@ def _terms(node, vars_: frozenset | None) -> tuple[float, float, float, float]:
             b = _terms(node.right, vars_)
             return tuple(min(x + y, _CAP) for x, y in zip(a, b))
         if node.op == "**":
-            e = _constant_size(node.right)
+            e = constant_size(node.right)
             if e is not None and float(e).is_integer() and 1 <= abs(e) <= MAX_EXPONENT:
                 return _power(a, int(abs(e)))
             b = _terms(node.right, vars_)
@@ -227,15 +227,16 @@ def _chain(u):
     return (1.0, min(f1, _CAP), min(f1 * f1 + f2, _CAP), min(f1 ** 3 + 3 * f1 * f2 + f3, _CAP))
 
 
-def _check_terms(node, moving: frozenset | None = None) -> None:
+def check_terms(node, moving: frozenset | None = None) -> None:
+    """Raise :class:`ExpressionTooLarge` when the time derivatives of ``node`` would expand too far."""
     worst = max(_terms(node, moving))
     if worst > MAX_TERMS:
-        raise _TooLarge(f"the expression would expand to about {worst:.3g} terms in its time derivatives "
+        raise ExpressionTooLarge(f"the expression would expand to about {worst:.3g} terms in its time derivatives "
                         f"(limit {MAX_TERMS}; the derivation differentiates three times and expands): "
                         "write a simpler expression")
 
 
-def _check_literals(node, ctx: str, key: str, problems, angle_unit: str, length_unit: str,
+def check_literals(node, ctx: str, key: str, problems, angle_unit: str, length_unit: str,
                     text: str) -> None:
     """Every number with a unit must be of the kind its place expects.
 
@@ -277,12 +278,12 @@ def _check_literals(node, ctx: str, key: str, problems, angle_unit: str, length_
             problems.add(key, str(exc) if same else f"{exc} (in {text!r})")
         return
     if isinstance(node, _expr.Unary):
-        _check_literals(node.operand, ctx, key, problems, angle_unit, length_unit, text)
+        check_literals(node.operand, ctx, key, problems, angle_unit, length_unit, text)
     elif isinstance(node, _expr.Binary):
-        _check_literals(node.left, ctx, key, problems, angle_unit, length_unit, text)
-        _check_literals(node.right, _EXPONENT if node.op == "**" else ctx, key, problems, angle_unit,
+        check_literals(node.left, ctx, key, problems, angle_unit, length_unit, text)
+        check_literals(node.right, _EXPONENT if node.op == "**" else ctx, key, problems, angle_unit,
                         length_unit, text)
     elif isinstance(node, _expr.Call):
         sub = {"sin": _ANGLE, "cos": _ANGLE, "tan": _ANGLE, "abs": ctx}.get(node.func, _ANY)
         for a in node.args:
-            _check_literals(a, sub, key, problems, angle_unit, length_unit, text)
+            check_literals(a, sub, key, problems, angle_unit, length_unit, text)

@@ -339,7 +339,7 @@ class Mechanism:
 
     def with_parameters(self, **values: float) -> "Mechanism":
         """A copy with some parameter values replaced (numbers in the model's units)."""
-        spec = _deep_copy(self.spec)
+        spec = deep_copy(self.spec)
         params = spec.setdefault("parameters", {})
         for k, v in values.items():
             if k not in params:
@@ -355,9 +355,10 @@ class Mechanism:
         return "$\\displaystyle " + to_latex(self, snippet=True, inline=True) + "$"
 
 
-def _deep_copy(obj):
+def deep_copy(obj):
+    """A copy of a model dict: its mappings and lists copied at every level, other values shared."""
     if isinstance(obj, Mapping):
-        return {k: _deep_copy(v) for k, v in obj.items()}
+        return {k: deep_copy(v) for k, v in obj.items()}
     if isinstance(obj, list):
-        return [_deep_copy(v) for v in obj]
+        return [deep_copy(v) for v in obj]
     return obj

@@ -20,8 +20,8 @@ from typing import Any
 from . import expr as _expr
 from .bodies import parse_dynamics
 from ..errors import ModelError, ModelFileError
-from .exprcheck import _check_literals, _check_terms, _constant_size, _degree, _nesting, _TooLarge
-from .mechanism import Loop, Mechanism, Parameter, Point, Units, Variable, Vector, _deep_copy
+from .exprcheck import ExpressionTooLarge, check_literals, check_terms, constant_size, degree_bound, nesting_depth
+from .mechanism import Loop, Mechanism, Parameter, Point, Units, Variable, Vector, deep_copy
 from . import pairs as _pairs
 from .vectorsum import NotLinear, linear_in_vectors
 from .units import MAX_MAGNITUDE, Kind, UnitError, parse_quantity, unit_kind, units_of_kind, validate_units
@@ -42,7 +42,8 @@ _ANGLE, _LENGTH, _ANY = "angle", "length", "any"
 
 
 
-class _Problems:
+class Problems:
+    """The problems of one model, collected and raised together (one error naming each key)."""
     def __init__(self, source: str | None):
         self.source = source
         self.items: list[tuple[str, str]] = []
@@ -64,7 +65,8 @@ class _Problems:
         raise ModelError(message, problems=lines)
 
 
-def _check_name(name: Any, key: str, problems: _Problems) -> bool:
+def check_name(name: Any, key: str, problems: Problems) -> bool:
+    """Whether ``name`` is a valid, unreserved name; the problem is added under ``key`` if not."""
     if not isinstance(name, str) or not _NAME_RE.match(name):
         problems.add(key, f"{name!r} is not a valid name (letters, digits and _, starting with a letter)")
         return False
@@ -74,7 +76,7 @@ def _check_name(name: Any, key: str, problems: _Problems) -> bool:
     return True
 
 
-def _parse_terms(text: Any, key: str, problems: _Problems) -> tuple[tuple[int, str], ...] | None:
+def _parse_terms(text: Any, key: str, problems: Problems) -> tuple[tuple[int, str], ...] | None:
     """Parse ``a + b - c`` into signed names; ``0`` is the empty sum."""
     if not isinstance(text, str):
         problems.add(key, f"expected a string such as \"r2 + r3\", got {text!r}")
@@ -103,7 +105,7 @@ def _parse_terms(text: Any, key: str, problems: _Problems) -> tuple[tuple[int, s
     return tuple(terms)
 
 
-def parse_point(pname: str, text: Any, key: str, problems: _Problems, *, vec_names, param_names,
+def parse_point(pname: str, text: Any, key: str, problems: Problems, *, vec_names, param_names,
                 var_names=()) -> Point | None:
     """Parse a point expression: a sum of vectors with optional scalar factors (``r2 + 0.5*r3``).
 
@@ -172,7 +174,7 @@ def parse_point(pname: str, text: Any, key: str, problems: _Problems, *, vec_nam
 _TERM_SUM_RE = re.compile(r"^\s*[+-]?\s*[A-Za-z][A-Za-z0-9_]*(\s*[+-]\s*[A-Za-z][A-Za-z0-9_]*)*\s*$")
 
 
-def _parse_expr(value: Any, key: str, problems: _Problems, moving: frozenset | None = None) -> _expr.Node | None:
+def _parse_expr(value: Any, key: str, problems: Problems, moving: frozenset | None = None) -> _expr.Node | None:
     """Parse one expression field; its problems go to ``problems`` under ``key``.
 
     ``moving`` names the variables (for the size of the derivatives; ``None``: every name).
@@ -189,11 +191,11 @@ def _parse_expr(value: Any, key: str, problems: _Problems, moving: frozenset | N
         problems.add(key, str(exc))
         return None
     try:
-        _constant_size(node)
-        _degree(node)
-        _nesting(node)
-        _check_terms(node, moving)
-    except _TooLarge as exc:
+        constant_size(node)
+        degree_bound(node)
+        nesting_depth(node)
+        check_terms(node, moving)
+    except ExpressionTooLarge as exc:
         problems.add(key, f"{exc} in {_short(value)!r}")
         return None
     return node
@@ -233,7 +235,7 @@ def _collect_kinds(node, ctx: str, key: str, out: dict[str, set], pi_uses: list,
             _collect_kinds(a, sub, key, out, pi_uses, angle_unit)
 
 
-def _name_and_units(spec: Mapping[str, Any], problems: _Problems) -> tuple[str, Units]:
+def name_and_units(spec: Mapping[str, Any], problems: Problems) -> tuple[str, Units]:
     """The ``name`` and ``units`` of a model (vector-loop or diagram layout), problems collected."""
     name = spec.get("name", "mechanism")
     if not isinstance(name, str) or not name.strip():
@@ -286,7 +288,7 @@ def build_mechanism(spec: Mapping[str, Any], *, source: str | None = None) -> Me
     >>> round(mech.solve(90)["x"], 4)
     65.3835
     """
-    problems = _Problems(source)
+    problems = Problems(source)
     if not isinstance(spec, Mapping):
         problems.add("", "a model is a table of keys (name, units, parameters, ...)")
         problems.raise_if_any()
@@ -300,7 +302,7 @@ def build_mechanism(spec: Mapping[str, Any], *, source: str | None = None) -> Me
             hint = f"did you mean {near[0]!r}? " if near else ""
             problems.add(str(k), f"unknown key {k!r} ({hint}expected one of: {', '.join(sorted(known_top))})")
 
-    name, units = _name_and_units(spec, problems)
+    name, units = name_and_units(spec, problems)
     length_unit, angle_unit = units.length, units.angle
 
     def section(key: str) -> Mapping[str, Any]:
@@ -320,13 +322,13 @@ def build_mechanism(spec: Mapping[str, Any], *, source: str | None = None) -> Me
         loops_spec = []
 
     for pname in param_spec:
-        _check_name(pname, f"parameters.{pname}", problems)
+        check_name(pname, f"parameters.{pname}", problems)
     for vname in var_spec:
-        _check_name(vname, f"variables.{vname}", problems)
+        check_name(vname, f"variables.{vname}", problems)
         if vname in param_spec:
             problems.add(f"variables.{vname}", f"{vname!r} is declared both as a parameter and as a variable")
     for vname in vec_spec:
-        _check_name(vname, f"vectors.{vname}", problems)
+        check_name(vname, f"vectors.{vname}", problems)
     if not var_spec:
         problems.add("variables", "no joint variables declared")
     n_pair_rows = _pairs.declared_rows(spec)
@@ -390,7 +392,7 @@ def build_mechanism(spec: Mapping[str, Any], *, source: str | None = None) -> Me
                         ("y", _LENGTH)):
             n = getattr(v, f_)
             if n is not None:
-                _check_literals(n, ctx, f"vectors.{v.name}.{f_}", problems, angle_unit, length_unit,
+                check_literals(n, ctx, f"vectors.{v.name}.{f_}", problems, angle_unit, length_unit,
                                 _short(vec_spec[v.name][f_]))
     for key in pi_uses:
         problems.add(key, "`pi` in an angle of a model whose angles are in degrees would mean "
@@ -577,7 +579,7 @@ def build_mechanism(spec: Mapping[str, Any], *, source: str | None = None) -> Me
     points: list[Point] = []
     for pname, pdef in point_spec.items():
         key = f"points.{pname}"
-        _check_name(pname, key, problems)
+        check_name(pname, key, problems)
         pt = parse_point(pname, pdef, key, problems, vec_names=vec_names, param_names=set(param_spec),
                          var_names=set(var_spec))
         if pt is not None:
@@ -629,8 +631,8 @@ def build_mechanism(spec: Mapping[str, Any], *, source: str | None = None) -> Me
     dynamics = _dynamics(spec, problems, vectors, points, vec_names, param_spec, var_spec, units)
     pairs = _pairs.parse_pairs(_pairs.PairContext(
         problems=problems, parse_expr=lambda v, k: _parse_expr(v, k, problems, moving),
-        check_literals=lambda n, c, k, t: _check_literals(n, c, k, problems, angle_unit, length_unit, t),
-        check_name=lambda n, k: _check_name(n, k, problems),
+        check_literals=lambda n, c, k, t: check_literals(n, c, k, problems, angle_unit, length_unit, t),
+        check_name=lambda n, k: check_name(n, k, problems),
         parameters={p.name: p for p in parameters}, variables={v.name: v for v in variables},
         vectors={v.name: v for v in vectors}, points={p.name: p for p in points},
         bodies=tuple(b.name for b in dynamics.bodies) if dynamics else (),
@@ -646,7 +648,7 @@ def build_mechanism(spec: Mapping[str, Any], *, source: str | None = None) -> Me
         loops=tuple(loops),
         points=tuple(points),
         source=source,
-        spec=_deep_copy(spec),
+        spec=deep_copy(spec),
         mode_aliases=mode_aliases,
         dynamics=dynamics,
         pairs=pairs,
@@ -682,7 +684,7 @@ def link_length_problem(v, value: float) -> str:
             "direction add 180 to the angle)")
 
 
-def _check_links(vectors, loops, parameters, variables, problems: _Problems, in_pairs=frozenset(),
+def _check_links(vectors, loops, parameters, variables, problems: Problems, in_pairs=frozenset(),
                  pair_vectors=frozenset()) -> None:
     """Links of nonzero positive length, and every variable in some loop.
 
@@ -721,7 +723,7 @@ def _vector_names(v) -> set:
     return out
 
 
-def _dynamics(spec, problems: _Problems, vectors, points, vec_names, param_spec, var_spec, units):
+def _dynamics(spec, problems: Problems, vectors, points, vec_names, param_spec, var_spec, units):
     """``gravity``, ``[bodies]`` and ``[[loads]]`` (see :mod:`loopsolve.model.bodies`), problems collected."""
     if not any(k in spec for k in ("gravity", "bodies", "loads")):
         return None

@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import ModelError
-from .plotting import _new_figure, _save
+from .plotting import new_figure, save_figure
 
 __all__ = ["plot_drive", "plot_joint_forces", "plot_shaking", "plot_forces"]
 
@@ -39,7 +39,7 @@ def plot_drive(fs, *, output=None, ax=None, flywheel=None):
     """
     _need_rows(fs, "driving-torque")
     x, xlabel = _input_axis(fs)
-    fig = ax.figure if ax is not None else _new_figure((7.0, 3.6))
+    fig = ax.figure if ax is not None else new_figure((7.0, 3.6))
     ax = ax if ax is not None else fig.add_subplot()
     unit = "N*m" if fs.drive_name == "input_torque" else "N"
     ax.plot(x, fs.drive, lw=1.6, label=fs.drive_name)
@@ -54,7 +54,7 @@ def plot_drive(fs, *, output=None, ax=None, flywheel=None):
     ax.grid(True, alpha=0.3)
     ax.legend(loc="best", fontsize="small")
     if output is not None:
-        _save(fig, output)
+        save_figure(fig, output)
     return fig
 
 
@@ -88,23 +88,23 @@ def plot_joint_forces(fs, *, joints=None, output=None):
             raise ModelError(f"no joint force {n!r}; the joints are {', '.join(fs.joint_forces)}")
     cols = min(3, len(names))
     rows = -(-len(names) // cols)
-    fig = _new_figure((3.4 * cols, 3.3 * rows))
+    fig = new_figure((3.4 * cols, 3.3 * rows))
     for i, n in enumerate(names):
         _polar(fig.add_subplot(rows, cols, i + 1), fs.joint_forces[n], n)
     fig.suptitle(f"{fs.mechanism.name}: joint forces (on the first body, from the other)")
     if output is not None:
-        _save(fig, output)
+        save_figure(fig, output)
     return fig
 
 
 def plot_shaking(fs, *, output=None, ax=None):
     """Polar plot of the shaking force (the force of the mechanism on its frame) over the sweep."""
     _need_rows(fs, "shaking-force")
-    fig = ax.figure if ax is not None else _new_figure((4.4, 4.2))
+    fig = ax.figure if ax is not None else new_figure((4.4, 4.2))
     ax = ax if ax is not None else fig.add_subplot()
     _polar(ax, fs.shaking_force, f"{fs.mechanism.name}: shaking force")
     if output is not None:
-        _save(fig, output)
+        save_figure(fig, output)
     return fig
 
 
@@ -115,12 +115,12 @@ def plot_forces(fs, *, output=None, flywheel=None):
     names = list(fs.joint_forces)
     cols = max(2, min(4, len(names) + 1))
     rows = 1 + -(-(len(names) + 1) // cols)
-    fig = _new_figure((3.2 * cols, 3.0 * rows))
+    fig = new_figure((3.2 * cols, 3.0 * rows))
     gs = fig.add_gridspec(rows, cols)
     plot_drive(fs, ax=fig.add_subplot(gs[0, :]), flywheel=flywheel)
     panels = [("shaking force", fs.shaking_force)] + [(n, fs.joint_forces[n]) for n in names]
     for i, (title, f) in enumerate(panels):
         _polar(fig.add_subplot(gs[1 + i // cols, i % cols]), f, title)
     if output is not None:
-        _save(fig, output)
+        save_figure(fig, output)
     return fig

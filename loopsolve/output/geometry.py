@@ -29,7 +29,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import ModelError
-from .skeleton import _positions, _structure, _Structure
+from .skeleton import Structure, diagram_structure, node_positions
 
 __all__ = ["LINK_COLORS", "Frame", "pose_frames", "polygon_area", "hull_order", "unit_vector", "plot_vars",
            "unwrapped", "mode_label"]
@@ -172,7 +172,7 @@ def _diagram_spec(mech):
     return None
 
 
-def pose_frames(states, *, vectors: bool) -> tuple[list[Frame], _Structure]:
+def pose_frames(states, *, vectors: bool) -> tuple[list[Frame], Structure]:
     """What is drawn for each of ``states`` (poses of one compiled model), and the diagram's structure.
 
     Parameters
@@ -204,11 +204,11 @@ def pose_frames(states, *, vectors: bool) -> tuple[list[Frame], _Structure]:
     """
     states = list(states)
     ck = states[0].compiled
-    st = _structure(ck, states)
+    st = diagram_structure(ck, states)
     layout = _diagram_spec(ck.mechanism)
     frames = []
     for s in states:
-        pos, disp = _positions(st, ck, s)
+        pos, disp = node_positions(st, ck, s)
         frames.append(_frame_from_layout(layout, s, st, pos) if layout else _frame(st, ck, s, pos))
         if vectors:
             tails = {v: pos[st.node_of[("tail", v)]] for v in st.vectors}
@@ -217,7 +217,7 @@ def pose_frames(states, *, vectors: bool) -> tuple[list[Frame], _Structure]:
     return frames, st
 
 
-def _frame(st: _Structure, ck, s, pos) -> Frame:
+def _frame(st: Structure, ck, s, pos) -> Frame:
     at = np.asarray(s.points[0], dtype=float).reshape(-1, 2)
     links, blocks, guides, levers, ground_lines = [], [], [], [], []
     for i, (key, members) in enumerate(st.links.items()):
@@ -250,7 +250,7 @@ def _frame(st: _Structure, ck, s, pos) -> Frame:
     return Frame(links, pivots, blocks, guides, levers, [pos[n] for n in joints], points, labels, [], ground_lines)
 
 
-def _frame_from_layout(layout, s, st: _Structure, pos) -> Frame:
+def _frame_from_layout(layout, s, st: Structure, pos) -> Frame:
     """A frame from a kinematic-diagram model: links and joints by name (every joint is a point).
 
     A link is drawn through its distinct joint positions (coincident joints, such as a pin

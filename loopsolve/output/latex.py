@@ -35,9 +35,9 @@ import sympy as sp
 
 from ..errors import LoopsolveError, MissingDependencyError
 from ..model.mechanism import Mechanism
-from ..symbolic.texprint import (_ACCENT, _BUDGET, _GAP, LatexPrinter, _balance_block, _Eqs, _eq_lines, _escape,
-                       _join_terms, _matrix_width, _number, _Section, _Table, _Text, _unit, _width, symbol_latex,
-                       vector_latex)
+from ..symbolic.texprint import (ACCENT, BUDGET, GAP, Eqs, LatexPrinter, Section, Table, Text, balance_block, eq_lines,
+                                 escape, join_terms, matrix_width, symbol_latex, tex_number, tex_unit, tex_width,
+                                 vector_latex)
 from ..model.units import Kind
 
 __all__ = ["LatexPrinter", "symbol_latex", "vector_latex", "velocity_solution", "to_latex", "write_pdf"]
@@ -110,25 +110,25 @@ class _Builder:
     def header(self):
         mech, kin = self.mech, self.kin
         units = mech.units
-        self.items.append(_Section("Mechanism"))
-        src = r" (model file \texttt{%s})" % _escape(Path(mech.source).name) if mech.source else ""
-        self.items.append(_Text(r"\emph{%s}%s. Lengths in %s, angles in %s; angular rates in rad/s, "
+        self.items.append(Section("Mechanism"))
+        src = r" (model file \texttt{%s})" % escape(Path(mech.source).name) if mech.source else ""
+        self.items.append(Text(r"\emph{%s}%s. Lengths in %s, angles in %s; angular rates in rad/s, "
                                 r"rad/s$^2$, rad/s$^3$. Angles are measured counter-clockwise from the "
-                                r"$x$ axis." % (_escape(mech.name), src, _escape(units.length),
+                                r"$x$ axis." % (escape(mech.name), src, escape(units.length),
                                                 "degrees" if self.deg else "radians")))
         if mech.parameters:
             rows = []
             for prm in mech.parameters:
                 if prm.kind is Kind.ANGLE:
                     value = prm.value / (math.pi / 180) if self.deg else prm.value
-                    cell = _number(value) + _unit(units.angle if self.deg else "rad")
+                    cell = tex_number(value) + tex_unit(units.angle if self.deg else "rad")
                 elif prm.kind is Kind.LENGTH:
-                    cell = _number(prm.value) + _unit(units.length)
+                    cell = tex_number(prm.value) + tex_unit(units.length)
                 else:
-                    cell = _number(prm.value)
+                    cell = tex_number(prm.value)
                 rows.append((self.sym(prm.name), cell))
-            self.items.append(_Text("Parameters (they stay symbols in the equations):"))
-            self.items.append(_Table(("Parameter", "Value"), tuple(rows), "lr"))
+            self.items.append(Text("Parameters (they stay symbols in the equations):"))
+            self.items.append(Table(("Parameter", "Value"), tuple(rows), "lr"))
         vrows = []
         for v in mech.vectors:
             length, angle = kin.vectors[v.name]
@@ -139,19 +139,19 @@ class _Builder:
             else:
                 vrows.append((vector_latex(v.name), self.tex(length), self.p.angle(angle)))
         if vrows:
-            self.items.append(_Text("Vectors (length and angle of each):"))
-            self.items.append(_Table(("Vector", "Length", "Angle"), tuple(vrows), "lll"))
+            self.items.append(Text("Vectors (length and angle of each):"))
+            self.items.append(Table(("Vector", "Length", "Angle"), tuple(vrows), "lll"))
         ins = ", ".join("$%s$" % self.sym(n) for n in kin.inputs)
         q = r",\ ".join(self.sym(n) for n in kin.unknowns)
-        self.items.append(_Text(r"Input: %s. Unknowns: $\mathbf{q} = [%s]^{T}$ (%d scalar equations, "
+        self.items.append(Text(r"Input: %s. Unknowns: $\mathbf{q} = [%s]^{T}$ (%d scalar equations, "
                                 r"%d unknowns)." % (ins, q, kin.jac.rows, len(kin.unknowns))))
 
     def loops(self):
         mech, kin = self.mech, self.kin
         if not mech.loops:
             return
-        self.items.append(_Section("Vector loops and position equations"))
-        self.items.append(_Text(r"Each loop closes: in vector form, in complex-exponential form "
+        self.items.append(Section("Vector loops and position equations"))
+        self.items.append(Text(r"Each loop closes: in vector form, in complex-exponential form "
                                 r"($\vec{r} = r\,\mathrm{e}^{\mathrm{j}\theta}$, "
                                 r"$\mathrm{j}^2 = -1$), and by its $x$ and $y$ components, which are the "
                                 r"position equations $\boldsymbol{\Phi}(\mathbf{q}) = \mathbf{0}$."))
@@ -164,11 +164,11 @@ class _Builder:
                 side = lambda vs: [t for s, n in vs if kin.vector_xy[n][c] != 0  # noqa: E731
                                    for t in self.terms(s * kin.vector_xy[n][c])] or [(False, "0")]
                 pairs.append((side(lhs), side(rhs)))
-            lines = _balance_block(pairs)
+            lines = balance_block(pairs)
             if len(mech.loops) > 1:
-                label = "" if loop.name == "loop%d" % (idx + 1) else " (%s)" % _escape(loop.name)
-                self.items.append(_Text("Loop %d%s:" % (idx + 1, label)))
-            self.items.append(_Eqs(tuple(lines)))
+                label = "" if loop.name == "loop%d" % (idx + 1) else " (%s)" % escape(loop.name)
+                self.items.append(Text("Loop %d%s:" % (idx + 1, label)))
+            self.items.append(Eqs(tuple(lines)))
 
     def complex_term(self, sign: int, name: str) -> tuple[bool, str]:
         length, angle = self.kin.vectors[name]
@@ -184,7 +184,7 @@ class _Builder:
                 if isinstance(y, sp.Add):
                     yt = r"\left(%s\right)" % yt
                 parts.append((neg, r"\mathrm{j}\,%s" % yt))
-            return sign < 0, r"\left(%s\right)" % _join_terms(parts)
+            return sign < 0, r"\left(%s\right)" % join_terms(parts)
         lt = self.tex(length)
         if isinstance(length, sp.Add) or length.could_extract_minus_sign():
             lt = r"\left(%s\right)" % lt
@@ -199,47 +199,47 @@ class _Builder:
         kin = self.kin
         names = kin.unknowns
         jac_cells = self.matrix_cells(kin.jac)
-        jac_w = _matrix_width(jac_cells)
+        jac_w = matrix_width(jac_cells)
         jac_tex = self.bmatrix(jac_cells)
-        jac_inline = jac_w <= 0.55 * _BUDGET
+        jac_inline = jac_w <= 0.55 * BUDGET
         titles = ("Velocity", "Acceleration", "Jerk")
         what = ("velocity", "acceleration", "jerk")
         rate_words = ("first", "second", "third")
         for k in (1, 2, 3):
             b = kin.rhs[k - 1]
-            self.items.append(_Section("%s equation" % titles[k - 1]))
+            self.items.append(Section("%s equation" % titles[k - 1]))
             if k == 1:
-                self.items.append(_Text(
+                self.items.append(Text(
                     r"Differentiating the position equations with respect to time gives the velocity equation, "
                     r"linear in the unknown rates: $\boldsymbol{\Phi}_{\mathbf{q}}\,\dot{\mathbf{q}} = "
                     r"\mathbf{b}_1$. The coefficient matrix $\boldsymbol{\Phi}_{\mathbf{q}} = "
                     r"\partial\boldsymbol{\Phi}/\partial\mathbf{q}$ is the same in the acceleration and jerk "
                     r"equations."))
                 if not jac_inline:
-                    self.items.append(_Eqs(tuple(self.jacobian_lines(jac_cells, jac_w))))
+                    self.items.append(Eqs(tuple(self.jacobian_lines(jac_cells, jac_w))))
             else:
-                self.items.append(_Text(
+                self.items.append(Text(
                     r"Differentiating %s gives the %s equation "
                     r"$\boldsymbol{\Phi}_{\mathbf{q}}\,%s = \mathbf{b}_%d$ (%s time derivatives)."
                     % ("once more" if k == 2 else "again", what[k - 1],
                        {2: r"\ddot{\mathbf{q}}", 3: r"\overset{\ldots}{\mathbf{q}}"}[k], k, rate_words[k - 1])))
             lhs = (jac_tex if jac_inline else r"\boldsymbol{\Phi}_{\mathbf{q}}") + " " + self.column(names, k)
-            lhs_w = (jac_w if jac_inline else 3.0) + _matrix_width([[self.sym(n, k)] for n in names])
+            lhs_w = (jac_w if jac_inline else 3.0) + matrix_width([[self.sym(n, k)] for n in names])
             b_cells = self.matrix_cells(b)
-            if lhs_w + _matrix_width(b_cells) + 3 <= _BUDGET:
-                self.items.append(_Eqs((r"%s &= %s" % (lhs, self.bmatrix(b_cells)),)))
+            if lhs_w + matrix_width(b_cells) + 3 <= BUDGET:
+                self.items.append(Eqs((r"%s &= %s" % (lhs, self.bmatrix(b_cells)),)))
             else:
-                self.items.append(_Eqs((r"%s &= \mathbf{b}_{%d}" % (lhs, k),)))
-                self.items.append(_Text(r"where the entries of $\mathbf{b}_{%d}$ are" % k))
+                self.items.append(Eqs((r"%s &= \mathbf{b}_{%d}" % (lhs, k),)))
+                self.items.append(Text(r"where the entries of $\mathbf{b}_{%d}$ are" % k))
                 lines = []
                 for i in range(b.rows):
-                    lines += _eq_lines("b_{%d,%d}" % (k, i + 1), self.terms(b[i]))
-                self.items.append(_Eqs(tuple(lines)))
+                    lines += eq_lines("b_{%d,%d}" % (k, i + 1), self.terms(b[i]))
+                self.items.append(Eqs(tuple(lines)))
             if k == 1:
                 self.cramer()
 
     def jacobian_lines(self, cells, width) -> list[str]:
-        if width <= _BUDGET:
+        if width <= BUDGET:
             return [r"\boldsymbol{\Phi}_{\mathbf{q}} &= %s" % self.bmatrix(cells)]
         lines = []
         for i, row in enumerate(cells):
@@ -264,10 +264,10 @@ class _Builder:
                 lines.append(r"%s &= %s\,%s" % (lhs, self.fraction(coeff), self.tex(rate)))
             else:
                 lines.append(r"%s &= %s" % (lhs, self.fraction(value)))
-        if any(_width(line) > _BUDGET for line in lines):
+        if any(tex_width(line) > BUDGET for line in lines):
             return  # too long to be worth reading (e.g. two inputs): the matrix form says it all
-        self.items.append(_Text(r"Solved by Cramer's rule:"))
-        self.items.append(_Eqs(tuple(lines)))
+        self.items.append(Text(r"Solved by Cramer's rule:"))
+        self.items.append(Eqs(tuple(lines)))
 
     def fraction(self, value: sp.Expr) -> str:
         """Print a quotient; a leading minus sign is absorbed into a sine of a difference when
@@ -296,21 +296,21 @@ class _Builder:
         kin, mech = self.kin, self.mech
         if not mech.points:
             return
-        self.items.append(_Section("Points"))
-        self.items.append(_Text("Position, velocity and acceleration of each point (components along $x$ and $y$)."))
+        self.items.append(Section("Points"))
+        self.items.append(Text("Position, velocity and acceleration of each point (components along $x$ and $y$)."))
         lines: list[str] = []
         for pt in mech.points:
             ptex = symbol_latex(pt.name)
-            vec = _join_terms(self.point_terms(pt)) if pt.terms else r"\vec{0}"
+            vec = join_terms(self.point_terms(pt)) if pt.terms else r"\vec{0}"
             if lines:
-                lines.append(_GAP)
+                lines.append(GAP)
             lines.append(r"\vec{r}_{%s} &= %s" % (ptex, vec))
             pos, vel, acc, _ = kin.points[pt.name]
             for order, m in enumerate((pos, vel, acc)):
                 for c, axis in ((0, "x"), (1, "y")):
-                    sym = "%s_{%s}" % (_ACCENT[order] + "{%s}" % axis if order else axis, ptex)
-                    lines += _eq_lines(sym, self.terms(m[c]))
-        self.items.append(_Eqs(tuple(lines)))
+                    sym = "%s_{%s}" % (ACCENT[order] + "{%s}" % axis if order else axis, ptex)
+                    lines += eq_lines(sym, self.terms(m[c]))
+        self.items.append(Eqs(tuple(lines)))
 
     def point_terms(self, pt) -> list[tuple[bool, str]]:
         """Signed LaTeX terms of a point expression, scalar factors in front of their vectors."""
@@ -355,13 +355,13 @@ class _Builder:
         units = column_units(state.compiled)
         kin = self.kin
         inp = kin.inputs[0]
-        self.items.append(_Section("Numeric solution"))
+        self.items.append(Section("Numeric solution"))
         rates = ", ".join(
-            "$%s = %s%s$" % (self.sym(inp, k), _number(row[inp + suf]), _unit(units[inp + suf]))
+            "$%s = %s%s$" % (self.sym(inp, k), tex_number(row[inp + suf]), tex_unit(units[inp + suf]))
             for k, suf in enumerate(("", "_vel", "_acc")))
         resid = "%.1e" % state.residual
         mant, exp = resid.split("e")
-        self.items.append(_Text(r"At %s. Assembly mode %s; loop-closure residual $%s \times 10^{%d}$."
+        self.items.append(Text(r"At %s. Assembly mode %s; loop-closure residual $%s \times 10^{%d}$."
                                 % (rates, "$%s$" % state.mode if state.mode else "--", mant, int(exp))))
         scale = float(getattr(state.compiled, "scale", 1.0) or 1.0)
 
@@ -369,14 +369,14 @@ class _Builder:
             values = [row[key + s] for s in ("", "_vel", "_acc", "_jerk")]
             # round-off (1e-15 of the row's size) is shown as 0
             size = max([abs(v) for v in values if v is not None] + [scale])
-            return tuple(_number(0.0 if v is not None and abs(v) < 1e-11 * size else v) + _unit(units[key + s])
+            return tuple(tex_number(0.0 if v is not None and abs(v) < 1e-11 * size else v) + tex_unit(units[key + s])
                          for v, s in zip(values, ("", "_vel", "_acc", "_jerk")))
 
         rows = [(self.sym(name),) + cells(name) for name in list(kin.inputs) + list(kin.unknowns)]
         for pt in self.mech.points:
             for axis in ("x", "y"):
                 rows.append(("%s_{%s}" % (axis, symbol_latex(pt.name)),) + cells("%s_%s" % (pt.name, axis)))
-        self.items.append(_Table(("", "Position", "Velocity", "Acceleration", "Jerk"), tuple(rows),
+        self.items.append(Table(("", "Position", "Velocity", "Acceleration", "Jerk"), tuple(rows),
                                  "lrrrr", equation=True))
 
     def pairs(self):
@@ -384,15 +384,15 @@ class _Builder:
         mech, kin = self.mech, self.kin
         if mech.pairs is None or not mech.pairs.n_rows:
             return
-        self.items.append(_Section("Constraints and higher pairs"))
-        self.items.append(_Text(r"Each adds one position equation to $\boldsymbol{\Phi}(\mathbf{q}) = \mathbf{0}$, "
+        self.items.append(Section("Constraints and higher pairs"))
+        self.items.append(Text(r"Each adds one position equation to $\boldsymbol{\Phi}(\mathbf{q}) = \mathbf{0}$, "
                                 r"differentiated and solved with the loops (angles in radians):"))
         lines = []
         first = 2 * len(mech.loops)
         for i, elem in enumerate(mech.pairs.rows):
             e = kin.phi[first + i]
-            lines.append(r"&\text{%s:} & %s &= 0" % (_escape(elem.key), self.tex(e)))
-        self.items.append(_Eqs(tuple(lines)))
+            lines.append(r"&\text{%s:} & %s &= 0" % (escape(elem.key), self.tex(e)))
+        self.items.append(Eqs(tuple(lines)))
 
     def build(self):
         self.header()
@@ -409,23 +409,23 @@ class _Builder:
 # ============================================================================ rendering
 
 
-def _render_table(t: _Table) -> str:
+def _render_table(t: Table) -> str:
     head = " & ".join(r"\textbf{%s}" % h if h else "" for h in t.header)
     body = "\n".join(" & ".join("$%s$" % c for c in row) + r" \\" for row in t.rows)
     return ("\\begin{center}\n\\begin{tabular}{%s}\n\\hline\n%s \\\\\n\\hline\n%s\n\\hline\n"
             "\\end{tabular}\n\\end{center}" % (t.align, head, body))
 
 
-#: a line of an ``_Eqs`` block that only adds vertical space before the next line
+#: a line of an ``Eqs`` block that only adds vertical space before the next line
 
 
 def _join_lines(lines: Sequence[str]) -> str:
     out = ""
     for i, line in enumerate(lines):
-        if line == _GAP:
+        if line == GAP:
             continue
         if out:
-            out += " \\\\[2.5ex]\n" if lines[i - 1] == _GAP else " \\\\\n"
+            out += " \\\\[2.5ex]\n" if lines[i - 1] == GAP else " \\\\\n"
         out += line
     return out
 
@@ -438,12 +438,12 @@ def _equations_only(items) -> list:
     """Drop the text and the equation-free sections (for snippets)."""
     kept: list = []
     for it in items:
-        if isinstance(it, _Text) or (isinstance(it, _Table) and not it.equation):
+        if isinstance(it, Text) or (isinstance(it, Table) and not it.equation):
             continue
-        if isinstance(it, _Section) and kept and isinstance(kept[-1], _Section):
+        if isinstance(it, Section) and kept and isinstance(kept[-1], Section):
             kept.pop()
         kept.append(it)
-    if kept and isinstance(kept[-1], _Section):
+    if kept and isinstance(kept[-1], Section):
         kept.pop()
     return kept
 
@@ -453,14 +453,14 @@ def _render_body(items, *, snippet: bool) -> str:
         items = _equations_only(items)
     out = []
     for it in items:
-        if isinstance(it, _Section):
-            out.append(("%% %s" % it.title) if snippet else "\\section*{%s}" % _escape(it.title))
-        elif isinstance(it, _Text):
+        if isinstance(it, Section):
+            out.append(("%% %s" % it.title) if snippet else "\\section*{%s}" % escape(it.title))
+        elif isinstance(it, Text):
             if not snippet:
                 out.append(it.text)
-        elif isinstance(it, _Eqs):
+        elif isinstance(it, Eqs):
             out.append(_render_align(it.lines))
-        elif isinstance(it, _Table):
+        elif isinstance(it, Table):
             if not snippet or it.equation:
                 out.append(_render_table(it))
     return "\n\n".join(out) + "\n"
@@ -470,11 +470,11 @@ def _render_inline(items) -> str:
     """One ``aligned`` environment (for ``$\\displaystyle ...$`` in Jupyter / MathJax)."""
     lines: list[str] = []
     for it in _equations_only(items):
-        if isinstance(it, _Section):
-            lines.append(r"&\textbf{%s}" % _escape(it.title))
-        elif isinstance(it, _Eqs):
-            lines.extend(ln for ln in it.lines if ln != _GAP)
-        elif isinstance(it, _Table) and it.equation:
+        if isinstance(it, Section):
+            lines.append(r"&\textbf{%s}" % escape(it.title))
+        elif isinstance(it, Eqs):
+            lines.extend(ln for ln in it.lines if ln != GAP)
+        elif isinstance(it, Table) and it.equation:
             head = " & ".join(r"\text{%s}" % h for h in it.header)
             body = r" \\ ".join(" & ".join(row) for row in it.rows)
             lines.append(r"&\begin{array}{%s} %s \\ \hline %s \end{array}" % (it.align, head, body))
@@ -493,7 +493,7 @@ _PREAMBLE = r"""\documentclass[11pt,a4paper]{article}
 
 def _document(title: str, body: str) -> str:
     return (_PREAMBLE + "\\title{%s}\n\\author{Kinematic derivation by loopsolve}\n\\date{}\n"
-            "\\begin{document}\n\\maketitle\n\n%s\n\\end{document}\n" % (_escape(title), body))
+            "\\begin{document}\n\\maketitle\n\n%s\n\\end{document}\n" % (escape(title), body))
 
 
 def to_latex(mech: Mechanism, *, input: str | Sequence[str] | None = None, at=None,

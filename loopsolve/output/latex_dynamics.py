@@ -26,8 +26,8 @@ import math
 import numpy as np
 import sympy as sp
 
-from ..symbolic.texprint import (_BUDGET, _GAP, LatexPrinter, _break_terms, _Eqs, _eq_lines, _escape, _join_terms, _number,
-                       _Section, _Table, _Text, _width, symbol_latex)
+from ..symbolic.texprint import (BUDGET, GAP, Eqs, LatexPrinter, Section, Table, Text, break_terms, eq_lines, escape,
+                                 join_terms, symbol_latex, tex_number, tex_width)
 from ..model.units import Kind
 
 __all__ = ["equation_of_motion"]
@@ -54,8 +54,8 @@ class _Writer:
         if v is None or isinstance(v, sp.Basic) or sym == self.lam:
             return False, self.d.latex_names[sym]
         if self.d.units.get(sym) == r"\mathrm{rad}" and self.deg:
-            return v < 0, _number(abs(math.degrees(v))) + r"^{\circ}"
-        return v < 0, _number(abs(v))
+            return v < 0, tex_number(abs(math.degrees(v))) + r"^{\circ}"
+        return v < 0, tex_number(abs(v))
 
     def factor(self, factor, fmt) -> tuple[bool, str]:
         """The common factor of a group (2λ², gλ, ẋ …) with the named constants as ``fmt`` gives them."""
@@ -105,12 +105,12 @@ class _Writer:
         for body in mech.dynamics.bodies:
             m = d.mass[body.name]
             ii = d.inertia.get(body.name)
-            rows.append((r"\mathrm{%s}" % _escape(body.name), self.constant(m),
+            rows.append((r"\mathrm{%s}" % escape(body.name), self.constant(m),
                          self.constant(ii) if ii is not None else r"\text{--}",
-                         _join_terms(self.b.point_terms(body.com)) if body.com.terms else r"\vec{0}",
+                         join_terms(self.b.point_terms(body.com)) if body.com.terms else r"\vec{0}",
                          self.b.p.angle(sp.expand(self.angle_of(body))) if body.angle is not None else r"\text{--}"))
-        items.append(_Text("Mass properties of the moving bodies (the inertia is about the centre of mass $G$):"))
-        items.append(_Table(("Body", "Mass", "Inertia", "$\\vec{r}_G$", "$\\theta$"), tuple(rows), "lllll"))
+        items.append(Text("Mass properties of the moving bodies (the inertia is about the centre of mass $G$):"))
+        items.append(Table(("Body", "Mass", "Inertia", "$\\vec{r}_G$", "$\\theta$"), tuple(rows), "lllll"))
         skip = set(d.mass.values()) | set(d.inertia.values())
         consts = [s for s in d.units if s not in skip]
         numbers = [s for s in consts if not isinstance(d.values[s], sp.Basic)]
@@ -120,28 +120,28 @@ class _Writer:
                 ("the loads", any(not d.meaning[n].startswith(("grav", "model length")) for n in numbers)),
                 ("the unit of length", self.lam in numbers)) if present]
             text = ", ".join(what[:-1]) + (" and " if len(what) > 1 else "") + what[-1]
-            items.append(_Text(text[:1].upper() + text[1:] + ":"))
-            items.append(_Table(("Quantity", "Value"), tuple(
-                (r"\text{%s}" % _escape(d.meaning[s][:1].upper() + d.meaning[s][1:]), self.constant(s))
+            items.append(Text(text[:1].upper() + text[1:] + ":"))
+            items.append(Table(("Quantity", "Value"), tuple(
+                (r"\text{%s}" % escape(d.meaning[s][:1].upper() + d.meaning[s][1:]), self.constant(s))
                 for s in numbers), "ll"))
         exprs = [s for s in consts if isinstance(d.values[s], sp.Basic)]
         if exprs:
-            items.append(_Text("Loads given as functions of the motion (SI):"))
+            items.append(Text("Loads given as functions of the motion (SI):"))
             lines = []
             for s in exprs:  # six significant digits, as the tables
                 e = d.values[s]
                 e = e.xreplace({f: sp.Float(f, 6) for f in e.atoms(sp.Float)})
-                lines += _eq_lines(d.latex_names[s], self.p.signed_terms(e))
-            items.append(_Eqs(tuple(lines)))
+                lines += eq_lines(d.latex_names[s], self.p.signed_terms(e))
+            items.append(Eqs(tuple(lines)))
 
     def angle_of(self, body):
-        from ..dynamics.dynamics_model import _converter
+        from ..dynamics.dynamics_model import sympy_converter
 
-        conv, k = _converter(self.d.mechanism, self.d.kinematics)
+        conv, k = sympy_converter(self.d.mechanism, self.d.kinematics)
         return k * conv(body.angle)
 
     def constant(self, sym) -> str:
-        neg, t = (False, _number(self.d.values[sym])) if sym == self.lam else self.numeric(sym)
+        neg, t = (False, tex_number(self.d.values[sym])) if sym == self.lam else self.numeric(sym)
         unit = self.d.units.get(sym, "")
         if unit == r"\mathrm{rad}" and self.deg:
             unit = ""
@@ -151,9 +151,9 @@ class _Writer:
         d = self.d
         x = d.input
         xt = symbol_latex(x)
-        unit = _escape(d.mechanism.units.length)
+        unit = escape(d.mechanism.units.length)
         per = "rad" if d.input_kind is Kind.ANGLE else unit
-        items.append(_Text(
+        items.append(Text(
             r"With the input moving at $%s = 1$ and $%s = 0$ the rates are the kinematic coefficients "
             r"$q' = \mathrm{d}q/\mathrm{d}%s$ and $q'' = \mathrm{d}^2q/\mathrm{d}%s^2$ (the solutions of the velocity "
             r"and acceleration equations). Those of the centres of mass and of the points the loads act on, in "
@@ -162,16 +162,16 @@ class _Writer:
         lines: list[str] = []
         for name, syms in d.point_coefficients.items():
             if lines:
-                lines.append(_GAP)
+                lines.append(GAP)
             for sym in syms:
-                lines += _eq_lines(d.latex_names[sym], self.p.signed_terms(d.coefficients[sym]))
+                lines += eq_lines(d.latex_names[sym], self.p.signed_terms(d.coefficients[sym]))
         for (a, b), (L, Lp) in d.spring_lengths.items():
             ta, tb = symbol_latex(a), symbol_latex(b)
             dx, dy = r"\left(x_{%s} - x_{%s}\right)" % (ta, tb), r"\left(y_{%s} - y_{%s}\right)" % (ta, tb)
-            lines += [_GAP, r"%s &= \sqrt{%s^2 + %s^2}" % (d.latex_names[L], dx, dy),
+            lines += [GAP, r"%s &= \sqrt{%s^2 + %s^2}" % (d.latex_names[L], dx, dy),
                       r"%s &= \frac{%s\left(x'_{%s} - x'_{%s}\right) + %s\left(y'_{%s} - y'_{%s}\right)}{%s}"
                       % (d.latex_names[Lp], dx, ta, tb, dy, ta, tb, d.latex_names[L])]
-        items.append(_Eqs(tuple(lines)))
+        items.append(Eqs(tuple(lines)))
 
     def equations(self, items):
         d = self.d
@@ -180,7 +180,7 @@ class _Writer:
         q_args = xt + (r", %s" % xd if d.subs(d.Q).has(d.xdot) else "")
         force = "torque" if d.input_kind is Kind.ANGLE else "force"
         lam = (r" The factor $\lambda$ converts the model's lengths to metres." if self.lam != 1 else "")
-        items.append(_Text(
+        items.append(Text(
             r"The generalized inertia $M$, its derivative $M' = \mathrm{d}M/\mathrm{d}%s$ and the generalized force "
             r"$Q$ (the virtual work of gravity and the loads per unit $\delta %s$), as sums over the bodies and the "
             r"loads (SI).%s The equation of motion of the one-degree-of-freedom mechanism follows, where $T$ is the "
@@ -194,9 +194,9 @@ class _Writer:
                 lines += _bracket_lines(head, self.chunks(d.groups[key], fmt))
             if fmt == self.symbolic:
                 lines.append(eom)
-            items.append(_Eqs(tuple(lines)))
+            items.append(Eqs(tuple(lines)))
             if fmt == self.symbolic:
-                items.append(_Text("With the values of the tables:"))
+                items.append(Text("With the values of the tables:"))
 
 def _at(builder, items):
     from ..dynamics.dynamics_model import compile_dynamics, kinematic_coefficients, mass_matrix_terms
@@ -217,15 +217,15 @@ def _at(builder, items):
     T = virtual_work_drive(dm, z, xd, xdd)
     angle = ck.kinds[ix] is Kind.ANGLE
     xt = symbol_latex(name)
-    length = _escape(mech.units.length)
+    length = escape(mech.units.length)
     shown = math.degrees(state.z[ix]) if angle and builder.deg else state.z[ix]
-    where = r"%s = %s%s" % (xt, _number(shown), r"^{\circ}" if angle and builder.deg else
+    where = r"%s = %s%s" % (xt, tex_number(shown), r"^{\circ}" if angle and builder.deg else
                             (r"\,\mathrm{rad}" if angle else r"\,\mathrm{%s}" % length))
     rate = r"\mathrm{rad/s}" if angle else r"\mathrm{m/s}"
-    items.append(_Section("Equation of motion at the given input"))
-    items.append(_Text(r"At $%s$, with $%s = %s\,%s$ and $%s = %s\,%s^{2}$ (SI):" % (
-        where, symbol_latex(name + "__d1"), _number(xd * s), rate, symbol_latex(name + "__d2"),
-        _number(xdd * s), rate)))
+    items.append(Section("Equation of motion at the given input"))
+    items.append(Text(r"At $%s$, with $%s = %s\,%s$ and $%s = %s\,%s^{2}$ (SI):" % (
+        where, symbol_latex(name + "__d1"), tex_number(xd * s), rate, symbol_latex(name + "__d2"),
+        tex_number(xdd * s), rate)))
     rows = []
     for unknown in ck.unknowns:
         k = ck.index(unknown)
@@ -233,16 +233,16 @@ def _at(builder, items):
         ux = "rad" if angle else length
         unit = "" if uq == ux else r"\,\mathrm{%s/%s}" % (uq, ux)
         unit2 = "" if uq == ux else r"\,\mathrm{%s/%s^{2}}" % (uq, ux)
-        rows.append((symbol_latex(unknown), _number(d1[0, k]) + unit, _number(d2[0, k]) + unit2))
-    items.append(_Table(("", "$q'$", "$q''$"), tuple(rows), "lrr", equation=True))
+        rows.append((symbol_latex(unknown), tex_number(d1[0, k]) + unit, tex_number(d2[0, k]) + unit2))
+    items.append(Table(("", "$q'$", "$q''$"), tuple(rows), "lrr", equation=True))
     mu = r"\mathrm{kg\,m^{2}}" if angle else r"\mathrm{kg}"
     fu = r"\mathrm{N\,m}" if angle else r"\mathrm{N}"
     head = r"T = M\,%s + \tfrac{1}{2} M'\,%s^2 - Q" % (symbol_latex(name + "__d2"), symbol_latex(name + "__d1"))
-    lines = [r"M &= %s\,%s" % (_number(M[0]), mu),
-             r"M' &= %s\,%s" % (_number(dM[0]), mu if angle else r"\mathrm{kg/m}"),
-             r"Q &= %s\,%s" % (_number(Q[0]), fu)]
+    lines = [r"M &= %s\,%s" % (tex_number(M[0]), mu),
+             r"M' &= %s\,%s" % (tex_number(dM[0]), mu if angle else r"\mathrm{kg/m}"),
+             r"Q &= %s\,%s" % (tex_number(Q[0]), fu)]
     if not _frictions(mech):
-        items.append(_Eqs(tuple(lines + [r"%s &= %s\,%s" % (head, _number(T[0]), fu)])))
+        items.append(Eqs(tuple(lines + [r"%s &= %s\,%s" % (head, tex_number(T[0]), fu)])))
         return
     # with friction T is the exact solution of the force analysis (its Q_f = P_lost / input rate)
     from ..dynamics.kinetostatics import forces
@@ -251,33 +251,33 @@ def _at(builder, items):
     drive = float(np.asarray(fs.drive, dtype=float).reshape(-1)[0])
     lost = float(np.asarray(fs["power_lost"], dtype=float).reshape(-1)[0])
     if not math.isfinite(drive):
-        items.append(_Eqs(tuple(lines)))
-        items.append(_Text(r"With its friction the mechanism self-locks here: no driving %s moves it "
+        items.append(Eqs(tuple(lines)))
+        items.append(Text(r"With its friction the mechanism self-locks here: no driving %s moves it "
                            r"(\texttt{loopsolve forces} reports the event)." % ("torque" if angle else "force")))
         return
-    lines.append(r"P_\mathrm{lost} &= %s\,\mathrm{W}" % _number(lost))
+    lines.append(r"P_\mathrm{lost} &= %s\,\mathrm{W}" % tex_number(lost))
     if xd != 0.0:
         lines.append(r"Q_\mathrm{f} = P_\mathrm{lost} / %s &= %s\,%s" % (
-            symbol_latex(name + "__d1"), _number(lost / (xd * s)), fu))
-    lines.append(r"%s%s &= %s\,%s" % (head, r" + Q_\mathrm{f}" if xd != 0.0 else "", _number(drive), fu))
-    items.append(_Eqs(tuple(lines)))
+            symbol_latex(name + "__d1"), tex_number(lost / (xd * s)), fu))
+    lines.append(r"%s%s &= %s\,%s" % (head, r" + Q_\mathrm{f}" if xd != 0.0 else "", tex_number(drive), fu))
+    items.append(Eqs(tuple(lines)))
 
 
-def _bracket_lines(lhs: str, groups, budget: float = 0.8 * _BUDGET) -> list[str]:
+def _bracket_lines(lhs: str, groups, budget: float = 0.8 * BUDGET) -> list[str]:
     """``lhs &= …`` broken over lines; a bracketed group starts a new line when it then fits on it
     (it is broken inside its ``\\Bigl[`` … ``\\Bigr]`` only when it is wider than a line). The budget is
-    smaller than the kinematics' because :func:`~loopsolve.symbolic.texprint._width` underestimates the
+    smaller than the kinematics' because :func:`~loopsolve.symbolic.texprint.tex_width` underestimates the
     nested subscripts and the thin spaces of these sums (measured on the shaper's PDF)."""
-    room = max(budget - _width(lhs) - 3.0, 0.45 * budget)
+    room = max(budget - tex_width(lhs) - 3.0, 0.45 * budget)
     lines: list[list[tuple[bool, str]]] = [[]]
     for group in groups:
         cur = lines[-1]
-        if cur and _width(_join_terms(cur + group)) > room and _width(_join_terms(group)) <= room:
+        if cur and tex_width(join_terms(cur + group)) > room and tex_width(join_terms(group)) <= room:
             lines.append([])
         lines[-1] += group
     parts: list[str] = []
     for terms in lines:
-        broken = _break_terms(terms, room)
+        broken = break_terms(terms, room)
         if parts:  # a continuation line keeps its sign
             broken[0] = ("{}" if terms[0][0] else "{}+ ") + broken[0]
         parts += broken
@@ -294,7 +294,7 @@ def equation_of_motion(builder) -> list:
 
     d = derive_dynamics(mech, builder.input)
     w = _Writer(builder, d)
-    items: list = [_Section("Equation of motion")]
+    items: list = [Section("Equation of motion")]
     w.tables(items)
     w.coefficients(items)
     w.equations(items)
@@ -302,7 +302,7 @@ def equation_of_motion(builder) -> list:
     if _frictions(mech):
         _friction_items(builder, items, xd, "torque" if d.input_kind is Kind.ANGLE else "force")
         return items
-    items.append(_Text(
+    items.append(Text(
         r"Newton--Euler for each moving body, $\sum \vec{F} = m\,\vec{a}_G$ and $\sum M_G = I_G\,\alpha$, is a "
         r"linear system in the joint forces, the guide reactions and $T$ (\texttt{loopsolve forces}); its $T$ "
         r"equals the one above, and the power balance $T%s = \dot{E}_k + \dot{V} - P_\mathrm{loads}$ "
@@ -333,27 +333,27 @@ def _friction_items(builder, items, xd: str, drive: str) -> None:
 
     mech = builder.mech
     values = evaluator(mech)
-    length = _escape(mech.units.length)
+    length = escape(mech.units.length)
     rows = []
     for fr in _frictions(mech):
-        mu = _number(fr.mu)
+        mu = tex_number(fr.mu)
         if fr.kind == "pin":
             r = values(fr.radius, Kind.LENGTH)
             circle = r * fr.mu / math.sqrt(1.0 + fr.mu ** 2)
             law = (r"c = r \sin\varphi = %s\,\mathrm{%s}\text{, torque } c\,|\vec{F}|"
-                   % (_number(circle), length))
-            radius = r"%s\,\mathrm{%s}" % (_number(r), length)
+                   % (tex_number(circle), length))
+            radius = r"%s\,\mathrm{%s}" % (tex_number(r), length)
         else:
             law, radius = r"\text{force } \mu\,|N|", r"\text{--}"
-        rows.append((r"\mathrm{%s}" % _escape(fr.name), r"\text{%s}" % _FRICTION_KIND.get(fr.kind, fr.kind),
+        rows.append((r"\mathrm{%s}" % escape(fr.name), r"\text{%s}" % _FRICTION_KIND.get(fr.kind, fr.kind),
                      mu, radius, law))
-    items.append(_Text(
+    items.append(Text(
         r"Coulomb friction (\texttt{[friction]}): at a revolute joint of journal radius $r$ the friction circle "
         r"$c = r \sin\varphi$ with $\tan\varphi = \mu$ gives the torque $c\,|\vec{F}|$ against the relative "
         r"rotation, $\vec{F}$ the joint's force; at a sliding contact the force $\mu\,|N|$ against the "
         r"relative sliding, $N$ its normal force:"))
-    items.append(_Table(("Joint", "Kind", r"$\mu$", "$r$", "Friction"), tuple(rows), "lllll"))
-    items.append(_Text(
+    items.append(Table(("Joint", "Kind", r"$\mu$", "$r$", "Friction"), tuple(rows), "lllll"))
+    items.append(Text(
         r"$Q_\mathrm{f}$ is the friction's generalized force, given by the power it takes, "
         r"$Q_\mathrm{f}\,%s = P_\mathrm{lost} = \sum_k c_k\,|\vec{F}_k|\,|\omega_k| + \sum_k \mu_k\,|N_k|\,|v_k| "
         r"\ge 0$ ($\omega_k$, $v_k$ the relative rates at joint $k$). The joint forces $\vec{F}_k$, $N_k$ depend on "

@@ -56,7 +56,8 @@ def _matplotlib():
     return matplotlib
 
 
-def _new_figure(figsize):
+def new_figure(figsize):
+    """A matplotlib figure of size ``figsize`` (inches) on the Agg canvas, constrained layout."""
     _matplotlib()
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
@@ -102,7 +103,8 @@ def check_output(output, what: str = "figure") -> str:
     return fmt
 
 
-def _save(fig, output, *, dpi=150) -> None:
+def save_figure(fig, output, *, dpi=150) -> None:
+    """Write ``fig`` to ``output`` in the format its extension names (a loopsolve error if it cannot)."""
     fmt = _format_of(output, FIGURE_FORMATS, "a figure")
     try:
         fig.savefig(output, format=fmt, dpi=dpi)
@@ -225,7 +227,7 @@ def plot_sweep(sweep, vars=None, *, output=None):
     groups: dict[str, list[str]] = {}
     for n in names:
         groups.setdefault(units[n], []).append(n)
-    fig = _new_figure((6.4 * len(groups) if len(groups) > 1 else 7.5, 8.0))
+    fig = new_figure((6.4 * len(groups) if len(groups) > 1 else 7.5, 8.0))
     axes = fig.subplots(3, len(groups), sharex=True, squeeze=False)
     suffixes = ("", "_vel", "_acc")
     breaks, at_limit = _branch_breaks(sweep, x)
@@ -258,7 +260,7 @@ def plot_sweep(sweep, vars=None, *, output=None):
     mode = (", mode " + " → ".join(mode_label(ck.mechanism, m) for m in modes)) if modes else ""
     fig.suptitle(f"{ck.mechanism.name}{mode}\n{_rate_note(sweep)}", fontsize=11)
     if output is not None:
-        _save(fig, output)
+        save_figure(fig, output)
     return fig
 
 
@@ -496,7 +498,7 @@ def draw(mech, at=None, *, input=None, mode=None, vectors=False, output=None, ax
     frames, _ = pose_frames([state], vectors=vectors)
     style = drawing_style(frames)
     if ax is None:
-        fig = _new_figure(_figsize(style))
+        fig = new_figure(_figsize(style))
         ax = fig.add_subplot()
     else:
         _matplotlib()
@@ -509,7 +511,7 @@ def draw(mech, at=None, *, input=None, mode=None, vectors=False, output=None, ax
     draw_pairs(ax, state, pad=2.6 * style.size)  # gears, cams, slots
     ax.set_title(_pose_title(state), fontsize=11)
     if output is not None:
-        _save(fig, output)
+        save_figure(fig, output)
     return fig
 
 
@@ -681,7 +683,7 @@ def animate(sweep, *, output, fps: float = 20, progress=None, vectors: bool = Fa
     check_drawable(sweep.mechanism)
     frames, _ = pose_frames(list(sweep.states), vectors=vectors)
     style = drawing_style(frames)
-    fig = _new_figure(_figsize(style))
+    fig = new_figure(_figsize(style))
     ax = fig.add_subplot()
     _render_static(ax, frames[0], style)
     _frame_axes(ax, style, sweep.mechanism)

@@ -130,7 +130,7 @@ def _ends(sign: int, v: str):
 
 
 @dataclass
-class _Structure:
+class Structure:
     """Pose-independent structure of a mechanism's diagram (from its vectors, loops and points)."""
 
     node_of: dict  # (end, vec) -> node id
@@ -265,7 +265,7 @@ class _Walker:
         return None if isinstance(cur, tuple) and cur[0] == "walk" else cur
 
 
-def _structure(ck, states=()) -> _Structure:
+def diagram_structure(ck, states=()) -> Structure:
     """The diagram's structure, its joins checked at the first solved pose of ``states`` (see the module)."""
     mech = ck.mechanism
     lvars, avars = _dependencies(ck)
@@ -355,7 +355,7 @@ def _structure(ck, states=()) -> _Structure:
     ground = _frame_lines(vectors, node_of, kind, joints | set(point_node.values()) | {b for _, b in blocks})
     anchors = {nodes.find(k): a for k, a in w.anchors.items()}
     roots, tree = _spanning_forest(vectors, node_of, origin, point_node, anchors, ck.points)
-    return _Structure(node_of, kind, link_of, fixed, point_node, names, vectors, links, blocks, joints, ground,
+    return Structure(node_of, kind, link_of, fixed, point_node, names, vectors, links, blocks, joints, ground,
                       roots, tree)
 
 
@@ -491,7 +491,7 @@ def _node_names(mech, vectors, node_of, point_node, kind, fixed, links) -> dict:
     return names
 
 
-def _positions(st: _Structure, ck, s):
+def node_positions(st: Structure, ck, s):
     """Node id → (x, y) at the solved pose ``s`` (model units), and the placed vectors' components.
 
     Every named point's node is at the point's solved coordinates (the numbers ``solve`` prints);

@@ -32,7 +32,7 @@ _GREEK = frozenset(
 )
 _GREEK_UPPER = frozenset("Gamma Delta Theta Xi Pi Sigma Upsilon Phi Psi Omega".split())
 # amsmath's \dddot sets the subscript far from its base; three dots over the letter look right
-_ACCENT = {1: r"\dot", 2: r"\ddot", 3: r"\overset{\ldots}"}
+ACCENT = {1: r"\dot", 2: r"\ddot", 3: r"\overset{\ldots}"}
 _RATE_RE = re.compile(r"^(?P<base>.+)__d(?P<order>[123])$")
 # kinematic coefficients of loopsolve.dynamics.eom: name__p1 = dq/dx (q'), name__p2 = d²q/dx² (q'')
 _PRIME_RE = re.compile(r"^(?P<base>.+)__p(?P<order>[12])$")
@@ -94,7 +94,7 @@ def symbol_latex(name: str) -> str:
         return base if sub is None else "%s_{%s}" % (base, sub)
     base, sub = _split_name(name)
     if order:
-        base = "%s{%s}" % (_ACCENT[order], base)
+        base = "%s{%s}" % (ACCENT[order], base)
     return base if sub is None else "%s_{%s}" % (base, sub)
 
 
@@ -252,7 +252,7 @@ class LatexPrinter(_SympyLatexPrinter):
         if isinstance(arg, sp.Add):
             terms = self.signed_terms(arg, prepared=True)
             first = next((i for i, (neg, _) in enumerate(terms) if not neg), 0)
-            inner = _join_terms(terms[first:first + 1] + terms[:first] + terms[first + 1:])
+            inner = join_terms(terms[first:first + 1] + terms[:first] + terms[first + 1:])
         return r"%s(%s)" % (head, inner)
 
     def _print_sin(self, expr, exp=None):
@@ -316,7 +316,7 @@ class LatexPrinter(_SympyLatexPrinter):
         return [t for t in terms if t not in deg] + deg
 
     def _print_Add(self, expr, order=None):
-        return _join_terms(self.signed_terms(expr, prepared=True))
+        return join_terms(self.signed_terms(expr, prepared=True))
 
     def signed_terms(self, expr, *, prepared: bool = False) -> list[tuple[bool, str]]:
         """``expr`` as a list of ``(negative, tex)`` terms, in printing order."""
@@ -334,7 +334,8 @@ class LatexPrinter(_SympyLatexPrinter):
         return out
 
 
-def _join_terms(terms: Sequence[tuple[bool, str]]) -> str:
+def join_terms(terms: Sequence[tuple[bool, str]]) -> str:
+    """Signed terms ``(negative, tex)`` written as one sum (``0`` when there are none)."""
     if not terms:
         return "0"
     text = ""
@@ -348,11 +349,11 @@ def _join_terms(terms: Sequence[tuple[bool, str]]) -> str:
 
 # ============================================================================ layout helpers
 
-#: width of a display line, in the units of :func:`_width` (one unit ≈ 0.19 cm, an italic
+#: width of a display line, in the units of :func:`tex_width` (one unit ≈ 0.19 cm, an italic
 #: letter at 11 pt; the text is 16.6 cm wide on A4 with 2.2 cm margins)
-_BUDGET = 80.0
+BUDGET = 80.0
 #: an empty line in a list of equation lines: a wider gap in the rendered block
-_GAP = ""
+GAP = ""
 
 
 def _group_end(s: str, start: int) -> int:
@@ -365,15 +366,15 @@ def _group_end(s: str, start: int) -> int:
     return len(s)
 
 
-def _width(tex: str) -> float:
+def tex_width(tex: str) -> float:
     """Rough printed width of a math string (a letter ≈ 1, sub/superscripts ≈ 0.7, operators ≈ 2;
     a fraction is as wide as the wider of its numerator and denominator)."""
     i = tex.find("\\frac{")
     if i >= 0:
         a_end = _group_end(tex, i + 5)
         b_end = _group_end(tex, a_end)
-        frac = max(_width(tex[i + 6:a_end - 1]), _width(tex[a_end + 1:b_end - 1])) + 1.0
-        return _width(tex[:i]) + frac + _width(tex[b_end:])
+        frac = max(tex_width(tex[i + 6:a_end - 1]), tex_width(tex[a_end + 1:b_end - 1])) + 1.0
+        return tex_width(tex[:i]) + frac + tex_width(tex[b_end:])
     s = re.sub(r"\\(left|right)\b", "", tex)
     s = re.sub(r"\\begin\{[a-z]+\}|\\end\{[a-z]+\}", "", s)
     s = re.sub(r"\\(mathrm|mathbf|vec|dot|ddot|overset|ldots|hat|overrightarrow|boldsymbol|text)\b", "", s)
@@ -405,14 +406,15 @@ def _width(tex: str) -> float:
     return width
 
 
-def _matrix_width(cells: list[list[str]]) -> float:
+def matrix_width(cells: list[list[str]]) -> float:
+    """Rough printed width of a matrix of math cells (see :func:`tex_width`)."""
     if not cells:
         return 0.0
     cols = len(cells[0])
-    return sum(max(_width(row[j]) for row in cells) for j in range(cols)) + 2.5 * cols + 1.5
+    return sum(max(tex_width(row[j]) for row in cells) for j in range(cols)) + 2.5 * cols + 1.5
 
 
-def _break_terms(terms: Sequence[tuple[bool, str]], budget: float) -> list[str]:
+def break_terms(terms: Sequence[tuple[bool, str]], budget: float) -> list[str]:
     """Pack signed terms greedily into lines no wider than ``budget`` (continuation lines start
     with their sign)."""
     lines: list[str] = []
@@ -422,7 +424,7 @@ def _break_terms(terms: Sequence[tuple[bool, str]], budget: float) -> list[str]:
             cur = (("- " if neg else "") if not lines else ("{}- " if neg else "{}+ ")) + tex
             continue
         piece = (" - " if neg else " + ") + tex
-        if _width(cur + piece) > budget:
+        if tex_width(cur + piece) > budget:
             lines.append(cur)
             cur = ("{}- " if neg else "{}+ ") + tex
         else:
@@ -432,29 +434,29 @@ def _break_terms(terms: Sequence[tuple[bool, str]], budget: float) -> list[str]:
     return lines
 
 
-def _eq_lines(lhs: str, rhs_terms: Sequence[tuple[bool, str]], budget: float = _BUDGET) -> list[str]:
+def eq_lines(lhs: str, rhs_terms: Sequence[tuple[bool, str]], budget: float = BUDGET) -> list[str]:
     """``lhs &= rhs`` as align lines, the right side broken over lines when too wide."""
-    room = max(budget - _width(lhs) - 3.0, 0.45 * budget)
-    parts = _break_terms(rhs_terms, room)
+    room = max(budget - tex_width(lhs) - 3.0, 0.45 * budget)
+    parts = break_terms(rhs_terms, room)
     return ["%s &= %s" % (lhs, parts[0])] + [r"&\quad %s" % p for p in parts[1:]]
 
 
-def _balance_block(pairs, budget: float = _BUDGET) -> list[str]:
+def balance_block(pairs, budget: float = BUDGET) -> list[str]:
     """Align lines for equations ``lhs = rhs`` whose sides are both sums (the loop equations).
 
     When they all fit, they align on ``=``. Otherwise every equation of the block is set as
     its left side on one line (or more) and ``= right side`` below, all flush on one column,
     so that no line is pushed past the margin by the alignment."""
-    texts = [(_join_terms(lt), _join_terms(rt)) for lt, rt in pairs]
-    widest_lhs = max(_width(lhs) for lhs, _ in texts)
-    if all(widest_lhs + _width(rhs) + 3 <= budget for _, rhs in texts):
+    texts = [(join_terms(lt), join_terms(rt)) for lt, rt in pairs]
+    widest_lhs = max(tex_width(lhs) for lhs, _ in texts)
+    if all(widest_lhs + tex_width(rhs) + 3 <= budget for _, rhs in texts):
         return ["%s &= %s" % (lhs, rhs) for lhs, rhs in texts]
     lines: list[str] = []
     for lt, rt in pairs:
         if lines:
-            lines.append(_GAP)
-        left = _break_terms(lt, budget - 4)
-        right = _break_terms(rt, budget - 6)
+            lines.append(GAP)
+        left = break_terms(lt, budget - 4)
+        right = break_terms(rt, budget - 6)
         lines += ["& " + left[0]] + [r"&\quad %s" % p for p in left[1:]]
         lines += ["&= " + right[0]] + [r"&\quad %s" % p for p in right[1:]]
     return lines
@@ -464,13 +466,13 @@ _TEX_SPECIAL = {"\\": r"\textbackslash{}", "&": r"\&", "%": r"\%", "$": r"\$", "
                 "{": r"\{", "}": r"\}", "~": r"\textasciitilde{}", "^": r"\textasciicircum{}"}
 
 
-def _escape(text: str) -> str:
+def escape(text: str) -> str:
     """Plain text for LaTeX text mode (special characters escaped, non-ASCII dropped to '?')."""
     out = "".join(_TEX_SPECIAL.get(c, c) for c in str(text))
     return out.encode("ascii", "replace").decode("ascii")
 
 
-def _number(v) -> str:
+def tex_number(v) -> str:
     """A value for a table, in math mode (6 significant digits, powers of ten written out)."""
     if v is None or (isinstance(v, float) and not math.isfinite(v)):
         return r"\text{--}"
@@ -484,7 +486,7 @@ def _number(v) -> str:
     return s
 
 
-def _unit(label: str) -> str:
+def tex_unit(label: str) -> str:
     """A unit label (``deg``, ``rad/s^2``, ``mm/s``) in math mode, with its leading space."""
     if not label:
         return ""
@@ -499,22 +501,26 @@ def _unit(label: str) -> str:
 
 
 @dataclass(frozen=True)
-class _Section:
+class Section:
+    """A section heading of a document."""
     title: str
 
 
 @dataclass(frozen=True)
-class _Text:
+class Text:
+    """A paragraph of a document."""
     text: str  # LaTeX text mode (inline math with $...$)
 
 
 @dataclass(frozen=True)
-class _Eqs:
+class Eqs:
+    """A block of aligned equations of a document."""
     lines: tuple[str, ...]  # align lines (with &)
 
 
 @dataclass(frozen=True)
-class _Table:
+class Table:
+    """A table of a document: text-mode header, math-mode rows."""
     header: tuple[str, ...]  # text mode
     rows: tuple[tuple[str, ...], ...]  # math mode cells
     align: str

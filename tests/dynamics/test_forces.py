@@ -60,7 +60,7 @@ class TestPowerBalance:
     def test_energy_rate_by_finite_differences(self, path):
         """Without non-conservative loads, T ẋ = d(E_k + V)/dt at constant speed (central differences in x)."""
         mech = ls.load(path)
-        spec = ls.model.mechanism._deep_copy(mech.spec)
+        spec = ls.model.mechanism.deep_copy(mech.spec)
         spec.pop("loads", None)
         spec["gravity"] = ["0.5m/s^2", "-9.81m/s^2"]
         mech = ls.build_mechanism(spec)
@@ -77,7 +77,7 @@ class TestStatics:
     def test_gravity_torque_is_dv_dx(self):
         """At zero speed with gravity only, T = dV/dθ2, V from the com positions (mid-links) computed here."""
         mech = ls.load(ls.models_dir() / "thesis_crank_rocker_dynamics.toml")
-        spec = ls.model.mechanism._deep_copy(mech.spec)
+        spec = ls.model.mechanism.deep_copy(mech.spec)
         spec.pop("loads")
         mech = ls.build_mechanism(spec)
         m = {b.name: b.mass for b in mech.dynamics.bodies}
@@ -324,7 +324,7 @@ class TestJointForces:
 @pytest.fixture(scope="module")
 def free_fourbar():
     """The four-bar without loads (a module-level fixture: pytest deprecates class-scoped fixture methods)."""
-    spec = ls.model.mechanism._deep_copy(fourbar_dynamics().spec)
+    spec = ls.model.mechanism.deep_copy(fourbar_dynamics().spec)
     spec.pop("loads")
     return ls.build_mechanism(spec)
 
@@ -339,7 +339,7 @@ class TestSimulate:
 
     def test_limit_position_is_an_event(self):
         """Driving the engine by its piston: the piston's dead centre stops the integration, reported."""
-        spec = ls.model.mechanism._deep_copy(ls.load(ls.models_dir() / "engine_slider_crank.toml").spec)
+        spec = ls.model.mechanism.deep_copy(ls.load(ls.models_dir() / "engine_slider_crank.toml").spec)
         spec.pop("loads")
         sim = ls.simulate(ls.build_mechanism(spec), 0.3, step=0.05, input="r1", at=150, speed0="500mm/s")
         assert [e.kind for e in sim.events] == [ls.EventKind.LIMIT]

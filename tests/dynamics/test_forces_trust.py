@@ -33,7 +33,7 @@ DR_LIMIT = 71.790043135717  # theta2 at its limit position (located by the sweep
 
 
 def mutated(path: Path, change) -> ls.Mechanism:
-    spec = ls.model.mechanism._deep_copy(ls.load(path).spec)
+    spec = ls.model.mechanism.deep_copy(ls.load(path).spec)
     change(spec)
     return ls.build_mechanism(spec)
 

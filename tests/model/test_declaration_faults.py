@@ -41,7 +41,7 @@ def _mutants():
 
 
 def _mutate(name: str, kind: str, what) -> ls.Mechanism:
-    spec = ls.model.mechanism._deep_copy(ls.load(ls.models_dir() / name).spec)
+    spec = ls.model.mechanism.deep_copy(ls.load(ls.models_dir() / name).spec)
     if kind == "joint":
         bname, j = what
         spec["bodies"][bname]["joints"] = [x for x in spec["bodies"][bname]["joints"] if x != j]

@@ -313,8 +313,8 @@ def test_draw_second_loop_anchored_on_shared_vector():
     }
     mech = ls.build_mechanism(spec)
     state = mech.solve(90)
-    st = skeleton._structure(state.compiled, [state])
-    pos, _ = skeleton._positions(st, state.compiled, state)
+    st = skeleton.diagram_structure(state.compiled, [state])
+    pos, _ = skeleton.node_positions(st, state.compiled, state)
     for name, node in st.point_node.items():
         np.testing.assert_allclose(pos[node], [state[name + "_x"], state[name + "_y"]], atol=1e-9)
     assert st.point_node["F"] in st.fixed  # O4 + r6 is a ground pivot
@@ -326,8 +326,8 @@ def test_draw_second_loop_anchored_on_shared_vector():
 def test_geometry_matches_solved_points(model):
     mech = ls.load(model)
     state = mech.solve()
-    st = skeleton._structure(state.compiled, [state])
-    pos, disp = skeleton._positions(st, state.compiled, state)
+    st = skeleton.diagram_structure(state.compiled, [state])
+    pos, disp = skeleton.node_positions(st, state.compiled, state)
     tails = {v: pos[st.node_of[("tail", v)]] for v in st.vectors}
     for name, node in st.point_node.items():
         np.testing.assert_allclose(pos[node], [state[name + "_x"], state[name + "_y"]], atol=1e-8)

@@ -287,7 +287,7 @@ held = "{held} = {value}"
 # -- loads added to any model with bodies
 def with_extra_loads(mech: ls.Mechanism) -> ls.Mechanism:
     """The model plus a spring, a damper, a torsional spring and damper, and a rate-dependent torque."""
-    spec = ls.model.mechanism._deep_copy(mech.spec)
+    spec = ls.model.mechanism.deep_copy(mech.spec)
     bodies = spec["bodies"]
     names = list(bodies)
     joints = [j for b in bodies.values() for j in b.get("joints", [])]

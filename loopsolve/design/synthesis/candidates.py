@@ -53,9 +53,9 @@ def generate_points_p_source(kin) -> str:
 
 def points_p_module(ck):
     """The compiled ∂points/∂p module of ``ck`` (derived with sympy on first use, then cached)."""
-    from ..sensitivity import _generated
+    from ..sensitivity import generated_module
 
-    return _generated(ck, "ptsp", generate_points_p_source, "points_p_v")
+    return generated_module(ck, "ptsp", generate_points_p_source, "points_p_v")
 
 
 class Batch:

@@ -60,7 +60,7 @@ class FourBarLayout:
 
 def fourbar_layout(mech, method: str) -> FourBarLayout:
     """The four-bar of ``mech`` for ``--method method``, or a :class:`ModelError` saying why not."""
-    from ....kinematics.info import _walk
+    from ....kinematics.info import loop_walk
     from ....model import expr as _expr
 
     try:
@@ -74,7 +74,7 @@ def fourbar_layout(mech, method: str) -> FourBarLayout:
     fb = fbs[0]
     links = fb["links"]
     loop = mech.loops[0]
-    walk = _walk(loop)
+    walk = loop_walk(loop)
     names = [n for _, n in walk]
     sign = {n: s for s, n in walk}
     k = names.index(links["ground"])
