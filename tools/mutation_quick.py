@@ -47,11 +47,11 @@ SO = "tests/design/test_synthesis_outputs.py::"
 SM = "tests/design/test_synthesize_methods.py::"
 SYNTH = [SO + "test_to_json_refuses_a_nan", SO + "test_freudenstein_report_values_are_the_written_designs"]
 CERT = [SO + "test_every_certificate_agrees_with_its_defects"]
-LM = ["tests/design/test_synthlm.py::test_batch_lm_crosses_the_periodic_bound_and_recovers_the_planted_design",
-      "tests/design/test_synthlm.py::test_reassemble_from_a_nearby_position_matches_the_closed_form",
+LM = ["tests/design/test_lockstep_lm.py::test_batch_lm_crosses_the_periodic_bound_and_recovers_the_planted_design",
+      "tests/design/test_lockstep_lm.py::test_reassemble_from_a_nearby_position_matches_the_closed_form",
       SO + "test_crank_finds_a_certified_crank_when_the_best_fit_is_not_one"]  # the polish within --crank
 STRUCT = [SM + "test_structural_error_of_the_freudenstein_design_against_the_closed_form"]
-CS = "tests/design/test_classicsynth.py::"
+CS = "tests/design/test_classical_synthesis.py::"
 CLASSIC = [CS + "test_freudenstein_door_meets_the_targets", SO + "test_freudenstein_report_values_are_the_written_designs",
            SO + "test_freudenstein_design_is_the_users_model_with_its_names"]
 MOTION = [CS + "test_burmester_door_recovers_and_writes_a_loadable_model", SO + "test_burmester_design_is_the_users_model_with_its_names",

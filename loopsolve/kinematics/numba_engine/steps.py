@@ -66,7 +66,7 @@ NOGRID = -(2**62)
 # each model structure, next to that model's phi, jac and rhs1 (the globals they call). They
 # mirror Grid.value / Grid.next_after (loopsolve.kinematics.sweep), Tracer._natural_target and
 # Tracer._natural_step_2x2 (loopsolve.kinematics.continuation) and rho_2x3 (loopsolve.kinematics.scalar_solver) operation
-# for operation; a change there must be made here too (tests/kinematics/test_fastlane.py compares them).
+# for operation; a change there must be made here too (tests/kinematics/test_numba_engine.py compares them).
 
 
 def grid_value(k, f, iv):
