@@ -44,7 +44,7 @@ CAD = [C + "test_dxf_round_trip", C + "test_svg_round_trip", C + "test_entities_
        C + "test_cli_synthesized_design_file_draws_to_dxf_at_the_solve", C + "test_dxf_without_ezdxf_is_a_one_line_error"]
 UNITS = ["tests/model/test_units.py", "tests/model/test_unit_registry.py"]
 SO = "tests/design/test_synthesis_outputs.py::"
-SM = "tests/design/test_synthesize_methods.py::"
+SM = "tests/design/test_classical_defects_and_structural_error.py::"
 SYNTH = [SO + "test_to_json_refuses_a_nan", SO + "test_freudenstein_report_values_are_the_written_designs"]
 CERT = [SO + "test_every_certificate_agrees_with_its_defects"]
 LM = ["tests/design/test_lockstep_lm.py::test_batch_lm_crosses_the_periodic_bound_and_recovers_the_planted_design",
