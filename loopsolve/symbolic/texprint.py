@@ -1,4 +1,4 @@
-"""LaTeX in the notation of the textbook notes: names, the sympy printer and line layout.
+"""LaTeX in the notation of the textbook notes: names, the sympy printer, line layout and document blocks.
 
 :class:`LatexPrinter` prints sympy expressions as the notes write them: ``theta2`` → θ₂,
 ``r_AB`` → r_{AB}, rate symbols ``theta3__d1``/``__d2``/``__d3`` → θ̇₃, θ̈₃, θ⃛₃, ``\\sin\\theta_2``
@@ -6,8 +6,10 @@ without parentheses around a single symbol, and in a degree model the angle cons
 sin/cos as degrees (``\\cos(\\theta_4 + 30^\\circ)`` rather than ``\\cos(\\theta_4 + \\pi/6)``).
 sympy folds ``cos(θ − 20°)`` into ``sin(θ + 70°)``; the printer writes such terms back in terms
 of the declared vector angles. The layout helpers estimate the printed width of LaTeX text and
-break long sums over lines (continuation lines keep their sign). :mod:`loopsolve.output.latex` builds
-the document from these pieces.
+break long sums over lines (continuation lines keep their sign). :mod:`loopsolve.output.latex` and
+:mod:`loopsolve.output.latex_dynamics` build the document from these pieces: the blocks :class:`Section`,
+:class:`Text`, :class:`Eqs` and :class:`Table`, text escaped by :func:`escape`, numbers and units
+typeset by :func:`tex_number` and :func:`tex_unit`.
 """
 
 from __future__ import annotations

@@ -3,7 +3,7 @@
 :func:`read_targets` returns the task's columns (``x,y`` for a path, ``input,output`` for a
 function, ``x,y,angle`` for a motion, each with an optional ``input`` column for prescribed
 timing) as float arrays, or raises :class:`~loopsolve.errors.ModelError` naming the file, line and
-column. Moved out of :mod:`loopsolve.design.synthesis.problem` (which re-exports it).
+column. :mod:`loopsolve.design.synthesis.problem` re-exports :func:`read_targets`.
 """
 
 from __future__ import annotations
