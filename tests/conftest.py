@@ -13,19 +13,30 @@ import subprocess
 import pytest
 
 
-@pytest.fixture
-def tiny_fs(tmp_path):
-    """A 64 KiB tmpfs (needs root); skipped with the reason where mounting is not permitted."""
-    mnt = tmp_path / "tiny"
+def _tmpfs(mnt, options: str, what: str):
+    """A tmpfs mounted at ``mnt`` with ``options`` (needs root); skipped with the reason where mounting is not
+    permitted, unmounted afterwards."""
     mnt.mkdir()
-    proc = subprocess.run(["mount", "-t", "tmpfs", "-o", "size=64k", "tmpfs", str(mnt)], capture_output=True,
+    proc = subprocess.run(["mount", "-t", "tmpfs", "-o", options, "tmpfs", str(mnt)], capture_output=True,
                           text=True)
     if proc.returncode != 0:
-        pytest.skip(f"cannot mount a small tmpfs to simulate a full disk: {proc.stderr.strip() or 'not root'}")
+        pytest.skip(f"cannot mount {what}: {proc.stderr.strip() or 'not root'}")
     try:
         yield mnt
     finally:
         subprocess.run(["umount", "-l", str(mnt)], check=False)
+
+
+@pytest.fixture
+def tiny_fs(tmp_path):
+    """A 64 KiB tmpfs (needs root); skipped with the reason where mounting is not permitted."""
+    yield from _tmpfs(tmp_path / "tiny", "size=64k", "a small tmpfs to simulate a full disk")
+
+
+@pytest.fixture
+def read_only_fs(tmp_path):
+    """A read-only tmpfs (needs root); skipped with the reason where mounting is not permitted."""
+    yield from _tmpfs(tmp_path / "ro", "ro,size=64k", "a read-only tmpfs")
 
 
 def fill_disk(directory) -> None:

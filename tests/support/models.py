@@ -124,6 +124,22 @@ def fourbar_angles(p, theta2_deg, sign):
             return math.degrees(math.atan2(v3[1], v3[0])), math.degrees(math.atan2(v4[1], v4[0]))
 
 
+
+def fourbar_open_angles(t2, r1=60.0, r2=25.0, r3=70.0, r4=45.0):
+    """Open-mode (sin(θ4 − θ3) > 0) θ3, θ4 in radians of a four-bar grounded along x at crank angle ``t2``
+    (radians), by circle intersection; the defaults are the thesis crank-rocker's lengths."""
+    bx, by = r2 * math.cos(t2), r2 * math.sin(t2)
+    dx, dy = r1 - bx, -by
+    d = math.hypot(dx, dy)
+    a = (r3**2 - r4**2 + d**2) / (2 * d)
+    h = math.sqrt(r3**2 - a**2)
+    for sgn in (1, -1):
+        cx, cy = bx + a * dx / d - sgn * h * dy / d, by + a * dy / d + sgn * h * dx / d
+        t3, t4 = math.atan2(cy - by, cx - bx), math.atan2(cy, cx - r1)
+        if math.sin(t4 - t3) > 0:
+            return t3, t4
+    raise AssertionError("the loop does not close")
+
 # -- a second planted crank-rocker (ground pivots G2, G4) for five-pose Burmester synthesis
 G2 = np.array([-3.0, 5.0])
 

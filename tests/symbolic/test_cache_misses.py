@@ -26,25 +26,16 @@ from pathlib import Path
 import pytest
 
 import loopsolve as ls
+from support.models import fourbar_open_angles
 
 THESIS = ls.models_dir() / "thesis_crank_rocker.toml"
 PATHSYN = ls.models_dir() / "fourbar_path_synthesis.toml"
 TARGETS = "x,y\n1.247635,2.261923\n1.125070,2.556968\n0.759129,2.635152\n"
 
 
-def theta4_closed_form(t2_deg, r1=60.0, r2=25.0, r3=70.0, r4=45.0):
-    """The thesis four-bar's rocker angle (open mode), by circle intersection."""
-    t2 = math.radians(t2_deg)
-    bx, by = r2 * math.cos(t2), r2 * math.sin(t2)
-    dx, dy = r1 - bx, -by
-    d = math.hypot(dx, dy)
-    a = (r3 ** 2 - r4 ** 2 + d ** 2) / (2 * d)
-    h = math.sqrt(r3 ** 2 - a ** 2)
-    for sgn in (1, -1):
-        cx, cy = bx + a * dx / d - sgn * h * dy / d, by + a * dy / d + sgn * h * dx / d
-        t3, t4 = math.atan2(cy - by, cx - bx), math.atan2(cy, cx - r1)
-        if math.sin(t4 - t3) > 0:
-            return math.degrees(t4)
+def theta4_closed_form(t2_deg):
+    """The thesis four-bar's rocker angle (open mode, degrees), by circle intersection."""
+    return math.degrees(fourbar_open_angles(math.radians(t2_deg))[1])
 
 
 def run(cache: Path, *args, cwd: Path):
