@@ -22,6 +22,7 @@ import warnings
 from pathlib import Path
 
 from ..errors import LoopsolveError
+from ..kinematics.numba_engine.jit import AUTO_ROWS
 from .cams import _cam_parser
 from .common import (EXIT_OK, EXIT_SOLVE, EXIT_USAGE, _INPUTS, _check_output, _load, _one_line, _output, _Parser,
                      _rate_args, _render, _text_output, _write)
@@ -99,7 +100,8 @@ def build_parser() -> argparse.ArgumentParser:
                    "from a coarse tracked pass (same results); auto: batched for dense grids (default)")
     p.add_argument("--engine", choices=("python", "numba", "auto"), default=None,
                    help="who takes the tracer's regular steps: python, or numba (the compiled fast lane, needs "
-                   "the fast extra; auto: numba when installed); default $LOOPSOLVE_ENGINE, else python")
+                   f"the fast extra); auto: numba once it pays (installed, the model covered, and {AUTO_ROWS} rows or "
+                   "more asked for); default $LOOPSOLVE_ENGINE, else auto")
     p.add_argument("--format", choices=("table", "csv", "json"), default="table")
     _text_output(p)
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
