@@ -22,6 +22,7 @@ import warnings
 from pathlib import Path
 
 from ..errors import LoopsolveError
+from ..kinematics.numba_engine.jit import AUTO_ROWS
 from .cams import add_cam_parser
 from .common import (EXIT_OK, EXIT_SOLVE, EXIT_USAGE, INPUTS, Parser, add_rate_args, add_text_output, check_writable,
                      load_model, one_line, render, temporary_output, write_output)
@@ -99,7 +100,8 @@ def build_parser() -> argparse.ArgumentParser:
                    "from a coarse tracked pass (same results); auto: batched for dense grids (default)")
     p.add_argument("--engine", choices=("python", "numba", "auto"), default=None,
                    help="who takes the tracer's regular steps: python, or numba (the compiled fast lane, needs "
-                   "the fast extra; auto: numba when installed); default $LOOPSOLVE_ENGINE, else python")
+                   f"the fast extra); auto: numba once it pays (installed, the model covered, and {AUTO_ROWS} rows or "
+                   "more asked for); default $LOOPSOLVE_ENGINE, else auto")
     p.add_argument("--format", choices=("table", "csv", "json"), default="table")
     add_text_output(p)
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bar")

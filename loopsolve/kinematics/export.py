@@ -52,8 +52,8 @@ def _chunks(sweep: Sweep, size: int = CHUNK):
         turns, last = turns_of(sweep.compiled, sweep.z[i:j], last)
         yield Sweep.from_arrays(sweep.compiled, sweep.z[i:j], sweep.z1[i:j], sweep.z2[i:j], sweep.z3[i:j],
                                 modes=sweep.modes[i:j], residual=sweep.residual[i:j], n_iter=sweep.n_iter[i:j],
-                                cond=sweep.cond[i:j], mode=sweep.mode, method=sweep.method, copy=False,
-                                turns=turns)
+                                cond=sweep.cond[i:j], mode=sweep.mode, method=sweep.method, engine=sweep.engine,
+                                copy=False, turns=turns)
 
 
 def _keys(obj) -> list[str]:

@@ -390,6 +390,8 @@ class Sweep:
         The assembly mode at the start (a signature such as ``"-"``).
     method : str, optional
         How the rows were solved (``"tracked"``, ``"closed-form"``...).
+    engine : str, optional
+        Who took the tracer's regular steps: ``"python"`` or ``"numba"``.
 
     Attributes
     ----------
@@ -414,6 +416,9 @@ class Sweep:
         The starting mode.
     method : str
         How the points were solved.
+    engine : str
+        Who took the tracer's regular steps (``"python"``, ``"numba"``; see ``engine=`` of
+        :func:`loopsolve.sweep`).
     compiled : CompiledKinematics
         The compiled mechanism.
 
@@ -429,10 +434,11 @@ class Sweep:
     (5, '-', (5, 3))
     """
 
-    __slots__ = ("compiled", "events", "mode", "method", "z", "z1", "z2", "z3", "modes", "residual", "n_iter",
-                 "cond", "_cache")
+    __slots__ = ("compiled", "events", "mode", "method", "engine", "z", "z1", "z2", "z3", "modes", "residual",
+                 "n_iter", "cond", "_cache")
 
-    def __init__(self, compiled, states=(), events=(), mode: str = "", *, method: str = "tracked"):
+    def __init__(self, compiled, states=(), events=(), mode: str = "", *, method: str = "tracked",
+                 engine: str = "python"):
         states = tuple(states)
         nv = len(compiled.variables)
         if states:
@@ -442,12 +448,13 @@ class Sweep:
         self._init(compiled, *arrs, tuple(s.mode for s in states),
                    np.array([s.residual for s in states], dtype=float),
                    np.array([s.n_iter for s in states], dtype=int),
-                   np.array([s.cond for s in states], dtype=float), tuple(events), mode, method)
+                   np.array([s.cond for s in states], dtype=float), tuple(events), mode, method, engine)
         if states:
             self._cache["states"] = states
             self._cache["points"] = np.array([s.points for s in states], dtype=float)
 
-    def _init(self, compiled, z, z1, z2, z3, modes, residual, n_iter, cond, events, mode, method, copy=True):
+    def _init(self, compiled, z, z1, z2, z3, modes, residual, n_iter, cond, events, mode, method, engine="python",
+              copy=True):
         put = object.__setattr__
         put(self, "compiled", compiled)
         for name, a in (("z", z), ("z1", z1), ("z2", z2), ("z3", z3), ("residual", residual),
@@ -459,11 +466,13 @@ class Sweep:
         put(self, "events", tuple(events))
         put(self, "mode", mode)
         put(self, "method", method)
+        put(self, "engine", engine)
         put(self, "_cache", {})
 
     @classmethod
     def from_arrays(cls, compiled, z, z1, z2, z3, *, modes, residual=None, n_iter=None, cond=None, events=(),
-                    mode: str = "", method: str = "tracked", copy: bool = True, turns=None) -> "Sweep":
+                    mode: str = "", method: str = "tracked", engine: str = "python", copy: bool = True,
+                    turns=None) -> "Sweep":
         """A sweep from ``(N, nvar)`` arrays of positions and rates (internal units).
 
         ``copy=False`` takes the arrays as they are (the caller hands them over and must not
@@ -476,7 +485,7 @@ class Sweep:
         self._init(compiled, z, z1, z2, z3, modes,
                    np.zeros(n) if residual is None else residual,
                    np.zeros(n, dtype=int) if n_iter is None else n_iter,
-                   np.ones(n) if cond is None else cond, events, mode, method, copy)
+                   np.ones(n) if cond is None else cond, events, mode, method, engine, copy)
         if turns is not None:
             t = np.array(turns, dtype=np.int64).reshape(n, len(compiled.variables))
             t.setflags(write=False)

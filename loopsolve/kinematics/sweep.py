@@ -285,8 +285,12 @@ def sweep(mech, start, stop, step, *, speed=None, accel=None, jerk=None, input: 
         the positions there, NaN rates), so that plotted branches meet at their fold.
     engine : {"python", "numba", "auto"}, optional
         Who takes the tracer's regular natural steps: Python, or the compiled fast lane
-        (:mod:`loopsolve.kinematics.numba_engine.steps`, needs the ``fast`` extra: numba); ``"auto"`` is numba when
-        installed. Default: ``$LOOPSOLVE_ENGINE``, else ``"python"``. The rows agree to round-off.
+        (:mod:`loopsolve.kinematics.numba_engine.steps`, needs the ``fast`` extra: numba).
+        ``"auto"``, the default (else ``$LOOPSOLVE_ENGINE``), is numba once it pays: numba
+        installed, the model covered, and this process's sweeps past
+        :data:`~loopsolve.kinematics.numba_engine.jit.AUTO_ROWS` rows (see
+        :func:`~loopsolve.kinematics.numba_engine.jit.engine_for`). The rows agree to round-off;
+        :attr:`Sweep.engine` says which ran.
 
     Returns
     -------
@@ -326,14 +330,15 @@ def sweep(mech, start, stop, step, *, speed=None, accel=None, jerk=None, input: 
     settings = Newton() if settings is None else settings
     if derivatives not in (1, 2, 3):
         raise ModelError(f"derivatives={derivatives!r}: expected 1 (velocities), 2 (accelerations) or 3 (jerks)")
-    fast = numba_jit.use_numba(engine)
     ck = compiled if compiled is not None else mech.compile(input)
     x0, x1, h, kind, deg = _parse_range(ck, start, stop, step)
     g = _make_grid(x0, x1, h, kind, through_limits, deg, max_rows=max_rows)
     x0 = g.value(0)  # start exactly on the first grid value (the two may differ by an ulp)
     rates = input_rates(ck, speed, accel, jerk)
     kern = kernel_of(ck)
-    lane = numba_jit.fast_lane(kern, lazy=method != "batched") if fast else None
+    n_grid = g.kmax - g.kmin + 1
+    ran = numba_jit.engine_for(engine, kern, n_grid)
+    lane = numba_jit.fast_lane(kern, lazy=method != "batched") if ran == "numba" else None
     started = lane.start(x0, mode=mode, guess=guess, settings=settings) if lane is not None else None
     z0, _, _ = started or start_position(ck, x0, mode=mode, guess=guess, settings=settings)
     d = 1.0 if g.step > 0 else -1.0
@@ -343,7 +348,6 @@ def sweep(mech, start, stop, step, *, speed=None, accel=None, jerk=None, input: 
 
         if not modes_at(ck, x0):  # Newton found a near-solution beyond the limit: not assemblable
             raise assembly_failure(ck, x0, AssemblyError("beyond a limit position"))
-    n_grid = g.kmax - g.kmin + 1
     use_batch = method == "batched" or (method == "auto" and n_grid >= AUTO_BATCH)
     bar = _progress(n_grid, progress)
     if use_batch:  # a denser coarse pass keeps the cubic warm start at ~1e-9
@@ -422,7 +426,7 @@ def sweep(mech, start, stop, step, *, speed=None, accel=None, jerk=None, input: 
         check_gears(ck, Z, [display_value(ck, x) for x in Z[ix]])
     return Sweep.from_arrays(ck, Z.T, Z1.T, Z2.T, Z3.T, modes=modes, residual=res, n_iter=its,
                              cond=cond, events=tuple(events), mode=first.sig,
-                             method="batched" if use_batch else "tracked", copy=False)
+                             method="batched" if use_batch else "tracked", engine=ran, copy=False)
 
 
 def _insert_limit_rows(ck, path, sol, key, rates, Z, Z1, Z2, Z3, cond, code, res, its):

@@ -20,14 +20,19 @@ others. Otherwise the module is compiled in memory (no disk cache) with one
 :class:`~loopsolve.errors.LoopsolveWarning` naming the reason.
 
 Engines (``engine=`` of :func:`loopsolve.sweep.sweep`, ``--engine`` of the CLI, default from
-the ``LOOPSOLVE_ENGINE`` environment variable, else ``"python"``):
+the ``LOOPSOLVE_ENGINE`` environment variable, else ``"auto"``):
 
 ``"python"``
     the pure-Python tracer (no numba import);
 ``"numba"``
     the fast lane; :class:`~loopsolve.errors.MissingDependencyError` when numba is not installed;
-``"auto"``
-    the fast lane when numba is installed, else Python.
+``"auto"`` (the default)
+    the fast lane once it pays: when numba is installed, the model has a fast lane, and the sweeps
+    of this process (this one included) have asked for at least :data:`AUTO_ROWS` rows. Below
+    that the Python tracer is cheaper than importing numba and loading a compiled model (about
+    1 s in a fresh process, the machine code cached on disk), so a one-off command-line sweep
+    never imports numba, and a program that sweeps a lot switches once and stays switched.
+    See :func:`engine_for`.
 """
 
 from __future__ import annotations
@@ -43,7 +48,7 @@ from types import ModuleType
 
 from ...errors import MissingDependencyError, ModelError
 
-__all__ = ["ENGINES", "use_numba", "fast_lane", "numba_source"]
+__all__ = ["ENGINES", "AUTO_ROWS", "use_numba", "engine_for", "has_lane", "fast_lane", "numba_source"]
 
 ENGINES = ("python", "numba", "auto")
 FORMAT = 4  # bump when the generated numba module or its compile options change
@@ -55,13 +60,33 @@ _BY_MODULE: dict[int, tuple[ModuleType, ModuleType]] = {}
 _MODEL_FUNCTIONS = ("phi", "jac", "rhs1", "rhs2", "rhs3")
 #: the generated tuple helpers (inlined)
 _HELPERS = ("ztuple", "zset", "rvec")
+#: ``"auto"`` takes the fast lane once the process's sweeps have asked for this many rows: the
+#: break-even of importing numba and loading a cached compiled model (~1 s in a fresh process on
+#: the shared 2-core machine: ``import numba`` 0.4 s, the model 0.2–0.6 s) against the Python
+#: tracer's 20–60 µs a row (a 361-row cycle of the thesis crank-rocker: 10–21 ms). Measured by
+#: ``benchmarks/bench_engine_default.py``.
+AUTO_ROWS = 20_000
+#: rows the process's ``"auto"`` sweeps asked for so far (guarded by _LOCK)
+_AUTO_SEEN = [0]
+
+
+def _engine_name(engine: str | None) -> tuple[str, str]:
+    """``engine``, or ``$LOOPSOLVE_ENGINE``, else ``"auto"``, checked; and where it came from."""
+    src = "engine"
+    if engine is None:
+        engine = os.environ.get("LOOPSOLVE_ENGINE") or "auto"
+        src = "LOOPSOLVE_ENGINE"
+    if engine not in ENGINES:
+        raise ModelError(f"{src}={engine!r}: expected one of {', '.join(ENGINES)}")
+    return engine, src
 
 
 def use_numba(engine: str | None) -> bool:
-    """Whether ``engine`` (None: ``$LOOPSOLVE_ENGINE``, else ``"python"``) selects the compiled fast lane.
+    """Whether ``engine`` (None: ``$LOOPSOLVE_ENGINE``, else ``"auto"``) can take the compiled fast lane.
 
-    Raises :class:`MissingDependencyError` for ``"numba"`` without numba installed, and
-    :class:`ModelError` for an unknown engine name.
+    ``"numba"`` and ``"auto"`` with numba installed and importable; which engine a sweep then
+    runs is :func:`engine_for`'s choice. Raises :class:`MissingDependencyError` for ``"numba"``
+    without numba installed, and :class:`ModelError` for an unknown engine name.
 
     Examples
     --------
@@ -73,12 +98,7 @@ def use_numba(engine: str | None) -> bool:
     ...
     loopsolve.errors.ModelError: engine='cuda': expected one of python, numba, auto
     """
-    src = "engine"
-    if engine is None:
-        engine = os.environ.get("LOOPSOLVE_ENGINE") or "python"
-        src = "LOOPSOLVE_ENGINE"
-    if engine not in ENGINES:
-        raise ModelError(f"{src}={engine!r}: expected one of {', '.join(ENGINES)}")
+    engine, src = _engine_name(engine)
     if engine == "python":
         return False
     installed = importlib.util.find_spec("numba") is not None
@@ -95,6 +115,46 @@ def use_numba(engine: str | None) -> bool:
         raise MissingDependencyError(f"{src}='numba': numba is installed but does not import "
                                      f"({type(exc).__name__}: {exc}); use engine='python'") from None
     return True
+
+
+def has_lane(kern) -> bool:
+    """Whether the model of a :class:`~loopsolve.kinematics.scalar_solver.Kernel` has a compiled fast lane
+    (one 2×2 block: four-bars and other one-loop models with two unknowns)."""
+    return bool(kern.single2)
+
+
+def engine_for(engine: str | None, kern, rows: int) -> str:
+    """The engine a sweep of ``rows`` output rows of ``kern``'s model runs: ``"numba"`` or ``"python"``.
+
+    ``engine`` as :func:`use_numba` reads it. ``"python"``, or a model without a fast lane
+    (:func:`has_lane`): Python. ``"numba"``: numba (the error of :func:`use_numba` without it).
+    ``"auto"`` (the default): numba when installed and the ``"auto"`` sweeps of this process, this
+    one included, have asked for :data:`AUTO_ROWS` rows or more — a rent-or-buy rule: the Python
+    tracer runs while its total cost is below the one-off cost of numba's import and the compiled
+    model's load, then the compiled lane for the rest of the process. So a one-off command line of
+    a few hundred rows never imports numba; a sweep of more rows, or a program that sweeps many
+    times, does. The rows of both engines agree to round-off.
+
+    Examples
+    --------
+    >>> from loopsolve.kinematics.numba_engine.jit import engine_for
+    >>> from loopsolve.kinematics.scalar_solver import kernel_of
+    >>> kern = kernel_of(ls.fourbar(4, 2, 3.5, 3).compile())
+    >>> engine_for("python", kern, 10**6)
+    'python'
+    """
+    name, _ = _engine_name(engine)
+    if name == "python":
+        return "python"
+    if name == "numba":
+        use_numba(name)  # the one-line error without numba
+        return "numba" if has_lane(kern) else "python"
+    if not has_lane(kern) or importlib.util.find_spec("numba") is None:  # no import: a cheap look
+        return "python"
+    with _LOCK:
+        _AUTO_SEEN[0] += int(rows)
+        worth = _AUTO_SEEN[0] >= AUTO_ROWS
+    return "numba" if worth and use_numba(name) else "python"
 
 
 def _model_function(source: str, name: str) -> str:
@@ -284,7 +344,7 @@ def _numba_module(ck) -> ModuleType:
 def fast_lane(kern, *, lazy: bool = False):
     """The compiled fast lane of a :class:`~loopsolve.kinematics.scalar_solver.Kernel`, or None where it has none
     (more than one block or a block larger than 2×2: the tracer then runs in Python)."""
-    if not kern.single2:
+    if not has_lane(kern):
         return None
     from .steps import FastLane
 
