@@ -309,6 +309,8 @@ def test_assembly_failures_are_typed_when_an_unknown_drives(model):
         # fails, it says so with AssemblyError naming the input value
         i = ck.input_idx[0]
         k = angle_factor(mech.units.angle) if ck.kinds[i] is Kind.ANGLE else 1.0
+        # (the first AssemblyError is enough: each costs a search for the nearest assemblable inputs,
+        # seconds on a cam model whose follower block has no closed form)
         raised = 0
         for x in missing[:: max(1, len(missing) // 6)]:
             try:
@@ -316,7 +318,7 @@ def test_assembly_failures_are_typed_when_an_unknown_drives(model):
             except ls.AssemblyError as exc:
                 assert exc.input_value == pytest.approx(x / k)
                 raised += 1
-                continue
+                break
             assert state.input_value == pytest.approx(x / k)
             assert np.max(np.abs(ck.phi(np.asarray(state.z, dtype=float)))) <= 1e-9 * ck.scale
         if raised:
