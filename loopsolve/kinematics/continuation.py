@@ -56,7 +56,8 @@ import numpy as np
 from .rows import RowSolution, fill_node_rows, solve_rows_scalar  # noqa: F401  (kinematics/rows.py; public here before)
 from ..errors import SingularPositionError
 from .scalar_solver import ROUNDOFF as _ROUNDOFF
-from .scalar_solver import Kernel, rho_2x3
+from .scalar_solver import Kernel
+from .stepgen import python_step
 from .results import Event, EventKind
 from .solve import input_unit, display_value
 
@@ -164,6 +165,9 @@ class Tracer:
         self.near = NEAR_SINGULAR  # regularity below which a node is refused (see trace)
         self.cos_turn = math.cos(control.max_turn)
         self.cos_grow = math.cos(control.max_turn / 3)
+        self.step = python_step(kern)  # the generated natural step (loopsolve.kinematics.stepgen), or None
+        self.step_f = getattr(kern, "_step_config", None)
+        self.sigs = getattr(kern, "_sigs", None)
         self.fast = None  # compiled fast lane of regular natural steps (loopsolve.kinematics.numba_engine.steps), or None
 
     # ------------------------------------------------------------------ helpers
@@ -222,9 +226,39 @@ class Tracer:
         return target, gidx, at_bound
 
     def _natural_step(self, a: Node, a_prev: Node | None, h: float, land: bool = True):
+        """A natural step from ``a`` (``a_prev``: the previous natural node) of length ``h``, landing on
+        the next grid value within reach when ``land``. Returns ``(node or None, at_bound)``.
+
+        The step itself is generated for the model's block structure (:mod:`loopsolve.kinematics.stepgen`):
+        the same text that the ``numba`` engine compiles. Structures with a block larger than 2×2 take
+        :meth:`_natural_step_general`.
+        """
         k = self.k
-        if k.single2:
-            return self._natural_step_2x2(a, a_prev, h, land)
+        step = self.step
+        if step is None:
+            return self._natural_step_general(a, a_prev, h, land)
+        n = k.n
+        at = a.t
+        tx = at[n]
+        az = a.z
+        xa = az[k.ix]
+        target, gidx, at_bound = self._natural_target(xa, 1.0 if tx > 0 else -1.0, h * abs(tx) / k.wx, land)
+        if target - xa == 0:
+            return None, at_bound
+        if a_prev is not None and a_prev.sig == a.sig and abs(a_prev.t[n]) > 0.1:
+            ok, it, res, rho, mask, t, J = step(az, at, True, a_prev.t, a_prev.z[k.ix], target, self.near, k.p, k.ex,
+                                                self.step_f, self.c.max_iter, z := list(az))
+        else:
+            ok, it, res, rho, mask, t, J = step(az, at, False, at, 0.0, target, self.near, k.p, k.ex, self.step_f,
+                                                self.c.max_iter, z := list(az))
+        if not ok:
+            return None, at_bound
+        return Node(z, list(t), self.sigs[mask], grid=gidx, residual=res, n_iter=it, J=list(J), rho=rho), at_bound
+
+    def _natural_step_general(self, a: Node, a_prev: Node | None, h: float, land: bool = True):
+        """:meth:`_natural_step` of a structure with a block larger than 2×2 (no generated step):
+        the same predictor and checks on the kernel's general block solves."""
+        k = self.k
         n = k.n
         d = 1.0 if a.t[n] > 0 else -1.0
         xa = a.z[k.ix]
@@ -260,86 +294,6 @@ class Tracer:
         corr = max(abs(p - q) for p, q in zip(pred, y))
         if corr > 0.25 * step_len + 1e-12:
             return None, at_bound
-        return node, at_bound
-
-    def _natural_step_2x2(self, a: Node, a_prev: Node | None, h: float, land: bool = True):
-        """:meth:`_natural_step` written out for one 2×2 block (four-bars and the like): same
-        predictor, corrector, checks and node, on plain floats."""
-        k = self.k
-        i0, i1 = k.iu
-        ix = k.ix
-        w0, w1 = k.wu
-        wx = k.wx
-        t0, t1, tx = a.t
-        d = 1.0 if tx > 0 else -1.0
-        az = a.z
-        xa = az[ix]
-        target, gidx, at_bound = self._natural_target(xa, d, h * abs(tx) / wx, land)
-        delta = target - xa
-        if delta == 0:
-            return None, at_bound
-        r = wx / tx
-        du0, du1 = t0 / w0 * r, t1 / w1 * r
-        p0 = az[i0] + delta * du0
-        p1 = az[i1] + delta * du1
-        if a_prev is not None and a_prev.sig == a.sig and abs(a_prev.t[2]) > 0.1:
-            xp = a_prev.z[ix]
-            if (xa - xp) * d > 0:
-                q0, q1, qx = a_prev.t
-                rq = wx / qx
-                c = 0.5 * delta * delta / (xa - xp)
-                p0 += c * (du0 - q0 / w0 * rq)
-                p1 += c * (du1 - q1 / w1 * rq)
-        z = list(az)
-        z[ix] = target
-        z[i0] = p0
-        z[i1] = p1
-        phi, jac, p = k.phi_f, k.jac_f, k.p
-        tiny = _ROUNDOFF * (1.0 + abs(p0) * w0 + abs(p1) * w1)
-        prev = 0.0
-        f0, f1 = phi(z, p)
-        for it in range(1, self.c.max_iter + 1):
-            J = jac(z, p)
-            A, B, C, D = J
-            det = A * D - B * C
-            if det == 0:
-                return None, at_bound
-            s0 = (B * f1 - D * f0) / det
-            s1 = (C * f0 - A * f1) / det
-            z[i0] += s0
-            z[i1] += s1
-            st = max(abs(s0) * w0, abs(s1) * w1)
-            f0, f1 = phi(z, p)
-            if st <= tiny or (prev and st * (st / prev) ** 2 <= tiny):
-                break
-            if not st < math.inf:
-                return None, at_bound
-            prev = st
-        else:
-            return None, at_bound
-        res = max(abs(f0), abs(f1))
-        if not res <= k.tol:
-            return None, at_bound
-        # Φ_q from the last iteration: z moved by a round-off-sized correction since (the tangent
-        # and the mode need no better; the rates are computed afresh at every row)
-        cs0, cs1 = 1.0 / w0, 1.0 / w1
-        nr = 0.5 * ((A * A + C * C) * cs0 * cs0 + (B * B + D * D) * cs1 * cs1)
-        if not abs(det) * cs0 * cs1 >= self.near * nr:
-            return None, at_bound
-        b0, b1 = k.rhs1_f(z, k.ex, p)
-        n0 = (D * b0 - B * b1) / det * w0 * d
-        n1 = (A * b1 - C * b0) / det * w1 * d
-        nx = wx * d
-        nrm = math.sqrt(n0 * n0 + n1 * n1 + nx * nx)
-        t = [n0 / nrm, n1 / nrm, nx / nrm]
-        u0, u1 = z[i0], z[i1]
-        corr = max(abs(u0 - p0) * w0, abs(u1 - p1) * w1)
-        step_len = math.sqrt(((u0 - az[i0]) * w0) ** 2 + ((u1 - az[i1]) * w1) ** 2 + (delta * wx) ** 2)
-        if corr > 0.25 * step_len + 1e-12:
-            return None, at_bound
-        node = Node(z, t, "+" if det > 0 else "-", residual=res, n_iter=it, J=J,
-                    rho=rho_2x3(A * cs0, B * cs1, -b0 / wx, C * cs0, D * cs1, -b1 / wx))  # = Kernel.rho
-        node.grid = gidx
         return node, at_bound
 
     def _arc_step(self, a: Node, h: float):

@@ -30,6 +30,7 @@ from loopsolve.errors import LoopsolveWarning, MissingDependencyError
 from loopsolve.kinematics.scalar_solver import Kernel, rho_2x3
 from loopsolve.kinematics.modes import assembly_modes
 from loopsolve.kinematics.sweep import Grid, default_range
+from loopsolve.kinematics.continuation import Tracer
 
 numba = pytest.importorskip("numba")
 
@@ -85,6 +86,7 @@ def test_engines_agree_on_every_shipped_model_every_mode_through_limits(path, sp
     step = 2.0 if angle else (stop - start) / 90
     modes = assembly_modes(mech, at=start, compiled=ck)
     assert modes
+    swept = 0
     for m in modes:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", LoopsolveWarning)
@@ -92,10 +94,138 @@ def test_engines_agree_on_every_shipped_model_every_mode_through_limits(path, sp
                 _agree(mech, start, stop, step, mode=m.signature, through_limits=True, compiled=ck)
             except ls.SingularPositionError:
                 continue  # a start on a limit in this mode: both engines refuse alike (checked below)
-    if not kern.single2:
-        assert spy["nodes"] == 0  # no fast lane for several blocks: the Python tracer
-    elif path.stem.startswith("thesis"):
+        swept += 1
+    # every shipped structure (1×1 and 2×2 blocks in any solve order) has a compiled lane (a double rocker
+    # may never take a regular natural step: its range is arclength steps round its limits)
+    assert jit.fast_lane(kern) is not None
+    if path.stem.startswith(("thesis", "watt", "stephenson", "example1")) and swept:
         assert spy["nodes"] > 0  # the fast lane took the regular steps
+
+
+@pytest.mark.parametrize("path", MODELS, ids=lambda p: p.stem)
+def test_engines_agree_on_the_located_limits_of_every_shipped_model(path):
+    """With the limit positions as rows (``limit_rows``): the rows at the located limits, their inputs
+    and the events agree to round-off, in every mode, around the limits."""
+    mech = ls.load(path)
+    ck = mech.compile()
+    start, stop, _ = default_range(ck, 5.0)
+    step = 2.0 if Kernel(ck).angle_x else (stop - start) / 90
+    for m in assembly_modes(mech, at=start, compiled=ck):
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", LoopsolveWarning)
+            try:
+                py, nb = _agree(mech, start, stop, step, mode=m.signature, through_limits=True, limit_rows=True,
+                                compiled=ck)
+            except ls.SingularPositionError:
+                continue
+        for e, f in zip(nb.events, py.events):
+            assert abs(e.input - f.input) <= 1e-12 * (1 + abs(f.input)), (e, f)
+
+
+def _count_steps(monkeypatch):
+    """The lanes the sweeps build, and the natural steps the Python tracer takes itself."""
+    lanes, python_steps = [], [0]
+    real = jit.fast_lane
+
+    def lane(kern, **kw):
+        fl = real(kern, **kw)
+        lanes.append(fl)
+        return fl
+
+    monkeypatch.setattr(jit, "fast_lane", lane)
+    natural = Tracer._natural_step
+
+    def counted(self, *a, **kw):
+        python_steps[0] += 1
+        return natural(self, *a, **kw)
+
+    monkeypatch.setattr(Tracer, "_natural_step", counted)
+    return lanes, python_steps
+
+
+@pytest.mark.parametrize("stem, blocks", [("example1_slider_crank", [1, 1]), ("watt1_sixbar", [2, 2]),
+                                          ("stephenson3_sixbar", [2, 2]), ("whitworth_quick_return", [2, 1, 1]),
+                                          ("thesis_crank_rocker_diagram", [2])])
+def test_slider_cranks_six_bars_and_diagrams_take_compiled_steps(stem, blocks, monkeypatch):
+    """engine="numba" on several blocks in solve order: the compiled lane takes (nearly) every natural
+    step of a full turn — the Python tracer only the few that are not regular — and the rows are the
+    Python engine's."""
+    mech = ls.load(ls.models_dir() / f"{stem}.toml")
+    ck = mech.compile()
+    assert [len(c) for _, c in Kernel(ck).blocks] == blocks
+    start, stop, _ = default_range(ck, 5.0)
+    lanes, python_steps = _count_steps(monkeypatch)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", LoopsolveWarning)
+        nb = mech.sweep(start, stop, 1.0, engine="numba", method="tracked", progress=False, compiled=ck)
+        lane_py = python_steps[0]
+        py = mech.sweep(start, stop, 1.0, engine="python", method="tracked", progress=False, compiled=ck)
+    assert len(lanes) == 1 and lanes[0] is not None
+    assert lanes[0].steps >= len(nb) - 1 - lane_py  # every row but the start came from a step, most compiled
+    assert lanes[0].steps >= 20 * max(lane_py, 1)
+    assert python_steps[0] - lane_py >= len(py) - 1  # the Python engine took its steps itself
+    assert _close(nb.z, py.z) <= 1e-12 and _close(nb.z1, py.z1) <= 1e-12
+
+
+def test_the_python_and_numba_steps_are_one_source():
+    """The two flavors of a generated step are the same text but for how the point reaches the model's
+    functions (and the numba flavor's fused rates), for every shipped structure; the Python tracer runs
+    the generated function and the numba module holds the same step."""
+    from loopsolve.kinematics import stepgen
+
+    def core(src):
+        drop = ("zset(", "zt = bz", "orow", "rr[3]", "def natural_step(")
+        return [ln for ln in src.splitlines()
+                if not any(d in ln for d in drop) and not (ln.strip().startswith("bz[") and "= u" in ln)]
+
+    seen = set()
+    for path in MODELS:
+        ck = ls.load(path).compile()
+        kern = Kernel(ck)
+        key = stepgen.structure(kern)
+        if key in seen:
+            continue
+        seen.add(key)
+        py_src, nb_src = stepgen.step_source(kern, "python"), stepgen.step_source(kern, "numba")
+        assert core(py_src) == core(nb_src), path.stem
+        assert nb_src in jit.numba_source(ck)
+        tracer = Tracer(kern, Grid(0.0, 0.01, 0, 10, 0.0, 0.1, None), ls.StepControl(), land=True,
+                        through_limits=False, x_start=0.0)
+        assert tracer.step.__code__.co_filename.startswith("<loopsolve natural step")
+    assert len(seen) >= 6  # 2×2; 1×1 + 1×1; 2×2 + 2×2; 2×2 + 1×1 + 1×1; 1×1 ×3; 1×1 + 2×2 ...
+
+
+def test_rho_rows_is_the_singular_value_ratio():
+    """The generated steps' separation ratio (one-sided Jacobi) against numpy's SVD, and rho_2x3 for n = 2."""
+    from loopsolve.kinematics.stepgen import rho_rows
+
+    rng = np.random.default_rng(11)
+    for n in (1, 2, 3, 4, 5):
+        for _ in range(60):
+            a = rng.normal(size=(n, n + 1)) * rng.choice([1e-3, 1.0, 1e5])
+            sv = np.linalg.svd(a, compute_uv=False)
+            assert abs(rho_rows(tuple(a.ravel()), n) - sv[-1] / sv[0]) <= 1e-12
+            if n == 2:
+                assert abs(rho_rows(tuple(a.ravel()), 2) - rho_2x3(*a.ravel())) <= 1e-12
+    a = rng.normal(size=(4, 5))
+    a[3] = 2 * a[1] - a[0]  # rank 3: the ratio is 0 to round-off
+    assert rho_rows(tuple(a.ravel()), 4) < 1e-14
+    assert rho_rows((0.0,) * 12, 3) == 0.0 and rho_rows((1.0, math.inf, 0.0, 1.0, 2.0, 3.0), 2) == 0.0
+
+
+def test_a_block_larger_than_2x2_has_no_generated_step_nor_lane():
+    from types import SimpleNamespace
+
+    from loopsolve.kinematics import stepgen
+
+    big = SimpleNamespace(n=3, blocks=[((0, 1, 2), (0, 1, 2))], single2=False)
+    assert not stepgen.supported(big) and jit.fast_lane(big) is None
+    with pytest.raises(ValueError, match="larger than 2"):
+        stepgen.step_source(big)
+    assert stepgen.supported(SimpleNamespace(n=3, blocks=[((2,), (0,)), ((0, 1), (1, 2))], single2=False))
+    # a fan of many four-bars: 2×2 blocks, but more unknowns than a generated step writes out
+    fan = SimpleNamespace(n=2 * 40, blocks=[((2 * i, 2 * i + 1), (2 * i, 2 * i + 1)) for i in range(40)], single2=False)
+    assert not stepgen.supported(fan) and jit.fast_lane(fan) is None
 
 
 def test_fast_lane_hands_folds_back_and_resumes(spy):
@@ -257,7 +387,7 @@ class TestNumbaCache:
         os.chmod(cache, 0o700)
         os.chmod(pyc, 0o700)
         (tmp_path / "evil").write_bytes(b"not numba")
-        link = pyc / f"{stem}.run2-1.py311.nbi"
+        link = pyc / f"{stem}.run_steps-1.py311.nbi"
         os.symlink(tmp_path / "evil", link)
         with pytest.raises(compiled.Untrusted, match="not a regular file"):  # a planted symlink
             jit._check_pycache(cache, stem)

@@ -1,8 +1,10 @@
 """The ``numba`` engine: the generated kinematics and the tracer's fast lane compiled to machine code.
 
 :func:`fast_lane` takes the scalar functions Φ, Φ_q and b₁–b₃ that :mod:`loopsolve.symbolic.compiled`
-generated for a model (plain ``math`` code), rewrites them to return tuples, appends the fast
-lane's step loop (:mod:`loopsolve.kinematics.numba_engine.steps`) and compiles the module with
+generated for a model (plain ``math`` code), rewrites them to return tuples, appends the natural
+step generated for the model's block structure (:func:`loopsolve.kinematics.stepgen.step_source`,
+the text the Python tracer runs; every structure of 1×1 and 2×2 blocks, see :func:`fast_lane`) and
+the fast lane's step loop (:mod:`loopsolve.kinematics.numba_engine.steps`) and compiles the module with
 ``numba.njit(cache=True)``. The module is written to the loopsolve cache directory as
 ``nb_<hash>.py`` (the hash of its text), and numba keeps the machine code next to it in
 ``__pycache__``, so a model compiled once is loaded in later processes without the JIT.
@@ -51,7 +53,7 @@ from ...errors import MissingDependencyError, ModelError
 __all__ = ["ENGINES", "AUTO_ROWS", "use_numba", "engine_for", "has_lane", "fast_lane", "numba_source"]
 
 ENGINES = ("python", "numba", "auto")
-FORMAT = 4  # bump when the generated numba module or its compile options change
+FORMAT = 5  # bump when the generated numba module or its compile options change
 _MEMO: dict[str, ModuleType] = {}
 _LOCK = threading.Lock()
 #: the numba module of each generated kinematics module (held with it: ids are not reused)
@@ -60,6 +62,9 @@ _BY_MODULE: dict[int, tuple[ModuleType, ModuleType]] = {}
 _MODEL_FUNCTIONS = ("phi", "jac", "rhs1", "rhs2", "rhs3")
 #: the generated tuple helpers (inlined)
 _HELPERS = ("ztuple", "zset", "rvec")
+#: the generated functions of the model's structure (compiled, not inlined)
+_GENERATED = ("start_rates", "natural_step")
+
 #: ``"auto"`` takes the fast lane once the process's sweeps have asked for this many rows: the
 #: break-even of importing numba and loading a cached compiled model (~1 s in a fresh process on
 #: the shared 2-core machine: ``import numba`` 0.4 s, the model 0.2–0.6 s) against the Python
@@ -119,8 +124,10 @@ def use_numba(engine: str | None) -> bool:
 
 def has_lane(kern) -> bool:
     """Whether the model of a :class:`~loopsolve.kinematics.scalar_solver.Kernel` has a compiled fast lane
-    (one 2×2 block: four-bars and other one-loop models with two unknowns)."""
-    return bool(kern.single2)
+    (its natural step is generated: every structure of 1×1 and 2×2 blocks, see :func:`fast_lane`)."""
+    from ..stepgen import supported
+
+    return supported(kern)
 
 
 def engine_for(engine: str | None, kern, rows: int) -> str:
@@ -171,30 +178,47 @@ def _model_function(source: str, name: str) -> str:
     return "\n".join(lines)
 
 
-def _tuple_helpers(nv: int, i0: int, i1: int, ix: int) -> str:
-    """Tuple helpers with the model's indices written in (compile-time constants; they are part of
-    the module's text, hence of its cache key): ``ztuple(z)``, a node's values; ``zset(z, u0, u1)``,
-    ``z`` with the unknowns replaced; ``rvec(rx, u0, u1)``, a rate vector (``rx`` at the input, the
-    unknowns' rates, 0 elsewhere). The compiled steps pass tuples, not arrays, to the model's
+def _tuple_helpers(nv: int, *indices: int) -> str:
+    """Tuple helpers with the model's indices written in (``indices``: the unknowns' in order, then the
+    input's; compile-time constants, part of the module's text, hence of its cache key): ``ztuple(z)``,
+    a node's values; ``zset(z, u0, u1, ...)``, ``z`` with the unknowns replaced; ``rvec(rx, u0, u1, ...)``,
+    a rate vector (``rx`` at the input, the unknowns' rates, 0 elsewhere). The compiled steps pass tuples, not arrays, to the model's
     functions: nothing in memory separates two calls at one point, so LLVM computes the sines and
     cosines they share once, and hoists those of the input (fixed during a corrector) out of its loop."""
+    *iu, ix = indices
+    at_u = {i: f"u{c}" for c, i in enumerate(iu)}
+    us = ", ".join(f"u{c}" for c in range(len(iu)))
+
     def entries(at):
         return ", ".join(at(i) for i in range(nv))
 
     def z_or(i):
-        return "u0" if i == i0 else "u1" if i == i1 else f"z[{i}]"
+        return at_u.get(i, f"z[{i}]")
 
     def r_or(i):
-        return "rx" if i == ix else "u0" if i == i0 else "u1" if i == i1 else "0.0"
+        return "rx" if i == ix else at_u.get(i, "0.0")
 
     return (f"def ztuple(z):\n    return ({entries(lambda i: f'z[{i}]')},)\n\n\n"
-            f"def zset(z, u0, u1):\n    return ({entries(z_or)},)\n\n\n"
-            f"def rvec(rx, u0, u1):\n    return ({entries(r_or)},)\n")
+            f"def zset(z, {us}):\n    return ({entries(z_or)},)\n\n\n"
+            f"def rvec(rx, {us}):\n    return ({entries(r_or)},)\n")
+
+
+def _start_rates(single2: bool) -> str:
+    """``start_rates(z, p, iv, rr, orr)``: the start node's rates in the step loop (a single 2×2 block)."""
+    if not single2:
+        return "def start_rates(z, p, iv, rr, orr):\n    return\n"
+    return ("def start_rates(z, p, iv, rr, orr):\n"
+            "    orr[0, 0], orr[0, 1], orr[0, 2], orr[0, 3], orr[0, 4], orr[0, 5], orr[0, 6] = node_rates(\n"
+            "        ztuple(z), p, iv[0], iv[1], iv[2], rr[0], rr[1], rr[2], rr[3], rr[4])\n")
 
 
 def numba_source(ck) -> str:
-    """Text of the numba module of ``ck``: its Φ, Φ_q, b₁ and the fast lane's template."""
+    """Text of the numba module of ``ck``: its Φ, Φ_q, b₁–b₃, the natural step generated for its block
+    structure (:func:`loopsolve.kinematics.stepgen.step_source`, the text the Python tracer runs) and
+    the fast lane's template."""
     from ... import __version__
+    from ..scalar_solver import kernel_of
+    from ..stepgen import step_source
     from .steps import template_source
 
     source = getattr(ck.module, "_SOURCE", None)
@@ -204,8 +228,10 @@ def numba_source(ck) -> str:
     parts = [f"# Generated by loopsolve {__version__} (numba engine, format {FORMAT}). Do not edit.",
              "import math", "import numpy as np", ""]
     parts += [_model_function(source, name) + "\n" for name in _MODEL_FUNCTIONS]
-    iu, ix = [int(i) for i in ck.unknown_idx], int(ck.input_idx[0])
-    parts.append(_tuple_helpers(len(ck.variables), iu[0] if len(iu) > 0 else -1, iu[1] if len(iu) > 1 else -1, ix))
+    kern = kernel_of(ck)
+    parts.append(_tuple_helpers(len(ck.variables), *kern.iu, kern.ix))
+    parts.append(_start_rates(bool(kern.single2)))
+    parts.append(step_source(kern, "numba"))
     parts.append(template_source())
     return "\n".join(parts) + "\n"
 
@@ -333,7 +359,7 @@ def _numba_module(ck) -> ModuleType:
     inlined = _MODEL_FUNCTIONS + _HELPERS + tuple(fn.__name__ for fn in TEMPLATE_INLINE)
     for name in inlined:
         setattr(module, name, _miss_on_error(inline(getattr(module, name))))
-    for name in tuple(fn.__name__ for fn in TEMPLATE_FUNCTIONS if fn.__name__ not in inlined):
+    for name in _GENERATED + tuple(fn.__name__ for fn in TEMPLATE_FUNCTIONS if fn.__name__ not in inlined):
         setattr(module, name, _miss_on_error(jit(getattr(module, name))))
     with _LOCK:
         _MEMO[key] = module
@@ -342,12 +368,20 @@ def _numba_module(ck) -> ModuleType:
 
 
 def fast_lane(kern, *, lazy: bool = False):
-    """The compiled fast lane of a :class:`~loopsolve.kinematics.scalar_solver.Kernel`, or None where it has none
-    (more than one block or a block larger than 2×2: the tracer then runs in Python)."""
-    if not has_lane(kern):
-        return None
+    """The compiled fast lane of a :class:`~loopsolve.kinematics.scalar_solver.Kernel`, or None where it has none.
+
+    Every structure of 1×1 and 2×2 diagonal blocks in solve order has one (the natural step generated
+    for it, :mod:`loopsolve.kinematics.stepgen`) up to ``stepgen.MAX_UNKNOWNS`` unknowns; a structure with a
+    block larger than 2×2 or more unknowns has none (the tracer then runs in Python). The compiled start (:meth:`FastLane.start`) and the rates fused into the
+    step loop exist for a single 2×2 block; other structures start and take their rates as the Python
+    engine does.
+    """
     from .steps import FastLane
 
+    if not has_lane(kern):
+        return None
     module = _numba_module(kern.ck)
-    return FastLane(kern, module.run2, lazy=lazy, start=module.start2, rates=module.rates2,
-                    fill=module.fill_rates)
+    if kern.single2:
+        return FastLane(kern, module.run_steps, lazy=lazy, start=module.start2, rates=module.rates2,
+                        fill=module.fill_rates)
+    return FastLane(kern, module.run_steps, lazy=lazy)

@@ -4,7 +4,8 @@
 Most steps of most sweeps are *regular*: a natural step in the input that lands on the next
 output grid value, converges in two or three corrector iterations, keeps the mode signature,
 and passes every check. This module takes exactly those steps in a compiled loop
-(:func:`run2`, compiled by numba together with the model's generated Φ, Φ_q and b₁, see
+(:func:`run_steps`, compiled by numba together with the model's generated Φ, Φ_q and b₁ and the
+natural step generated for its block structure, see
 :mod:`loopsolve.kinematics.numba_engine.jit`) and hands control back to the Python tracer the moment a step is
 anything else:
 
@@ -22,13 +23,21 @@ anything else:
 The rejected step is not consumed: the Python tracer takes it again from the same node with
 the same step length, so it decides (halving, location, arc steps, events) exactly as
 without the fast lane, and it calls the fast lane again once it has accepted a node of its
-own. The accepted steps use the same predictor, corrector, acceptance rules, step growth
-and trust radius as :meth:`Tracer._natural_step_2x2`, in the same floating-point order, so
-the nodes agree with the pure-Python tracer's to round-off (the tests check 1e-12).
+own. The step itself is not a copy: :func:`run_steps` calls ``natural_step``, the source that
+:mod:`loopsolve.kinematics.stepgen` generates for the model's block structure and that
+:meth:`Tracer._natural_step <loopsolve.kinematics.continuation.Tracer._natural_step>` runs as
+Python; the loop around it applies the tracer's acceptance rules, step growth and trust radius
+in the same floating-point order, so the nodes agree with the pure-Python tracer's to round-off
+(the tests check 1e-12; in practice they are identical to the bit).
 
-Only a single 2×2 block (four-bars, slider-cranks and other one-loop models with two
-unknowns) has a fast lane today; for other structures the tracer runs in Python whatever
-the engine.
+Structures covered: every solve order of 1×1 and 2×2 diagonal blocks of Φ_q — four-bars and
+other one-loop models with two unknowns (one 2×2 block), slider-cranks (two 1×1 blocks),
+inverted slider-cranks and shapers (a 2×2 block and 1×1 blocks), six-bars (Watt, Stephenson:
+two 2×2 blocks in solve order), cam and geared models, the diagram models. A structure with a
+block larger than 2×2 has no fast lane: the tracer runs in Python whatever the engine. The
+compiled start (:func:`start2`) and the rows' rates fused into the step loop (:func:`node_rates`,
+:func:`rates2`) exist for a single 2×2 block; other structures start and take their rates as the
+Python engine does.
 """
 
 from __future__ import annotations
@@ -44,6 +53,7 @@ from ...model.units import Kind
 from ..batch import SINGULAR_COND, rates_v
 from ..continuation import NEAR_SINGULAR, RHO_TOUCH, TRUST, Node
 from ..scalar_solver import ROUNDOFF, rho_2x3  # rho_2x3: compiled into the template from its one definition
+from ..stepgen import mask_of_sig, rho_rows, step_config
 from ..newton import Newton
 from ..solve import guess_pose, initial_z
 
@@ -55,7 +65,7 @@ IRREGULAR, END, ARC, FULL = 0, 1, 2, 3
 #: "no grid index" in the integer output
 NOGRID = -(2**62)
 
-# float configuration (f) and integer configuration (iv) of run2
+# float configuration (f) and integer configuration (iv) of run_steps
 (F_TOL, F_W0, F_W1, F_WX, F_COS_TURN, F_COS_GROW, F_MAX_STEP, F_MIN_STEP, F_NATURAL_MIN, F_TRUST, F_RHO_TOUCH,
  F_NEAR, F_G_START, F_G_STEP, F_G_LO, F_G_HI, F_DEG0, F_DEG1, F_ROUNDOFF, F_SIZE) = range(20)
 (I_I0, I_I1, I_IX, I_MAX_ITER, I_LAND, I_KMIN, I_KMAX, I_DEG, I_CLOSING, I_START_SIG, I_SIZE) = range(11)
@@ -64,9 +74,11 @@ NOGRID = -(2**62)
 # ----------------------------------------------------------------------------- compiled template
 # These functions are compiled by numba in the module that loopsolve.kinematics.numba_engine.jit generates for
 # each model structure, next to that model's phi, jac and rhs1 (the globals they call). They
-# mirror Grid.value / Grid.next_after (loopsolve.kinematics.sweep), Tracer._natural_target and
-# Tracer._natural_step_2x2 (loopsolve.kinematics.continuation) and rho_2x3 (loopsolve.kinematics.scalar_solver) operation
-# for operation; a change there must be made here too (tests/kinematics/test_numba_engine.py compares them).
+# mirror Grid.value / Grid.next_after (loopsolve.kinematics.sweep), Tracer._natural_target and the
+# accept/reject rules of Tracer.trace (loopsolve.kinematics.continuation) operation for operation; a change
+# there must be made here too (tests/kinematics/test_numba_engine.py compares them). The step itself (predictor,
+# corrector, checks, tangent, rho) is not here: it is generated (loopsolve.kinematics.stepgen), rho_2x3 and
+# rho_rows are compiled from their one definitions.
 
 
 def grid_value(k, f, iv):
@@ -113,114 +125,25 @@ def natural_target(xa, d, dx, land, f, iv):
     return target, gidx, at_bound
 
 
-def step2(az, at, has_prev, pt, xp, h, near, land, p, ex, f, iv, bz, out, rr):
-    """One natural step from node (az, at); the node in bz and out = (t0, t1, tx, res, rho,
-    A, B, C, D, det, and with rr[3] > 0 the node's rates: u0', u1', u0'', u1'', u0''', u1''', cond).
-    Returns (ok, at_bound, gidx, n_iter)."""
-    i0, i1, ix = iv[0], iv[1], iv[2]
-    w0, w1, wx = f[1], f[2], f[3]
-    t0, t1, tx = at[0], at[1], at[2]
-    d = 1.0 if tx > 0 else -1.0
-    xa = az[ix]
-    target, gidx, at_bound = natural_target(xa, d, h * abs(tx) / wx, land, f, iv)
-    delta = target - xa
-    if delta == 0:
-        return False, at_bound, gidx, 0
-    r = wx / tx
-    du0, du1 = t0 / w0 * r, t1 / w1 * r
-    p0 = az[i0] + delta * du0
-    p1 = az[i1] + delta * du1
-    if has_prev:
-        if (xa - xp) * d > 0:
-            q0, q1, qx = pt[0], pt[1], pt[2]
-            rq = wx / qx
-            c = 0.5 * delta * delta / (xa - xp)
-            p0 += c * (du0 - q0 / w0 * rq)
-            p1 += c * (du1 - q1 / w1 * rq)
-    for i in range(bz.shape[0]):
-        bz[i] = az[i]
-    bz[ix] = target
-    bz[i0] = p0
-    bz[i1] = p1
-    tiny = f[18] * (1.0 + abs(p0) * w0 + abs(p1) * w1)
-    prev = 0.0
-    # the unknowns in registers, the node as a tuple (zset): bz is not written in the corrector,
-    # so the input's sines are computed once, and Φ and Φ_q at one point share theirs
-    u0, u1 = p0, p1
-    zt = zset(bz, u0, u1)  # noqa: F821 - the model's helpers and functions, in the generated module
-    f0, f1 = phi(zt, p)  # noqa: F821
-    A, B, C, D = jac(zt, p)  # noqa: F821 - the first iteration's
-    det = 0.0
-    b0 = b1 = 0.0
-    it = 0
-    converged = False
-    for it in range(1, iv[3] + 1):
-        det = A * D - B * C
-        if det == 0:
-            return False, at_bound, gidx, it
-        s0 = (B * f1 - D * f0) / det
-        s1 = (C * f0 - A * f1) / det
-        u0 += s0
-        u1 += s1
-        st = max(abs(s0) * w0, abs(s1) * w1)
-        zt = zset(bz, u0, u1)  # noqa: F821
-        f0, f1 = phi(zt, p)  # noqa: F821
-        if st <= tiny or (prev != 0.0 and st * (st / prev) ** 2 <= tiny):
-            converged = True
-            b0, b1 = rhs1(zt, ex, p)  # noqa: F821 - the tangent's right-hand side at the node
-            if rr[3] > 0:  # the rows' rates at the node, fused (node_rates, as rates2 does)
-                out[10], out[11], out[12], out[13], out[14], out[15], out[16] = node_rates(
-                    zt, p, i0, i1, ix, rr[0], rr[1], rr[2], rr[3], rr[4])
-            break
-        if not st < math.inf:
-            return False, at_bound, gidx, it
-        prev = st
-        A, B, C, D = jac(zt, p)  # noqa: F821 - the next iteration's, at the point of this Φ
-    bz[i0] = u0
-    bz[i1] = u1
-    if not converged:
-        return False, at_bound, gidx, it
-    res = max(abs(f0), abs(f1))
-    if not res <= f[0]:
-        return False, at_bound, gidx, it
-    cs0, cs1 = 1.0 / w0, 1.0 / w1
-    nr = 0.5 * ((A * A + C * C) * cs0 * cs0 + (B * B + D * D) * cs1 * cs1)
-    if not abs(det) * cs0 * cs1 >= near * nr:
-        return False, at_bound, gidx, it
-    n0 = (D * b0 - B * b1) / det * w0 * d
-    n1 = (A * b1 - C * b0) / det * w1 * d
-    nx = wx * d
-    nrm = math.sqrt(n0 * n0 + n1 * n1 + nx * nx)
-    u0, u1 = bz[i0], bz[i1]
-    corr = max(abs(u0 - p0) * w0, abs(u1 - p1) * w1)
-    step_len = math.sqrt(((u0 - az[i0]) * w0) ** 2 + ((u1 - az[i1]) * w1) ** 2 + (delta * wx) ** 2)
-    if corr > 0.25 * step_len + 1e-12:
-        return False, at_bound, gidx, it
-    out[0] = n0 / nrm
-    out[1] = n1 / nrm
-    out[2] = nx / nrm
-    out[3] = res
-    out[4] = rho_2x3(A * cs0, B * cs1, -b0 / wx, C * cs0, D * cs1, -b1 / wx)
-    out[5], out[6], out[7], out[8], out[9] = A, B, C, D, det
-    return True, at_bound, gidx, it
-
-
-def run2(z, t, sig, rho, has_prev, pt, xp, h, p, ex, f, iv, oz, ot, oj, of, oi, rr, orr):
+def run_steps(z, t, sig, rho, has_prev, pt, xp, h, p, ex, f, sf, iv, oz, ot, oj, of, oi, rr, orr):
     """Regular natural steps from the node (z, t, sig, rho) until one is not regular or the
     output (oz, ot, oj, of, oi) is full. Returns (count, status, h).
 
-    With ``rr[3] > 0`` (rr = input speed, acceleration, jerk, derivatives, singular_cond) also
-    the rates of each node (``orr[1 + k]``) and of the start node (``orr[0]``), as rates2."""
+    The step is the model structure's generated ``natural_step`` (loopsolve.kinematics.stepgen, the
+    text the Python tracer runs); ``sig`` is the integer signature (stepgen.mask_of_sig). With
+    ``rr[3] > 0`` (rr = input speed, acceleration, jerk, derivatives, singular_cond; a single 2×2
+    block only) also the rates of each node (``orr[1 + k]``) and of the start node (``orr[0]``), as rates2."""
     nv = z.shape[0]
+    n = ot.shape[1] - 1
     az = z.copy()
     at = t.copy()
     pt = pt.copy()
     bz = np.empty(nv)
-    out = np.empty(17)
+    orow = np.empty(7)
     ix = iv[2]
     if rr[3] > 0:
-        orr[0, 0], orr[0, 1], orr[0, 2], orr[0, 3], orr[0, 4], orr[0, 5], orr[0, 6] = node_rates(
-            ztuple(z), p, iv[0], iv[1], ix, rr[0], rr[1], rr[2], rr[3], rr[4])
+        start_rates(z, p, iv, rr, orr)  # noqa: F821 - generated next to the model's functions
+    land = iv[4] != 0
     closing = iv[8] != 0
     start_sig = iv[9]
     cap = oz.shape[0]
@@ -230,41 +153,53 @@ def run2(z, t, sig, rho, has_prev, pt, xp, h, p, ex, f, iv, oz, ot, oj, of, oi, 
             return count, 0, h
         h = min(h, max(f[9] * rho, f[7] * 1e3))  # F_TRUST, F_MIN_STEP
         near = min(f[11], 0.01 * rho * h)  # F_NEAR
-        ok, at_bound, gidx, it = step2(az, at, has_prev, pt, xp, h, near, iv[4] != 0, p, ex, f, iv, bz, out, rr)
+        tx = at[n]
+        xa = az[ix]
+        target, gidx, at_bound = natural_target(xa, 1.0 if tx > 0 else -1.0, h * abs(tx) / f[3], land, f, iv)
+        if target - xa == 0:
+            return count, 0, h
+        for i in range(nv):
+            bz[i] = az[i]
+        ok, it, res, brho, mask, bt, bj = natural_step(az, at, has_prev, pt, xp, target, near, p, ex, sf,  # noqa: F821
+                                                       iv[3], bz, rr, orow)
         if not ok:
             return count, 0, h
-        t0, t1, tx = out[0], out[1], out[2]
-        dot = 0 + at[0] * t0 + at[1] * t1 + at[2] * tx
+        dot = 0.0
+        for i in range(n + 1):
+            dot += at[i] * bt[i]
         if dot < f[4]:  # F_COS_TURN
             return count, 0, h
-        bsig = 1 if out[9] > 0 else -1
-        if bsig != sig or (at[2] > 0) != (tx > 0):  # a fold, change point or turn: Python decides
+        if mask != sig or (at[n] > 0) != (bt[n] > 0):  # a fold, change point or turn: Python decides
             return count, 0, h
-        if closing and bsig == start_sig and not at_bound:
+        if closing and mask == start_sig and not at_bound:
             return count, 0, h
         for i in range(nv):
             oz[count, i] = bz[i]
-        ot[count, 0], ot[count, 1], ot[count, 2] = t0, t1, tx
-        oj[count, 0], oj[count, 1], oj[count, 2], oj[count, 3] = out[5], out[6], out[7], out[8]
-        of[count, 0], of[count, 1] = out[3], out[4]
+        for i in range(n + 1):
+            ot[count, i] = bt[i]
+        for i in range(n * n):
+            oj[count, i] = bj[i]
+        of[count, 0], of[count, 1] = res, brho
         oi[count, 0], oi[count, 1] = gidx, it
         if rr[3] > 0:
             for i in range(7):
-                orr[count + 1, i] = out[10 + i]
+                orr[count + 1, i] = orow[i]
         count += 1
         if at_bound:
             return count, 1, h
         if it <= 3 and dot > f[5] and h < f[6]:  # F_COS_GROW, F_MAX_STEP
             h = min(h * 1.6, f[6])
-        if abs(tx) < f[8]:  # F_NATURAL_MIN: arclength steps from here
+        if abs(bt[n]) < f[8]:  # F_NATURAL_MIN: arclength steps from here
             return count, 2, h
-        has_prev = abs(at[2]) > 0.1
-        pt[0], pt[1], pt[2] = at[0], at[1], at[2]
+        has_prev = abs(at[n]) > 0.1
+        for i in range(n + 1):
+            pt[i] = at[i]
         xp = az[ix]
         for i in range(nv):
             az[i] = bz[i]
-        at[0], at[1], at[2] = t0, t1, tx
-        rho = out[4]
+        for i in range(n + 1):
+            at[i] = bt[i]
+        rho = brho
     return count, 3, h
 
 
@@ -339,7 +274,7 @@ def start2(zg, z, p, i0, i1, tol, rtol, max_iter):
 def node_rates(zt, p, i0, i1, ix, r1, r2, r3, derivatives, singular_cond):
     """Rates of the unknowns at the node ``zt`` (a tuple): velocities, accelerations, jerks (NaN
     beyond ``derivatives``, all NaN where cond > singular_cond) and the condition number of Φ_q.
-    Inlined (in step2 after the corrector's last Φ: the sines and cosines are shared)."""
+    Inlined (in natural_step after the corrector's last Φ: the sines and cosines are shared)."""
     A, B, C, D = jac(zt, p)  # noqa: F821
     fro = A * A + B * B + C * C + D * D
     adet = abs(A * D - B * C)
@@ -396,8 +331,8 @@ def rates2(Z, r1, r2, r3, p, i0, i1, ix, derivatives, singular_cond, Z1, Z2, Z3,
 
 
 #: the template functions, in the order they are written into the generated module
-TEMPLATE_FUNCTIONS = (grid_value, grid_next_after, natural_target, rho_2x3, node_rates, step2, run2, norm2, start2,
-                      fill_rates, rates2)
+TEMPLATE_FUNCTIONS = (grid_value, grid_next_after, natural_target, rho_2x3, rho_rows, node_rates, run_steps, norm2,
+                      start2, fill_rates, rates2)
 #: the template functions inlined where they are called (so that LLVM shares their sines and cosines)
 TEMPLATE_INLINE = (node_rates,)
 
@@ -429,12 +364,12 @@ def _compiled(fn, lane, *args):
 
 #: the start's guess pose at input 0, whether the pose follows the input, and the initial z, per kernel
 _GUESSES: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()
-#: ``rr`` of run2 when no rates are wanted
+#: ``rr`` of run_steps when no rates are wanted
 _NO_RATES = np.zeros(5)  # (writable: numba compiles read-only arrays separately)
 
 
 class FastLane:
-    """The fast lane of one :class:`~loopsolve.kinematics.scalar_solver.Kernel` (a model with a single 2×2 block).
+    """The fast lane of one :class:`~loopsolve.kinematics.scalar_solver.Kernel` (blocks of 1×1 and 2×2 only).
 
     Built by :func:`loopsolve.kinematics.numba_engine.jit.fast_lane`; :meth:`advance` is the hook that
     :meth:`Tracer.trace <loopsolve.kinematics.continuation.Tracer.trace>` calls on natural steps.
@@ -446,6 +381,9 @@ class FastLane:
         self.start_run = start
         self.rates_run = rates
         self.fill_run = fill
+        #: the natural steps this lane took compiled (accepted nodes, kept or traced whole)
+        self.steps = 0
+        self.sf = np.asarray(step_config(kern), dtype=float)
         #: the rows' input rates and derivatives (:meth:`want_rates`): a path traced whole then has its
         #: rates computed at each node inside the step loop (``whole[3]``), as :meth:`rates` would
         self.rr = _NO_RATES
@@ -459,7 +397,10 @@ class FastLane:
         self.whole = None
 
     def want_rates(self, rates, derivatives: int) -> None:
-        """Ask for the rows' rates of a path traced whole (input speed, acceleration, jerk)."""
+        """Ask for the rows' rates of a path traced whole (input speed, acceleration, jerk); only a single
+        2×2 block computes them in the step loop (the others take :meth:`rates` afterwards)."""
+        if self.fill_run is None:
+            return
         self.rr = np.array([float(rates[0]), float(rates[1]), float(rates[2]), float(int(derivatives)),
                             SINGULAR_COND])
 
@@ -480,6 +421,8 @@ class FastLane:
         nv, n = Z.shape
         Z1, Z2, Z3 = np.empty((nv, n)), np.empty((nv, n)), np.empty((nv, n))
         cond = np.empty(n)
+        if self.rates_run is None:  # several blocks: the vectorized rates of the Python engine
+            return rates_v(k.ck, Z, rates, derivatives=derivatives)
         if _compiled(self.rates_run, self, np.ascontiguousarray(Z, dtype=float), float(rates[0]), float(rates[1]),
                      float(rates[2]), self.p, k.iu[0], k.iu[1], k.ix, int(derivatives), SINGULAR_COND, Z1, Z2, Z3,
                      cond) is None and self.failed:
@@ -495,7 +438,7 @@ class FastLane:
         (:mod:`loopsolve.kinematics.newton`), compiled. None for everything else: the caller then runs
         ``start_position``, which decides (other modes, warnings, errors) as always.
         """
-        if mode is not None:
+        if mode is not None or self.start_run is None:
             return None
         ck, k = self.k.ck, self.k
         settings = settings if settings is not None else Newton()
@@ -532,15 +475,15 @@ class FastLane:
     def _config(self, tracer, closing: bool, start_sig: str):
         k, c, g = self.k, tracer.c, tracer.g
         f = np.empty(F_SIZE)
-        f[F_TOL], f[F_W0], f[F_W1], f[F_WX] = k.tol, k.wu[0], k.wu[1], k.wx
+        f[F_TOL], f[F_W0], f[F_W1], f[F_WX] = k.tol, k.wu[0], k.wu[1] if k.n > 1 else 0.0, k.wx
         f[F_COS_TURN], f[F_COS_GROW] = tracer.cos_turn, tracer.cos_grow
         f[F_MAX_STEP], f[F_MIN_STEP], f[F_NATURAL_MIN] = c.max_step, c.min_step, c.natural_min
         f[F_TRUST], f[F_RHO_TOUCH], f[F_NEAR] = TRUST, RHO_TOUCH, NEAR_SINGULAR
         f[F_G_START], f[F_G_STEP], f[F_G_LO], f[F_G_HI] = g.start, g.step, g.lo, g.hi
         f[F_DEG0], f[F_DEG1] = g.deg if g.deg is not None else (0.0, 0.0)
         f[F_ROUNDOFF] = ROUNDOFF
-        iv = np.array([k.iu[0], k.iu[1], k.ix, c.max_iter, 1 if tracer.land else 0, g.kmin, g.kmax,
-                       0 if g.deg is None else 1, 1 if closing else 0, 1 if start_sig == "+" else -1],
+        iv = np.array([k.iu[0], k.iu[1] if k.n > 1 else -1, k.ix, c.max_iter, 1 if tracer.land else 0, g.kmin, g.kmax,
+                       0 if g.deg is None else 1, 1 if closing else 0, mask_of_sig(start_sig)],
                       dtype=np.int64)
         return f, iv
 
@@ -566,22 +509,23 @@ class FastLane:
             if a.rho is None:
                 a.rho = k.rho(a.z, a.J if a.J is not None else k.jac_f(a.z, k.p))
             pn = prev_natural
-            has_prev = pn is not None and pn.sig == a.sig and abs(pn.t[2]) > 0.1
-            pt = np.asarray(pn.t if has_prev else (0.0, 0.0, 1.0), dtype=float)
+            has_prev = pn is not None and pn.sig == a.sig and abs(pn.t[k.n]) > 0.1
+            pt = np.asarray(pn.t if has_prev else a.t, dtype=float)
             xp = pn.z[k.ix] if has_prev else 0.0
             oz = np.empty((cap, k.nv))
-            ot = np.empty((cap, 3))
-            oj = np.empty((cap, 4))
+            ot = np.empty((cap, k.n + 1))
+            oj = np.empty((cap, k.n * k.n))
             of = np.empty((cap, 2))
             oi = np.empty((cap, 2), dtype=np.int64)
             rr = self.rr if whole else _NO_RATES
             orr = np.empty((cap + 1 if rr[3] > 0 else 1, 7))
             out = _compiled(self.run, self, np.asarray(a.z, dtype=float), np.asarray(a.t, dtype=float),
-                            1 if a.sig == "+" else -1, float(a.rho), has_prev, pt, float(xp), float(h),
-                            self.p, self.ex, f, iv, oz, ot, oj, of, oi, rr, orr)
+                            mask_of_sig(a.sig), float(a.rho), has_prev, pt, float(xp), float(h),
+                            self.p, self.ex, f, self.sf, iv, oz, ot, oj, of, oi, rr, orr)
             if out is None:
                 return h, prev_natural, natural, False  # the Python tracer goes on from here
             count, status, h = out
+            self.steps += int(count)
             if whole and status == END:
                 self.whole = (oz[:count], of[:count, 0], oi[:count], orr[:count + 1] if rr[3] > 0 else None)
                 if tracer.bar is not None:
