@@ -48,9 +48,9 @@ import threading
 from pathlib import Path
 from types import ModuleType
 
-from ...errors import MissingDependencyError, ModelError
+from ...errors import MissingDependencyError, ModelError, warn
 
-__all__ = ["ENGINES", "AUTO_ROWS", "use_numba", "engine_for", "has_lane", "fast_lane", "numba_source"]
+__all__ = ["ENGINES", "AUTO_ROWS", "MAX_LANE_SOURCE", "model_source_chars", "use_numba", "engine_for", "has_lane", "fast_lane", "numba_source"]
 
 ENGINES = ("python", "numba", "auto")
 FORMAT = 5  # bump when the generated numba module or its compile options change
@@ -122,12 +122,41 @@ def use_numba(engine: str | None) -> bool:
     return True
 
 
+#: a model whose generated Φ, Φ_q and b₁–b₃ are longer than this (characters of source) has no fast lane:
+#: numba's type inference and LLVM take time superlinear in the length of one expression, and such a
+#: model does not compile in minutes (a cam declared by a pitch table: a spline of hundreds of pieces,
+#: ~660 000 characters, expressions of ~150 000 each). The shipped models' are 1 500–6 000.
+MAX_LANE_SOURCE = 60_000
+
+
+def model_source_chars(ck) -> int:
+    """Characters of the generated functions the fast lane compiles for ``ck``'s model (Φ, Φ_q, b₁–b₃)."""
+    source = getattr(ck.module, "_SOURCE", None)
+    if source is None:
+        return 0
+    return sum(len(_model_function(source, name)) for name in _MODEL_FUNCTIONS)
+
+
 def has_lane(kern) -> bool:
-    """Whether the model of a :class:`~loopsolve.kinematics.scalar_solver.Kernel` has a compiled fast lane
-    (its natural step is generated: every structure of 1×1 and 2×2 blocks, see :func:`fast_lane`)."""
+    """Whether the model of a :class:`~loopsolve.kinematics.scalar_solver.Kernel` has a compiled fast lane:
+    its natural step is generated (every structure of 1×1 and 2×2 blocks, see :func:`fast_lane`) and its
+    generated functions are at most :data:`MAX_LANE_SOURCE` characters (numba's compile time grows
+    faster than their length)."""
     from ..stepgen import supported
 
-    return supported(kern)
+    lane = getattr(kern, "_has_lane", None)
+    if lane is None:
+        lane = kern._has_lane = supported(kern) and model_source_chars(kern.ck) <= MAX_LANE_SOURCE
+    return lane
+
+
+def _no_lane_reason(kern) -> str:
+    from ..stepgen import MAX_UNKNOWNS, supported
+
+    if not supported(kern):
+        return f"a block larger than 2×2 or more than {MAX_UNKNOWNS} unknowns"
+    return (f"its generated functions are {model_source_chars(kern.ck):,} characters, over the "
+            f"{MAX_LANE_SOURCE:,} numba compiles in reasonable time")
 
 
 def engine_for(engine: str | None, kern, rows: int) -> str:
@@ -155,7 +184,13 @@ def engine_for(engine: str | None, kern, rows: int) -> str:
         return "python"
     if name == "numba":
         use_numba(name)  # the one-line error without numba
-        return "numba" if has_lane(kern) else "python"
+        if has_lane(kern):
+            return "numba"
+        if not getattr(kern, "_warned_lane", False):  # once per model, not once per sweep of a study
+            kern._warned_lane = True
+            warn(f"{kern.ck.mechanism.source or kern.ck.mechanism.name}: engine='numba' but the model has no "
+                 f"compiled lane ({_no_lane_reason(kern)}); the Python tracer runs it (same rows)")
+        return "python"
     if not has_lane(kern) or importlib.util.find_spec("numba") is None:  # no import: a cheap look
         return "python"
     with _LOCK:
