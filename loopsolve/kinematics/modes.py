@@ -311,6 +311,14 @@ def _newton_block(ck, z, block, start, settings=Newton(max_iter=80)):
 
 
 def _multistart_roots(ck, z, block, n_starts: int = 48) -> list[np.ndarray]:
+    """Every root of ``block`` (at the other values of ``z``) that Newton finds from the current values and
+    ``n_starts`` random starts (angles anywhere on the circle, lengths within ±2 length scales).
+
+    First all the starts run together (:func:`_newton_many`, one vectorized Newton) until one converges:
+    where none does, the block has no root here and the answer is ``[]`` at the cost of ~80 vectorized
+    iterations instead of 49 × 80 scalar ones (an input with no assembly: seconds per error message on a
+    cam follower's block, whose nearest-assemblable search looks at every sample on the way). Otherwise
+    the starts run one by one with the scalar Newton, whose roots are the modes (as before the screen)."""
     cols = block.unknowns
     zi = ck.unknown_idx[np.array(cols)]
     angle = np.array([ck.kinds[int(i)] is Kind.ANGLE for i in zi])
@@ -319,6 +327,8 @@ def _multistart_roots(ck, z, block, n_starts: int = 48) -> list[np.ndarray]:
     for _ in range(n_starts):
         st = np.where(angle, rng.uniform(-math.pi, math.pi, len(cols)), rng.uniform(-2, 2, len(cols)) * ck.scale)
         starts.append(st)
+    if not _newton_many(ck, z, block, np.array(starts), first=True):
+        return []
     found: list[np.ndarray] = []
     w = np.where(angle, 1.0, 1.0 / ck.scale)
     turn = angle & ck.periodic[zi]  # an angle tied by a gear or rolling contact is not reduced by turns
@@ -331,6 +341,83 @@ def _multistart_roots(ck, z, block, n_starts: int = 48) -> list[np.ndarray]:
             continue
         found.append(x)
     return found
+
+
+def _newton_many(ck, z, block, starts: np.ndarray, max_iter: int = 80, first: bool = False) -> list[np.ndarray]:
+    """Newton on ``block`` from every row of ``starts`` at once, with the vectorized Φ and Φ_q and the
+    scalar Newton's rules (:func:`loopsolve.kinematics.newton.newton`: the step halved until the
+    residual's norm falls, a start with no descent dropped unless within the stall tolerance, at most
+    ``max_iter`` iterations): the points where it converged, in the order of their starts (``first``:
+    stop at the first iteration where any start converged). A start that leaves the finite numbers is
+    dropped."""
+    eqs, cols = np.array(block.eqs), np.array(block.unknowns)
+    zi = ck.unknown_idx[cols]
+    S, k = starts.shape
+    Z = np.repeat(np.array(z, dtype=float)[:, None], S, axis=1)
+    Z[zi, :] = starts.T
+    tol, stall = Newton().atol * ck.scale, Newton().stall_tol * ck.scale
+
+    def residual(Zc):
+        with np.errstate(all="ignore"):
+            F = np.asarray(ck.phi_v(Zc), dtype=float)
+        return np.broadcast_to(F, (F.shape[0], Zc.shape[1]))[eqs, :]
+
+    def norms(F):
+        with np.errstate(all="ignore"):
+            return np.sqrt(np.sum(F * F, axis=0))
+
+    live = np.arange(S)  # the starts still iterating (columns of Z)
+    roots = np.full((S, k), np.nan)  # where each start converged
+
+    def settle(Z, F):
+        fmax = np.max(np.abs(F), axis=0)
+        finite = np.isfinite(fmax)
+        conv = finite & (fmax <= tol)
+        roots[live[conv]] = Z[zi][:, conv].T
+        return finite & ~conv
+
+    F = residual(Z)
+    for _ in range(max_iter + 1):
+        keep = settle(Z, F)
+        live, Z, F = live[keep], Z[:, keep], F[:, keep]
+        if not live.size or (first and np.isfinite(roots).all(axis=1).any()):
+            break
+        with np.errstate(all="ignore"):
+            J = np.asarray(ck.jac_v(Z), dtype=float)[:, eqs][:, :, cols]  # (N, k, k)
+            big = np.max(np.abs(J), axis=(1, 2))
+            ok = np.isfinite(big) & (big > 0)
+            big = np.where(ok, big, 1.0)
+            Jn, Fn = J / big[:, None, None], F.T / big[:, None]
+            # Levenberg–Marquardt with a tiny damping: the Newton step where Φ_q is regular, a bounded one
+            # where it is (nearly) singular
+            JtJ = np.einsum("nij,nik->njk", Jn, Jn)
+            mu = 1e-10 * np.maximum(np.max(np.abs(JtJ), axis=(1, 2)), 1e-300)
+            A = JtJ + mu[:, None, None] * np.eye(k)
+            g = np.einsum("nij,ni->nj", Jn, Fn)
+            dx = -np.linalg.solve(A, g[:, :, None])[:, :, 0].T  # (k, N)
+        ok &= np.all(np.isfinite(dx), axis=0)
+        f2 = norms(F)
+        t = np.ones(live.size)
+        accepted = np.zeros(live.size, dtype=bool)
+        Znew, Fnew = Z.copy(), F.copy()
+        for _half in range(34):  # down to t = 2**-33 ~ 1e-10, the scalar Newton's last try
+            todo = ok & ~accepted
+            if not todo.any():
+                break
+            Zt = Z[:, todo].copy()
+            Zt[zi, :] += t[todo] * dx[:, todo]
+            Ft = residual(Zt)
+            good = np.isfinite(norms(Ft)) & (norms(Ft) <= np.sqrt(1 - 1e-4 * t[todo]) * f2[todo])
+            idx = np.flatnonzero(todo)[good]
+            Znew[:, idx], Fnew[:, idx] = Zt[:, good], Ft[:, good]
+            accepted[idx] = True
+            t[todo & ~np.isin(np.arange(live.size), idx)] *= 0.5
+        # no descent along the step: a root where the residual is already within the stall tolerance (a
+        # double root at a limit position converges slowly), as the scalar Newton takes it; else dropped
+        stuck = ~accepted & (np.max(np.abs(F), axis=0) <= stall)
+        roots[live[stuck]] = Z[zi][:, stuck].T
+        live, Z, F = live[accepted], Znew[:, accepted], Fnew[:, accepted]
+    return [r for r in roots if np.all(np.isfinite(r))]
 
 
 def _linear_roots(ck, z, block) -> list[np.ndarray] | None:
