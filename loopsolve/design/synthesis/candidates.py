@@ -418,31 +418,31 @@ class Batch:
 
         J = self.ops.jac(Z, P)
         Fp = phi_p_v(self.ck, Z, P)
-        dq_dp = np.stack([self.ops.solve(J, -Fp[:, i, :]) for i in self.pidx], axis=1)
+        N, k = Z.shape[1], len(self.pidx)
         zk1 = np.zeros_like(Z)
         zk1[self.ix] = 1.0
-        dq_dx = self.ops.solve(J, self.ops.rhs(1, (Z, zk1), P))
-        return dq_dp, dq_dx
+        # every right-hand side (one per varied parameter, and the input's) in one block solve of (k + 1)·N columns
+        B = np.concatenate([-Fp[:, list(self.pidx), :].reshape(Fp.shape[0], k * N), self.ops.rhs(1, (Z, zk1), P)],
+                           axis=1)
+        Q = self.ops.solve(np.tile(J, (1, k + 1)), B)
+        return Q[:, :k * N].reshape(-1, k, N), Q[:, k * N:]
 
     def point_derivatives(self, Z, P, point: int, dq_dp, dq_dx):
         """``(dPoint/dp (2, k, N), dPoint/dx (2, N))`` of point number ``point``."""
         N = Z.shape[1]
         k = len(self.pidx)
-        out = np.empty((2, k, N))
-        for j in range(k):
-            V = np.zeros_like(Z)
-            V[self.iu] = dq_dp[:, j]
-            v = np.asarray(self.ops.points(1, [Z, V], P), dtype=float)
-            out[:, j] = np.broadcast_to(v.reshape(-1, 2, N)[point], (2, N))
+        # the point's velocity along every parameter's tangent and the input's, in one call on (k + 1)·N columns
+        V = np.zeros((Z.shape[0], (k + 1) * N))
+        V[self.iu] = np.concatenate([dq_dp.reshape(dq_dp.shape[0], k * N), dq_dx], axis=1)
+        V[self.ix, k * N:] = 1.0
+        v = np.asarray(self.ops.points(1, [np.tile(Z, (1, k + 1)), V], np.tile(P, (1, k + 1))), dtype=float)
+        v = np.broadcast_to(v.reshape(-1, 2, (k + 1) * N)[point], (2, (k + 1) * N))
+        out = v[:, :k * N].reshape(2, k, N).copy()
+        dx = v[:, k * N:]
         mod = points_p_module(self.ck)
         vals = mod.points_p_v(Z, P)
         npar = mod.NPARAM
         for c in range(2):
             for j, ip in enumerate(self.pidx):
                 out[c, j] += np.broadcast_to(np.asarray(vals[(2 * point + c) * npar + ip], dtype=float), (N,))
-        V = np.zeros_like(Z)
-        V[self.ix] = 1.0
-        V[self.iu] = dq_dx
-        v = np.asarray(self.ops.points(1, [Z, V], P), dtype=float)
-        dx = np.broadcast_to(v.reshape(-1, 2, N)[point], (2, N))
         return out, dx
