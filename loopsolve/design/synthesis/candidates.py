@@ -366,12 +366,13 @@ class Batch:
             conv = np.all(np.abs(F) <= 1e-10 * scale, axis=0) & np.all((signs == 0) | (sig == signs), axis=0)
         return conv
 
-    def reassemble(self, Z, P, x, signs, iters: int = 12):
+    def reassemble(self, Z, P, x, signs, iters: int = 12, multistart: bool = True):
         """Positions ``(nv, D)`` at the inputs ``x`` ``(D,)`` from nearby ones ``Z`` (the same designs a step ago).
 
         Newton on all unknowns per column from ``Z`` (a column whose correction exceeds half a
         radian or scale, or is not finite, stops there), then, for the columns it left without a
-        root of the block signs ``signs``, the multistart :meth:`assemble`. Returns ``(Z, ok)`` as
+        root of the block signs ``signs``, the multistart :meth:`assemble` (``multistart``; without it they are
+        returned not ok). Returns ``(Z, ok)`` as
         :meth:`assemble`. Why: an optimizer's next trial design is a small step from the last one,
         and its position there is a few Newton steps from the last position, where :meth:`assemble`
         would run Newton from many starts per block.
@@ -400,7 +401,7 @@ class Batch:
             ok = (np.all(np.abs(F) <= 1e-10 * scale, axis=0) & np.all((signs == 0) | (sig == signs), axis=0)
                   & np.all(np.isfinite(Z), axis=0))
         rest = np.flatnonzero(~ok)
-        if rest.size:
+        if rest.size and multistart:
             Zr, okr = self.assemble(P[:, rest], np.asarray(x, dtype=float)[rest], signs[:, rest])
             Z[:, rest] = Zr
             ok[rest] = okr

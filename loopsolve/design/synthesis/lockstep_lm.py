@@ -41,7 +41,7 @@ POLISH_H = math.radians(5.0)
 _FREE_STEP = math.radians(10.0)
 
 
-def residuals_and_jacobian(problem, V, X, signs, hmax, start=None, warm=False):
+def residuals_and_jacobian(problem, V, X, signs, hmax, start=None, warm=False, retrace=True):
     """Residual vectors ``(D, M)``, Jacobians ``(D, M, k [+ T])``, the reached flags of designs ``V`` ``(D, k)``
     and their positions at the first target ``(nv, D)`` (``warm``: at every target, ``(nv, T, D)``).
 
@@ -50,7 +50,9 @@ def residuals_and_jacobian(problem, V, X, signs, hmax, start=None, warm=False):
     multistart assembly of :meth:`Problem.trace`; the trace through the targets is the same.
     ``warm`` (``start`` then ``(nv, T, D)``): the position at *every* target by Newton from the
     nearby design's there, in its mode — one batch of T·D columns instead of a trace through the
-    targets; a design whose Newton fails at some target is traced as above. (The poses are of
+    targets; a design whose Newton fails at some target is traced as above (``retrace``) or reported
+    as not reached (``retrace=False``, nor assembled anew from many starts: the caller rejects that trial
+    step). (The poses are of
     the asked mode at every target but not checked to be one continuous motion: shape synthesis,
     which uses this, certifies its designs with the tracker.)
     """
@@ -62,7 +64,7 @@ def residuals_and_jacobian(problem, V, X, signs, hmax, start=None, warm=False):
         if start is None:
             Zt, reached = problem.trace(P, X, signs, hmax=hmax, singular_stop=False)
         elif warm:
-            Zt, reached = _warm_poses(problem, start, P, X, signs, hmax)
+            Zt, reached = _warm_poses(problem, start, P, X, signs, hmax, retrace)
         else:
             Z0, ok0 = b.reassemble(start, P, X[0], signs)
             Z0[:, ~ok0] = np.nan
@@ -103,7 +105,7 @@ def residuals_and_jacobian(problem, V, X, signs, hmax, start=None, warm=False):
     return r, Jp, ok, first
 
 
-def _warm_poses(problem, start, P, X, signs, hmax):
+def _warm_poses(problem, start, P, X, signs, hmax, retrace=True):
     """Positions at every target by Newton from ``start`` ``(nv, T, D)`` (see :func:`residuals_and_jacobian`)."""
     b = problem.batch
     T, D = X.shape
@@ -111,12 +113,12 @@ def _warm_poses(problem, start, P, X, signs, hmax):
     Zs = start.reshape(nv, T * D)  # column t*D + d
     PT = np.tile(P, (1, T))
     S = np.tile(signs, (1, T))
-    Z, ok = b.reassemble(Zs, PT, X.reshape(-1), S)
+    Z, ok = b.reassemble(Zs, PT, X.reshape(-1), S, multistart=retrace)
     ok = ok.reshape(T, D).all(axis=0)
     Zt = np.where(ok[None, None, :], Z.reshape(nv, T, D), np.nan)
     reached = np.where(ok, T, 0)
     bad = np.flatnonzero(~ok)
-    if bad.size:  # traced from the first target's position, as without warm poses
+    if bad.size and retrace:  # traced from the first target's position, as without warm poses
         Z0, ok0 = b.reassemble(start[:, 0, bad], P[:, bad], X[0, bad], signs[:, bad])
         Z0[:, ~ok0] = np.nan
         Zb, rb = b.follow(Z0, P[:, bad], X[:, bad], hmax=hmax, signs=signs[:, bad], stop_on_singular=False)
@@ -272,7 +274,10 @@ def _lm(problem, V, signs, X, iters, hmax, floor, need, warm, trust=False, stall
             step = step * np.minimum(1.0, _FREE_STEP / np.where(big > 0, big, 1.0))[:, None]
         Vn = project(V[a] + np.where(good[:, None], step[:, :k], 0.0))
         Xn = X[:, a] + (np.where(good[:, None], step[:, k:], 0.0).T if problem.free else 0.0)
-        rn, Jn, okn, Z0n = residuals_and_jacobian(problem, Vn, Xn, signs[:, a], hmax, start=Z0[..., a], warm=warm)
+        # (trust: a trial whose poses Newton cannot reach from the last ones is a rejected step, not traced: the
+        # damping grows and the next step is shorter; on an open half circle the traces were half the polish)
+        rn, Jn, okn, Z0n = residuals_and_jacobian(problem, Vn, Xn, signs[:, a], hmax, start=Z0[..., a], warm=warm,
+                                                  retrace=not trust)
         fn = np.where(okn & good, np.sum(rn * rn, axis=1), np.inf)
         acc = fn < f[a]
         if need and acc.any():  # a step must keep the design within the requirements (crank, transmission)
