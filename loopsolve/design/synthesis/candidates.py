@@ -386,6 +386,14 @@ class Batch:
         going = np.all(np.isfinite(Z), axis=0)
         with np.errstate(all="ignore"):
             for _ in range(iters):
+                if going.all():  # (every column: no gather and scatter; the same arithmetic)
+                    F, J = ops.phi_jac(Z, P)
+                    dU = ops.solve(J, -F)
+                    size = np.max(np.abs(dU * w), axis=0)
+                    bad = ~np.isfinite(size) | (size > 0.5)
+                    Z[self.iu] += np.where(bad, 0.0, dU)
+                    going[bad | (size <= 1e-13)] = False
+                    continue
                 a = np.flatnonzero(going)
                 if not a.size:
                     break
@@ -443,7 +451,6 @@ class Batch:
         mod = points_p_module(self.ck)
         vals = mod.points_p_v(Z, P)
         npar = mod.NPARAM
-        for c in range(2):
-            for j, ip in enumerate(self.pidx):
-                out[c, j] += np.broadcast_to(np.asarray(vals[(2 * point + c) * npar + ip], dtype=float), (N,))
+        sel = [vals[(2 * point + c) * npar + ip] for c in range(2) for ip in self.pidx]  # scalars and (N,) arrays
+        out += np.array(np.broadcast_arrays(np.zeros(N), *sel)[1:], dtype=float).reshape(2, k, N)
         return out, dx
