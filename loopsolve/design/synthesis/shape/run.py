@@ -379,7 +379,8 @@ def _feet(problem, V, X, f, Z, S, iters: int = 8):
     has not converged cuts the curve short of its foot — on a stretch where the point dwells, the objective
     hardly changes while that input still moves, and a polish that stalled leaves it there. Gauss–Newton on each
     input alone (all designs and targets in one batch), then a trace through the targets in the design's mode;
-    a design keeps the new inputs only when the trace reaches every target and its objective is not larger.
+    a design keeps the new inputs only when the trace reaches every target, in the same order, and its objective
+    is not larger.
     """
     from ..lockstep_lm import POLISH_H
 
@@ -412,7 +413,8 @@ def _feet(problem, V, X, f, Z, S, iters: int = 8):
         Zt, reached = problem.trace(P, Xn, np.asarray(S, dtype=float)[:, cols], hmax=POLISH_H, singular_stop=False)
         r = problem.residuals(np.nan_to_num(Zt[:, :T]), P)
         fn = np.where(reached >= T, np.sum(r * r, axis=(0, 1)), np.inf)
-    take = fn <= f[cols]
+    same_order = np.all(np.sign(np.diff(Xn, axis=0)) == np.sign(np.diff(X[:, cols], axis=0)), axis=0)
+    take = (fn <= f[cols]) & same_order
     X, f, Z = X.copy(), f.copy(), Z.copy()
     X[:, cols[take]] = Xn[:, take]
     f[cols[take]] = fn[take]
