@@ -78,7 +78,11 @@ def retrieve(atlas, xy, *, closed: bool, crank: bool = False, count: int = 40, p
         if rnd < _ROUND and pool.size > prefilter:
             var = _d.efd_variants(xy, H)  # (4, F)
             E = atlas.arrays["efd"][pool].astype(float)
-            d2 = np.min(np.sum((E[:, None, :] - var[None, :, :]) ** 2, axis=2), axis=1)
+            d2 = None  # the least over the variants, one at a time (no (pool, 4, F) array)
+            for v in var:
+                d = E - v
+                s2 = np.sum(d * d, axis=1)
+                d2 = s2 if d2 is None else np.minimum(d2, s2)
             keep = np.argsort(d2, kind="stable")[:prefilter]
             cand, efd_dist = pool[keep], np.sqrt(d2[keep])
             stats["efd_stage"] = True
