@@ -260,32 +260,92 @@ def test_a_diagram_model_without_placement_parameters_is_placed_through_added_on
     assert np.max(distance_to(xy[:, 0] + 1j * xy[:, 1], curve)) < 1e-3
 
 
-def test_a_stalled_polish_ends_early_with_its_best_design(fourbar, atlas, monkeypatch):
-    """MINPACK's polish of a curve no four-bar traces exactly (a kidney of 36 points) stops once its objective
-    no longer falls (shape._STALL), keeping the best design it evaluated: it needs far fewer evaluations than
-    the polish run to its cap, and its designs are as good to a fraction of a per cent."""
-    import loopsolve.design.synthesis.shape.run as shape
+def _kidney():
+    t = np.radians(np.arange(0, 360, 10))
+    return np.stack([4 + 3 * np.cos(t) * (1 + 0.3 * np.cos(2 * t)), 1.8 * np.sin(t) + 0.6 * np.sin(2 * t)], axis=1)
+
+
+def _count_evaluations(monkeypatch):
+    """The designs of every batch evaluation of the polish (one per lockstep iteration, plus the first)."""
     import loopsolve.design.synthesis.lockstep_lm as synthlm
 
-    t = np.radians(np.arange(0, 360, 10))
-    xy = np.stack([4 + 3 * np.cos(t) * (1 + 0.3 * np.cos(2 * t)), 1.8 * np.sin(t) + 0.6 * np.sin(2 * t)], axis=1)
     real = synthlm.residuals_and_jacobian
-    calls = {"n": 0}
+    calls = []
 
     def counted(problem, V, *a, **k):
-        calls["n"] += V.shape[0] == 1  # the single-design evaluations are MINPACK's
+        calls.append(V.shape[0])
         return real(problem, V, *a, **k)
 
     monkeypatch.setattr(synthlm, "residuals_and_jacobian", counted)
+    return calls
+
+
+def test_a_stalled_polish_ends_early_with_its_best_design(fourbar, atlas, monkeypatch):
+    """A curve no four-bar traces exactly (a kidney of 36 points): a start of the polish stops once its objective
+    no longer falls (shape._STALL), keeping its best design. The polish evaluates far fewer designs than when
+    no start ever stalls, and its designs are as good to a fraction of a per cent."""
+    import loopsolve.design.synthesis.shape.run as shape
+
+    xy = _kidney()
+    calls = _count_evaluations(monkeypatch)
     got, default = {}, shape._STALL_DROP
-    for drop in (default, 0.0):  # 0: a polish never stalls and runs to its cap
+    for drop in (default, -1.0):  # -1: an objective never falls that little, so a start never stalls
         monkeypatch.setattr(shape, "_STALL_DROP", drop)
-        calls["n"] = 0
+        calls.clear()
         res = synthesize_shape(fourbar, shape="P", targets=xy, atlas=atlas, top=3, progress=False)
-        got[drop] = (calls["n"], [c["shape_error"]["rms"] for c in res.report["candidates"]])
-    (n_stall, rms_stall), (n_full, rms_full) = got[default], got[0.0]
-    assert n_stall < 0.6 * n_full
+        got[drop] = (sum(calls), [c["shape_error"]["rms"] for c in res.report["candidates"]])
+    (n_stall, rms_stall), (n_full, rms_full) = got[default], got[-1.0]
+    assert n_stall < 0.8 * n_full
     assert rms_stall[0] <= 1.01 * rms_full[0]
+
+
+def test_a_shape_query_does_a_bounded_amount_of_work(fourbar, atlas, monkeypatch):
+    """One query's work, counted (not timed): the polish is one lockstep batch per iteration for every start at
+    once (at most ``LM_ITERS`` + 1 evaluations, no design polished on its own), its poses are checked by a few
+    traces, and every reported design costs one certificate whose sweeps also give its shape error (no other
+    sweep of its motion)."""
+    import loopsolve.design.synthesis.certificate as certificate
+    import loopsolve.design.synthesis.lockstep_lm as synthlm
+    import loopsolve.design.synthesis.shape.run as shape
+    from loopsolve.design.synthesis.problem import Problem
+    from loopsolve.model.mechanism import Mechanism
+
+    calls = _count_evaluations(monkeypatch)
+    counts = {"trace": 0, "certify": 0, "sweep": 0, "validate": 0}
+
+    def counting(obj, name, key):
+        real = getattr(obj, name)
+
+        def wrapped(*a, **k):
+            counts[key] += 1
+            return real(*a, **k)
+
+        monkeypatch.setattr(obj, name, wrapped)
+
+    counting(Problem, "trace", "trace")
+    counting(certificate, "certify", "certify")
+    counting(Mechanism, "sweep", "sweep")
+    counting(synthlm, "_validate", "validate")
+    top = 3
+    for closed, xy in ((True, _kidney()), (False, _kidney()[:14])):
+        calls.clear()
+        for k in counts:
+            counts[k] = 0
+        res = synthesize_shape(fourbar, shape="P", targets=xy, closed=closed, atlas=atlas, top=top, progress=False)
+        n_starts = res.report["statistics"]["retrieval"]["starts"]
+        # (a second pass, from their starts, only for starts that ended failing the crank requirement)
+        assert 1 < len(calls) <= 2 * (shape.LM_ITERS + 1)
+        assert calls[0] == n_starts > 1 and max(calls) <= n_starts
+        # the first trace through the targets, the checks at 16 and 64 iterations and at the end, and the
+        # requirements' check of a closed curve (a full turn) — redone only for starts that failed it
+        assert counts["validate"] <= len(synthlm._TRUST_VALIDATE) + 2
+        assert counts["trace"] <= 2 * (len(synthlm._TRUST_VALIDATE) + 3)
+        n_cert = counts["certify"]
+        assert len(res.report["candidates"]) <= n_cert <= 2 * top + len(res.report["statistics"]["rejected"])
+        # a certificate sweeps at most the stretches between its 8 checkpoints and a full turn; the shape error
+        # reuses them (a design whose certificate has a defect is swept once more for the error it reports)
+        assert counts["sweep"] <= n_cert * (shape._CERT_POINTS - 1 + 1) + len(res.report["statistics"]["rejected"])
+        check_against_closed_form(res.report, xy, closed=closed)
 
 
 def test_the_lockstep_polish_returns_the_positions_its_last_trace_found(fourbar):

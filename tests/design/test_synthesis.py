@@ -260,6 +260,25 @@ class TestDefects:
         cert = certify(m, np.radians([30, 60, 90]), poses=_poses(m, [30, 60, 90], [-1, -1, -1]), crank=True)
         assert cert["defects"] == [] and cert["crank"] is True
 
+    def test_the_swept_motion_is_handed_back_and_is_the_closed_form_motion(self):
+        """certify(..., sweeps=[]) returns the sweeps it judged: the stretches between the targets, in order, and
+        with crank the full turn from the first target instead; their rows are the closed form's poses."""
+        m = _crank_rocker()
+        p = {x.name: x.value for x in m.parameters}
+        for crank, span in ((False, (30, 90)), (True, (30, 390))):
+            sweeps = []
+            cert = certify(m, np.radians([30, 60, 90]), poses=_poses(m, [30, 60, 90], [-1, -1, -1]), crank=crank,
+                           sweeps=sweeps)
+            assert cert["defects"] == []
+            assert len(sweeps) == (1 if crank else 2)
+            z = np.vstack([np.asarray(sw.z) for sw in sweeps])
+            x = np.degrees(z[:, 0])
+            assert x[0] == pytest.approx(span[0]) and x[-1] == pytest.approx(span[1])
+            assert np.all(np.diff(x) >= 0)
+            want = np.array([fourbar_angles(p, xi, -1) for xi in x])
+            d = (np.degrees(z[:, 1:3]) - want + 180.0) % 360.0 - 180.0
+            assert np.max(np.abs(d)) < 1e-6
+
     def test_targets_across_a_toggle_are_a_branch_defect(self):
         # non-Grashof (triple rocker): both modes lie on one circuit, joined at the input's limits
         m = ls.load(FOURBAR).with_parameters(r1=4.0, r2=3.0, r3=2.5, r4=3.0, rcx=1.0, rcy=0.5)

@@ -366,12 +366,13 @@ class Batch:
             conv = np.all(np.abs(F) <= 1e-10 * scale, axis=0) & np.all((signs == 0) | (sig == signs), axis=0)
         return conv
 
-    def reassemble(self, Z, P, x, signs, iters: int = 12):
+    def reassemble(self, Z, P, x, signs, iters: int = 12, multistart: bool = True):
         """Positions ``(nv, D)`` at the inputs ``x`` ``(D,)`` from nearby ones ``Z`` (the same designs a step ago).
 
         Newton on all unknowns per column from ``Z`` (a column whose correction exceeds half a
         radian or scale, or is not finite, stops there), then, for the columns it left without a
-        root of the block signs ``signs``, the multistart :meth:`assemble`. Returns ``(Z, ok)`` as
+        root of the block signs ``signs``, the multistart :meth:`assemble` (``multistart``; without it they are
+        returned not ok). Returns ``(Z, ok)`` as
         :meth:`assemble`. Why: an optimizer's next trial design is a small step from the last one,
         and its position there is a few Newton steps from the last position, where :meth:`assemble`
         would run Newton from many starts per block.
@@ -385,6 +386,14 @@ class Batch:
         going = np.all(np.isfinite(Z), axis=0)
         with np.errstate(all="ignore"):
             for _ in range(iters):
+                if going.all():  # (every column: no gather and scatter; the same arithmetic)
+                    F, J = ops.phi_jac(Z, P)
+                    dU = ops.solve(J, -F)
+                    size = np.max(np.abs(dU * w), axis=0)
+                    bad = ~np.isfinite(size) | (size > 0.5)
+                    Z[self.iu] += np.where(bad, 0.0, dU)
+                    going[bad | (size <= 1e-13)] = False
+                    continue
                 a = np.flatnonzero(going)
                 if not a.size:
                     break
@@ -400,7 +409,7 @@ class Batch:
             ok = (np.all(np.abs(F) <= 1e-10 * scale, axis=0) & np.all((signs == 0) | (sig == signs), axis=0)
                   & np.all(np.isfinite(Z), axis=0))
         rest = np.flatnonzero(~ok)
-        if rest.size:
+        if rest.size and multistart:
             Zr, okr = self.assemble(P[:, rest], np.asarray(x, dtype=float)[rest], signs[:, rest])
             Z[:, rest] = Zr
             ok[rest] = okr
@@ -418,31 +427,30 @@ class Batch:
 
         J = self.ops.jac(Z, P)
         Fp = phi_p_v(self.ck, Z, P)
-        dq_dp = np.stack([self.ops.solve(J, -Fp[:, i, :]) for i in self.pidx], axis=1)
+        N, k = Z.shape[1], len(self.pidx)
         zk1 = np.zeros_like(Z)
         zk1[self.ix] = 1.0
-        dq_dx = self.ops.solve(J, self.ops.rhs(1, (Z, zk1), P))
-        return dq_dp, dq_dx
+        # every right-hand side (one per varied parameter, and the input's) in one block solve of (k + 1)·N columns
+        B = np.concatenate([-Fp[:, list(self.pidx), :].reshape(Fp.shape[0], k * N), self.ops.rhs(1, (Z, zk1), P)],
+                           axis=1)
+        Q = self.ops.solve(np.tile(J, (1, k + 1)), B)
+        return Q[:, :k * N].reshape(-1, k, N), Q[:, k * N:]
 
     def point_derivatives(self, Z, P, point: int, dq_dp, dq_dx):
         """``(dPoint/dp (2, k, N), dPoint/dx (2, N))`` of point number ``point``."""
         N = Z.shape[1]
         k = len(self.pidx)
-        out = np.empty((2, k, N))
-        for j in range(k):
-            V = np.zeros_like(Z)
-            V[self.iu] = dq_dp[:, j]
-            v = np.asarray(self.ops.points(1, [Z, V], P), dtype=float)
-            out[:, j] = np.broadcast_to(v.reshape(-1, 2, N)[point], (2, N))
+        # the point's velocity along every parameter's tangent and the input's, in one call on (k + 1)·N columns
+        V = np.zeros((Z.shape[0], (k + 1) * N))
+        V[self.iu] = np.concatenate([dq_dp.reshape(dq_dp.shape[0], k * N), dq_dx], axis=1)
+        V[self.ix, k * N:] = 1.0
+        v = np.asarray(self.ops.points(1, [np.tile(Z, (1, k + 1)), V], np.tile(P, (1, k + 1))), dtype=float)
+        v = np.broadcast_to(v.reshape(-1, 2, (k + 1) * N)[point], (2, (k + 1) * N))
+        out = v[:, :k * N].reshape(2, k, N).copy()
+        dx = v[:, k * N:]
         mod = points_p_module(self.ck)
         vals = mod.points_p_v(Z, P)
         npar = mod.NPARAM
-        for c in range(2):
-            for j, ip in enumerate(self.pidx):
-                out[c, j] += np.broadcast_to(np.asarray(vals[(2 * point + c) * npar + ip], dtype=float), (N,))
-        V = np.zeros_like(Z)
-        V[self.ix] = 1.0
-        V[self.iu] = dq_dx
-        v = np.asarray(self.ops.points(1, [Z, V], P), dtype=float)
-        dx = np.broadcast_to(v.reshape(-1, 2, N)[point], (2, N))
+        sel = [vals[(2 * point + c) * npar + ip] for c in range(2) for ip in self.pidx]  # scalars and (N,) arrays
+        out += np.array(np.broadcast_arrays(np.zeros(N), *sel)[1:], dtype=float).reshape(2, k, N)
         return out, dx

@@ -147,7 +147,7 @@ def _grashof_margin(mech) -> float | None:
 
 
 def certify(mech, inputs, *, poses=None, crank: bool = False, transmission=None, point=None,
-            targets=None, grashof_margin=_FROM_INFO) -> dict:
+            targets=None, grashof_margin=_FROM_INFO, sweeps=None) -> dict:
     """The certificate of design ``mech`` (a model with the design's parameter values).
 
     Parameters
@@ -163,6 +163,10 @@ def certify(mech, inputs, *, poses=None, crank: bool = False, transmission=None,
     grashof_margin : float or None, optional
         The design's Grashof margin when the caller has it (shape synthesis computes it from the
         four-bar loops' lengths for many designs at once); by default from ``mech.info()``.
+    sweeps : list, optional
+        Receives the tracker's sweeps of the motion the certificate judged (with ``crank``, the
+        full turn from the first target; otherwise the stretches between the targets, in order),
+        so a caller that needs that motion's rows does not sweep it again.
 
     Returns
     -------
@@ -182,13 +186,14 @@ def certify(mech, inputs, *, poses=None, crank: bool = False, transmission=None,
     """
     with warnings.catch_warnings():  # the tracker's stop notices are what the certificate reports
         warnings.simplefilter("ignore", LoopsolveWarning)
-        cert = _certify(mech, inputs, poses, crank, transmission, point, targets, grashof_margin is _FROM_INFO)
+        cert = _certify(mech, inputs, poses, crank, transmission, point, targets, grashof_margin is _FROM_INFO,
+                        sweeps)
     if grashof_margin is not _FROM_INFO:
         cert["grashof_margin"] = grashof_margin
     return cert
 
 
-def _certify(mech, inputs, poses, crank, transmission, point, targets, margin=True):
+def _certify(mech, inputs, poses, crank, transmission, point, targets, margin=True, sweeps=None):
     from ...kinematics.modes import modes_at
 
     ck = mech.compile()
@@ -228,7 +233,7 @@ def _certify(mech, inputs, poses, crank, transmission, point, targets, margin=Tr
     if T > 1 and ck.kinds[ix] is Kind.ANGLE and abs(xs[-1] - xs[0]) >= _TWO_PI:
         defects.add("order")
         notes.append("the targets span more than one turn of the input")
-    rows = []
+    rows, swept = [], []
     if "assembly" not in defects and "order" not in defects:
         z = Zc[0]
         for t in range(T - 1):
@@ -237,6 +242,7 @@ def _certify(mech, inputs, poses, crank, transmission, point, targets, margin=Tr
                 sw = _sweep(mech, ck, xs[t], xs[t + 1], z)
                 ev = [e.kind.value for e in sw.events]
                 rows.append(sw.z)
+                swept.append(sw)
                 if "limit" in ev or "not-assemblable" in ev or len(sw) == 0 or \
                         abs(sw.z[-1, ix] - xs[t + 1]) > 1e-9 * max(1.0, abs(xs[t + 1])):
                     kind = "limit"
@@ -268,12 +274,14 @@ def _certify(mech, inputs, poses, crank, transmission, point, targets, margin=Tr
                          abs(sw.z[-1, ix] - (xs[0] + direction * _TWO_PI)) < 1e-9 * (1 + abs(xs[0])) and
                          _same_pose(ck, sw.z[-1], Zc[0], 1e-6))
             if crank:
-                rows = [sw.z]
+                rows, swept = [sw.z], [sw]
         except LoopsolveError:
             turns = False
     if crank and not turns:
         defects.add("crank")
         notes.append("the input does not turn fully")
+    if sweeps is not None:
+        sweeps.extend(swept)
     mu = _transmission(ck, np.vstack(rows)) if rows else None
     if transmission is not None:
         lo, hi = transmission

@@ -108,7 +108,7 @@ def atlas_starts(problem, *, atlas=None, count: int = ATLAS_STARTS):
         return None
     picked = diverse(a, matches, count)
     idx = np.arange(len(xy))
-    V, S, X, used = placed_starts(a, picked, xy, idx, closed, fr, problem, deg=deg)
+    V, S, X, used = placed_starts(a, picked, xy, idx, closed, fr, problem, deg=deg, step_deg=1.0)
     if not len(used):
         return None
     if closed:  # the repeated last target: one turn on, just short of the full turn (an order within one turn)

@@ -78,7 +78,11 @@ def retrieve(atlas, xy, *, closed: bool, crank: bool = False, count: int = 40, p
         if rnd < _ROUND and pool.size > prefilter:
             var = _d.efd_variants(xy, H)  # (4, F)
             E = atlas.arrays["efd"][pool].astype(float)
-            d2 = np.min(np.sum((E[:, None, :] - var[None, :, :]) ** 2, axis=2), axis=1)
+            d2 = None  # the least over the variants, one at a time (no (pool, 4, F) array)
+            for v in var:
+                d = E - v
+                s2 = np.sum(d * d, axis=1)
+                d2 = s2 if d2 is None else np.minimum(d2, s2)
             keep = np.argsort(d2, kind="stable")[:prefilter]
             cand, efd_dist = pool[keep], np.sqrt(d2[keep])
             stats["efd_stage"] = True
@@ -130,8 +134,12 @@ def diverse(atlas, matches, k: int, *, dist: float = 0.03):
     return chosen
 
 
-def _retrace(atlas, entries, step_deg: float = 1.0):
-    """The entries' motions again, finely: ``(inputs (D, R), points (D, R, 2), counts (D,))`` along increasing input."""
+def _retrace(atlas, entries, step_deg: float | None = None):
+    """The entries' motions again: ``(inputs (D, R), points (D, R, 2), counts (D,))`` along increasing input.
+
+    At the atlas' own step (``step_deg`` by default ``atlas.meta["step_deg"]``), as the build traced them: the
+    stored curves, to whose arc length a match refers, were resampled from those rows (a finer retrace, 1°, cost
+    four times as many continuation steps for starts whose inputs the polish moves anyway)."""
     from ..candidates import Batch
 
     mech = atlas.mechanism
@@ -144,6 +152,7 @@ def _retrace(atlas, entries, step_deg: float = 1.0):
     x0 = atlas.arrays["x_start"][entries]
     xr = atlas.arrays["x_range"][entries]
     crank = atlas.arrays["crank"][entries]
+    step_deg = float(atlas.meta.get("step_deg", 1.0)) if step_deg is None else step_deg
     h = math.radians(step_deg) if b.input_is_angle else (xr[:, 1] - xr[:, 0]).max() / 200
     ip = ck.points.index(atlas.point)
     with np.errstate(all="ignore"):
@@ -245,16 +254,17 @@ def within_bounds(atlas, matches, xy, closed: bool, frame, problem, *, deg: bool
     return out
 
 
-def placed_starts(atlas, matches, xy, idx, closed: bool, frame, problem, *, deg: bool):
+def placed_starts(atlas, matches, xy, idx, closed: bool, frame, problem, *, deg: bool, step_deg: float | None = None):
     """Starts of the polish from ``matches``: ``(V (S, k), signs (nb, S), X (M, S), entries)``.
 
     ``xy`` the target ``(T, 2)``, ``idx`` the target points of the polish (M of them), ``frame``
     the model's :class:`~loopsolve.design.atlas.frame.Frame`, ``problem`` the polish problem (its
-    varied parameters and bounds). See the module docstring.
+    varied parameters and bounds), ``step_deg`` the step of the retrace (:func:`_retrace`). See the module
+    docstring.
     """
     N = int(atlas.meta["curve_points"])
     entries = np.array([m.entry for m in matches], dtype=int)
-    Xs, pts, cnt = _retrace(atlas, entries)
+    Xs, pts, cnt = _retrace(atlas, entries, step_deg)
     # arc-length fraction of every polish point along the target (the resampling's parameter)
     seg = np.hypot(*np.diff(np.vstack([xy, xy[:1]]) if closed else xy, axis=0).T)
     s = np.concatenate([[0.0], np.cumsum(seg)])

@@ -13,15 +13,20 @@
 4. **Polish**: the free-timing path problem of the target's points (at most ``polish_points`` of
    them, spread along the curve) on the framed model, whose varied parameters are the atlas'
    shape parameters, every length (so the scale) and the frame: all starts at once by the
-   lockstep Levenberg–Marquardt (:func:`loopsolve.design.synthesis.lockstep_lm.batch_lm`; the input value of
-   every target point is a variable, so at the optimum each residual is the distance of that
-   point to the design's curve), the distinct basins then by the exact least-squares polish.
+   lockstep Levenberg–Marquardt with MINPACK's scaling and a damping from the gain ratio
+   (:func:`loopsolve.design.synthesis.lockstep_lm.batch_lm` with ``trust``; the input value of every
+   target point is a variable, so at the optimum each residual is the distance of that point to
+   the design's curve), at most ``lm_iters`` iterations, a start stopping earlier once it converges
+   or stalls (:data:`_STALL`). The distinct basins it ends in go on, best first.
 5. **Certificate** from the tracker (:func:`loopsolve.design.synthesis.certificate.certify`) at up to 8 of the
    polished targets spread along the curve (the motion between them is swept): one circuit, in
    order, with a full turn of the input for a closed curve or ``crank``, within ``transmission``.
-6. **Shape error**: every target point's distance to the design's curve, traced by the public
-   sweep at 0.5° over the certified motion (the full turn for a closed curve, the stretch from the
-   first to the last target for an open one): RMS and maximum, in the target's units.
+   Basins are certified until ``top`` designs are kept and the next one's polished objective is
+   above theirs (:data:`_CERTIFY_MORE` when only some of the targets were polished).
+6. **Shape error**: every target point's distance to the design's curve, on the motion the
+   certificate swept (the tracker's rows at 1° over the full turn for a closed curve or ``crank``,
+   the stretches from the first target to the last for an open one), refined to the foot of the
+   perpendicular: RMS and maximum, in the target's units.
 7. The best ``top`` certified designs, **distinct** (two designs whose parameters agree to 1 % of
    the target's size — lengths — and 1° — angles — in the same mode are one), ranked by RMS.
 
@@ -49,6 +54,19 @@ __all__ = ["synthesize_shape", "ShapeResult", "read_curve"]
 POLISH_POINTS = 32
 #: certificate checkpoints at most
 _CERT_POINTS = 8
+#: a column of the polish stops once its objective fell by less than ``_STALL_DROP`` (relative) over the last
+#: ``_STALL`` iterations (after at least twice that many). On a 36-point kidney curve every polish ran to its
+#: cap while its objective moved in the fourth digit after 10–20 evaluations; a planted design (quadratic
+#: convergence) and the square free-timing fits that still halve their objective every ten iterations are not
+#: stopped by it. (1 %, the rule of the per-basin MINPACK polish this replaced, stopped the fits of a noisy D
+#: shape and of an open stretch 0.03 % above the bottoms that 0.1 % reaches.)
+_STALL = 10
+_STALL_DROP = 0.001
+#: iterations of the polish (every start; a column stops earlier when it converges or stalls)
+LM_ITERS = 120
+#: certificates go on past ``top`` certified designs while a basin's polished objective is within this factor of
+#: the worst one kept (the report ranks by the shape error over every target point, not only the polished ones)
+_CERTIFY_MORE = 1.25
 
 
 def read_curve(targets, closed: bool, where: str = "--targets", max_targets: int | None = None) -> np.ndarray:
@@ -156,6 +174,15 @@ def _dense_curve(mech, point, x0, z0, span, direction):
     return pts, np.asarray(sw.z[:, ck.input_idx[0]]), np.asarray(sw.z)
 
 
+def _swept_curve(problem, sweeps):
+    """The point's curve over the certificate's sweeps (joined in order): ``(points (R, 2), inputs (R,), poses)``."""
+    ck = problem.ck
+    pts = np.vstack([np.stack([np.asarray(sw.columns[f"{problem.point}_x"]),
+                               np.asarray(sw.columns[f"{problem.point}_y"])], axis=1) for sw in sweeps])
+    zs = np.vstack([np.asarray(sw.z) for sw in sweeps])
+    return pts, zs[:, ck.input_idx[0]], zs
+
+
 def _refine(problem, values, signs, q, xs0, Z0, lo, hi, iters: int = 6):
     """Distance of the points ``q`` to the design's curve, refined from the nearest polyline rows by Gauss–Newton
     on the input (the foot of the perpendicular), within ``[lo, hi]``: ``(dist, x)``; NaN where it fails."""
@@ -201,7 +228,7 @@ def _same_design(a, b, frame, size, deg) -> bool:
 
 def synthesize_shape(mech, *, shape: str, targets, closed: bool = True, atlas=None, top: int = 5,
                      crank: bool = False, transmission=None, vary=None, seed: int = 0, progress=None,
-                     polish_points: int = POLISH_POINTS, starts: int | None = None, lm_iters: int = 40,
+                     polish_points: int = POLISH_POINTS, starts: int | None = None, lm_iters: int = LM_ITERS,
                      max_targets: int | None = None):
     """Linkages of ``mech`` whose point ``shape`` traces the curve ``targets`` (see the module docstring).
 
@@ -227,7 +254,7 @@ def synthesize_shape(mech, *, shape: str, targets, closed: bool = True, atlas=No
         Seed of the default atlas (when one is built).
     polish_points, starts, lm_iters
         Target points the polish uses, starts retrieved (default 3·top, at least 12), iterations
-        of the lockstep Levenberg–Marquardt.
+        of the lockstep Levenberg–Marquardt (:data:`LM_ITERS`).
 
     Returns
     -------
@@ -298,100 +325,9 @@ def synthesize_shape(mech, *, shape: str, targets, closed: bool = True, atlas=No
     return _result(problem, frame, atlas, xy, closed, cands, top, stats, time.perf_counter() - t0)
 
 
-class _Stalled(Exception):
-    """Raised from inside MINPACK's loop to end a polish that no longer pays (see :data:`_STALL`)."""
-
-
-#: a polish ends once its best objective fell by less than ``_STALL_DROP`` (relative) over the last
-#: ``_STALL`` evaluations (after at least twice that many), keeping the best design it evaluated.
-#: On a 36-point kidney curve every polish ran to the 80-evaluation cap while its objective moved in the
-#: fourth digit after 10–20 evaluations; a planted design (quadratic convergence) and the square
-#: free-timing fits that still halve their objective every ten evaluations are not stopped by it.
-_STALL = 10
-_STALL_DROP = 0.01
-
-
-def _lm_polish(problem, v, x, signs, Z, max_nfev: int = 80):
-    """One design polished by MINPACK's Levenberg–Marquardt (``scipy.optimize.least_squares(method="lm")``) on the
-    same residuals and Jacobian as the lockstep LM (its positions at every target by Newton from the last ones).
-
-    Why a second LM: the lockstep one crawls along the valleys of these problems (a planted four-bar took 400
-    iterations to its exact dimensions), MINPACK's trust region with scaling by the Jacobian's columns leaves
-    them in tens of steps (69 evaluations there). Returns ``(values, inputs, objective, poses)`` or None; a result
-    outside the bounds (MINPACK's LM has none) is not taken. A polish that stalls (:data:`_STALL`) ends early
-    with the best design it evaluated.
-    """
-    from scipy.optimize import least_squares
-
-    from ..lockstep_lm import POLISH_H, residuals_and_jacobian
-
-    k = len(v)
-    state = {"Z": np.asarray(Z, dtype=float)[:, :, None].copy()}
-    cache = {}
-    sg = np.asarray(signs, dtype=float)[:, None]
-    best = {"f": [], "u": None}
-
-    def ev(u):
-        key = u.tobytes()
-        if key not in cache:
-            cache.clear()
-            with np.errstate(all="ignore"):
-                r, J, ok, Zn = residuals_and_jacobian(problem, u[:k][None], u[k:][:, None], sg, POLISH_H,
-                                                       start=state["Z"], warm=True)
-            if ok[0]:
-                state["Z"] = Zn
-                cache[key] = (r[0], J[0], Zn[:, :, 0])
-                f = float(r[0] @ r[0])
-                if not best["f"] or f < best["f"][-1]:
-                    best["u"] = u.copy()
-                best["f"].append(min(f, best["f"][-1]) if best["f"] else f)
-            else:
-                cache[key] = (None, None, None)
-        return cache[key]
-
-    u0 = np.concatenate([np.asarray(v, dtype=float), np.asarray(x, dtype=float)])
-    r0, J0, _ = ev(u0)
-    if r0 is None:
-        return None
-    big = 10 * float(np.max(np.abs(r0))) + 1.0
-
-    def fun(u):
-        r = ev(u)[0]
-        h = best["f"]
-        if len(h) >= 2 * _STALL and h[-1] >= (1.0 - _STALL_DROP) * h[-1 - _STALL]:
-            raise _Stalled
-        return r if r is not None else np.full_like(r0, big)
-
-    def jac(u):
-        J = ev(u)[1]
-        return J if J is not None else np.zeros_like(J0)
-
-    try:
-        u = least_squares(fun, u0, jac=jac, method="lm", x_scale="jac", ftol=1e-15, xtol=1e-15, gtol=1e-15,
-                          max_nfev=max_nfev).x
-    except _Stalled:
-        u = best["u"]
-    except (ValueError, np.linalg.LinAlgError):
-        return None
-    from ..problem import periodic
-
-    per, period = periodic(problem)
-    vals = u[:k].copy()
-    vals[per] = problem.lo[per] + np.mod(vals[per] - problem.lo[per], period[per])
-    if np.any((vals < problem.lo) | (vals > problem.hi)):
-        return None
-    # the result's positions traced through the targets in the mode (the warm poses of the last trial need not
-    # be the result's, and a traced motion is what the certificate checks)
-    got = _poses(problem, {"values": vals, "inputs": u[k:], "signs": signs})
-    if got["Z"] is None:
-        return None
-    P = problem.batch.params(vals[None])
-    r = problem.residuals(got["Z"][:, :, None], P)
-    return vals, u[k:], float(np.sum(r * r)), got["Z"]
-
-
 def _polish_and_certify(problem, frame, atlas, xy, idx, closed, V, S, X, used, top, lm_iters, transmission, deg):
-    """The lockstep LM on every start, then MINPACK's LM on the distinct basins (best first), then certificates."""
+    """Every start polished at once (the lockstep LM with MINPACK's scaling and a damping from the gain ratio), then
+    certificates of the distinct basins, best first."""
     from ...atlas.trace import fourbar_loops
     from ..problem import periodic
     from ..lockstep_lm import batch_lm, distinct
@@ -399,29 +335,27 @@ def _polish_and_certify(problem, frame, atlas, xy, idx, closed, V, S, X, used, t
     if not len(V):
         return [], []
     size = float(np.max(np.ptp(xy, axis=0)))
-    Vl, Xl, fl, Zl = batch_lm(problem, V, S, X, iters=lm_iters, warm=True, poses=True)
+    Vl, Xl, fl, Zl = batch_lm(problem, V, S, X, iters=lm_iters, warm=True, poses=True, trust=True,
+                              stall=(_STALL, _STALL_DROP))
+    if not problem.crank:
+        Xl, fl, Zl = _feet(problem, Vl, Xl, fl, Zl, S)
     per, period = periodic(problem)
     order = distinct(Vl, fl, problem.lo, problem.hi, k=max(2 * top, 6), rtol_f=1e-3, dist=0.01,
                      periodic_mask=per, period=period)
     loops = fourbar_loops(problem.mech)
     cands, rejected = [], []
+    # every target polished: the polished objective is the sum of the targets' squared distances to the curve (at
+    # the nearest points of their stretches), so the next basin cannot rank above the ones kept; a subset polished:
+    # the others' distances may reorder designs that are nearly as good
+    more = 1.0 if len(idx) == len(xy) else _CERTIFY_MORE
     for i in order:
-        if len(cands) >= top and fl[i] > 10 * max(c["polished"] for c in cands) + 1e-300:
-            break  # the basins left start far above every design kept
+        if len(cands) >= top and fl[i] > more * max(c["polished"] for c in cands):
+            break  # the basins left end above every design kept
         p = {"values": Vl[i], "inputs": Xl[:, i], "signs": S[:, i], "objective": fl[i], "Z": Zl[:, :, i]}
-        if not np.all(np.isfinite(p["Z"])):  # (the lockstep LM's last trace through the targets gives them)
+        if not np.all(np.isfinite(p["Z"])):  # (the polish's last trace through the targets gives them)
             p.update(_poses(problem, p))
             if p.get("Z") is None:
                 continue
-        lm = _lm_polish(problem, p["values"], p["inputs"], p["signs"], p["Z"])
-        if lm is not None and lm[2] <= p["objective"]:
-            p.update({"values": lm[0], "inputs": lm[1], "objective": lm[2], "Z": lm[3]})
-        elif lm is None:  # MINPACK's LM left the bounds (an optimum on a bound): the bounded trust region
-            from ..problem import polish
-
-            q = polish(problem, p["values"], signs=p["signs"], inputs=p["inputs"], max_nfev=60)
-            if math.isfinite(q.get("objective", math.inf)) and q["objective"] <= p["objective"]:
-                p.update({"values": q["values"], "inputs": q["inputs"], "objective": q["objective"], "Z": q["Z"]})
         c = _candidate(problem, frame, atlas, xy, closed, p, used[i], transmission, deg, loops)
         if c is None:
             continue
@@ -435,6 +369,57 @@ def _polish_and_certify(problem, frame, atlas, xy, idx, closed, V, S, X, used, t
         cands.append(c)
     cands.sort(key=lambda c: c["shape_error"]["rms"])
     return cands, rejected
+
+
+def _feet(problem, V, X, f, Z, S, iters: int = 8):
+    """An open curve's polished designs with every target's input moved to the foot of its perpendicular on the
+    design's curve (the design kept): ``(X, f, Z)``.
+
+    Why: the motion of an open curve ends at the first and last targets' inputs, so an end target whose input
+    has not converged cuts the curve short of its foot — on a stretch where the point dwells, the objective
+    hardly changes while that input still moves, and a polish that stalled leaves it there. Gauss–Newton on each
+    input alone (all designs and targets in one batch), then a trace through the targets in the design's mode;
+    a design keeps the new inputs only when the trace reaches every target, in the same order, and its objective
+    is not larger.
+    """
+    from ..lockstep_lm import POLISH_H
+
+    b = problem.batch
+    T = problem.T
+    cols = np.flatnonzero(np.isfinite(f) & np.all(np.isfinite(Z), axis=(0, 1)))
+    if not cols.size:
+        return X, f, Z
+    D = cols.size
+    P = b.params(V[cols])
+    PT, ST = np.tile(P, (1, T)), np.tile(np.asarray(S, dtype=float)[:, cols], (1, T))  # column t·D + d
+    q = np.repeat(problem.targets[:, :2], D, axis=0).T
+    ip = problem.ck.points.index(problem.point)
+    x = X[:, cols].reshape(-1).copy()
+    Zf = Z[:, :, cols].reshape(Z.shape[0], T * D).copy()
+    with np.errstate(all="ignore"):
+        for _ in range(iters):
+            Zf, ok = b.reassemble(Zf, PT, x, ST)
+            pts = b.points(Zf, PT)[ip]
+            zk1 = np.zeros_like(Zf)
+            zk1[b.ix] = 1.0
+            Vt = np.zeros_like(Zf)
+            Vt[b.ix] = 1.0
+            Vt[b.iu] = b.ops.solve(b.ops.jac(Zf, PT), b.ops.rhs(1, (Zf, zk1), PT))
+            dP = np.broadcast_to(np.asarray(b.ops.points(1, [Zf, Vt], PT), dtype=float).reshape(-1, 2, T * D)[ip],
+                                 (2, T * D))
+            step = np.sum(dP * (pts - q), axis=0) / np.sum(dP * dP, axis=0)
+            x = x - np.where(ok & np.isfinite(step), step, 0.0)
+        Xn = x.reshape(T, D)
+        Zt, reached = problem.trace(P, Xn, np.asarray(S, dtype=float)[:, cols], hmax=POLISH_H, singular_stop=False)
+        r = problem.residuals(np.nan_to_num(Zt[:, :T]), P)
+        fn = np.where(reached >= T, np.sum(r * r, axis=(0, 1)), np.inf)
+    same_order = np.all(np.sign(np.diff(Xn, axis=0)) == np.sign(np.diff(X[:, cols], axis=0)), axis=0)
+    take = (fn <= f[cols]) & same_order
+    X, f, Z = X.copy(), f.copy(), Z.copy()
+    X[:, cols[take]] = Xn[:, take]
+    f[cols[take]] = fn[take]
+    Z[:, :, cols[take]] = Zt[:, :T, take]
+    return X, f, Z
 
 
 def _poses(problem, p):
@@ -473,14 +458,20 @@ def _candidate(problem, frame, atlas, xy, closed, p, match, transmission, deg, l
         codes, marg = grashof_codes(loop_lengths(problem.ck, loops, Z[:, :1], Pd))
         grashof = " + ".join(GRASHOF_CLASSES[c] for c in codes[:, 0] if c)
         margin = float(marg[0]) if np.isfinite(marg[0]) else None
+    swept = []
     cert = certify(mech, inputs[sub], poses=Z[:, sub], crank=problem.crank, transmission=transmission,
-                   point=problem.point, targets=problem.targets[sub], grashof_margin=margin)
+                   point=problem.point, targets=problem.targets[sub], grashof_margin=margin, sweeps=swept)
     direction = 1 if inputs[-1] >= inputs[0] else -1
     span = 2 * math.pi if problem.crank else abs(float(inputs[-1] - inputs[0]))
-    try:
-        pts, xs, zs = _dense_curve(mech, problem.point, inputs[0], Z[:, 0], span, direction)
-    except LoopsolveError:
-        pts = None
+    if not cert["defects"] and swept:
+        # the motion the certificate swept (the full turn, or the stretches from the first target to the last):
+        # the curve whose distance to the targets is the shape error, not swept again
+        pts, xs, zs = _swept_curve(problem, swept)
+    else:
+        try:
+            pts, xs, zs = _dense_curve(mech, problem.point, inputs[0], Z[:, 0], span, direction)
+        except LoopsolveError:
+            pts = None
     if pts is None or len(pts) < 2:
         dist = np.full(len(xy), np.inf)
         near_x = np.full(len(xy), np.nan)
