@@ -314,7 +314,7 @@ def _multistart_roots(ck, z, block, n_starts: int = 48) -> list[np.ndarray]:
     """Every root of ``block`` (at the other values of ``z``) that Newton finds from the current values and
     ``n_starts`` random starts (angles anywhere on the circle, lengths within ±2 length scales).
 
-    First all the starts run together (:func:`_newton_many`, one vectorized Newton) until one converges:
+    First all the starts run together (:func:`_any_root`, one vectorized Newton) until one converges:
     where none does, the block has no root here and the answer is ``[]`` at the cost of ~80 vectorized
     iterations instead of 49 × 80 scalar ones (an input with no assembly: seconds per error message on a
     cam follower's block, whose nearest-assemblable search looks at every sample on the way). Otherwise
@@ -327,7 +327,7 @@ def _multistart_roots(ck, z, block, n_starts: int = 48) -> list[np.ndarray]:
     for _ in range(n_starts):
         st = np.where(angle, rng.uniform(-math.pi, math.pi, len(cols)), rng.uniform(-2, 2, len(cols)) * ck.scale)
         starts.append(st)
-    if not _newton_many(ck, z, block, np.array(starts), first=True):
+    if not _any_root(ck, z, block, np.array(starts)):
         return []
     found: list[np.ndarray] = []
     w = np.where(angle, 1.0, 1.0 / ck.scale)
@@ -343,17 +343,16 @@ def _multistart_roots(ck, z, block, n_starts: int = 48) -> list[np.ndarray]:
     return found
 
 
-def _newton_many(ck, z, block, starts: np.ndarray, max_iter: int = 80, first: bool = False) -> list[np.ndarray]:
-    """Newton on ``block`` from every row of ``starts`` at once, with the vectorized Φ and Φ_q and the
-    scalar Newton's rules (:func:`loopsolve.kinematics.newton.newton`: the step halved until the
-    residual's norm falls, a start with no descent dropped unless within the stall tolerance, at most
-    ``max_iter`` iterations): the points where it converged, in the order of their starts (``first``:
-    stop at the first iteration where any start converged). A start that leaves the finite numbers is
-    dropped."""
+def _any_root(ck, z, block, starts: np.ndarray, max_iter: int = 80) -> bool:
+    """Whether Newton on ``block`` converges from any row of ``starts``: all of them at once, with the
+    vectorized Φ and Φ_q and the scalar Newton's rules (:func:`loopsolve.kinematics.newton.newton`: the
+    step halved until the residual's norm falls, at most ``max_iter`` iterations; a start with no descent
+    counts when within the stall tolerance, else it is dropped, as is a start that leaves the finite
+    numbers). Stops at the first iteration where one converged."""
     eqs, cols = np.array(block.eqs), np.array(block.unknowns)
     zi = ck.unknown_idx[cols]
-    S, k = starts.shape
-    Z = np.repeat(np.array(z, dtype=float)[:, None], S, axis=1)
+    k = starts.shape[1]
+    Z = np.repeat(np.array(z, dtype=float)[:, None], starts.shape[0], axis=1)
     Z[zi, :] = starts.T
     tol, stall = Newton().atol * ck.scale, Newton().stall_tol * ck.scale
 
@@ -366,22 +365,15 @@ def _newton_many(ck, z, block, starts: np.ndarray, max_iter: int = 80, first: bo
         with np.errstate(all="ignore"):
             return np.sqrt(np.sum(F * F, axis=0))
 
-    live = np.arange(S)  # the starts still iterating (columns of Z)
-    roots = np.full((S, k), np.nan)  # where each start converged
-
-    def settle(Z, F):
-        fmax = np.max(np.abs(F), axis=0)
-        finite = np.isfinite(fmax)
-        conv = finite & (fmax <= tol)
-        roots[live[conv]] = Z[zi][:, conv].T
-        return finite & ~conv
-
     F = residual(Z)
     for _ in range(max_iter + 1):
-        keep = settle(Z, F)
-        live, Z, F = live[keep], Z[:, keep], F[:, keep]
-        if not live.size or (first and np.isfinite(roots).all(axis=1).any()):
-            break
+        fmax = np.max(np.abs(F), axis=0)
+        if np.any(fmax <= tol):
+            return True
+        keep = np.isfinite(fmax)
+        Z, F = Z[:, keep], F[:, keep]
+        if not keep.any():
+            return False
         with np.errstate(all="ignore"):
             J = np.asarray(ck.jac_v(Z), dtype=float)[:, eqs][:, :, cols]  # (N, k, k)
             big = np.max(np.abs(J), axis=(1, 2))
@@ -392,32 +384,31 @@ def _newton_many(ck, z, block, starts: np.ndarray, max_iter: int = 80, first: bo
             # where it is (nearly) singular
             JtJ = np.einsum("nij,nik->njk", Jn, Jn)
             mu = 1e-10 * np.maximum(np.max(np.abs(JtJ), axis=(1, 2)), 1e-300)
-            A = JtJ + mu[:, None, None] * np.eye(k)
             g = np.einsum("nij,ni->nj", Jn, Fn)
-            dx = -np.linalg.solve(A, g[:, :, None])[:, :, 0].T  # (k, N)
+            dx = -np.linalg.solve(JtJ + mu[:, None, None] * np.eye(k), g[:, :, None])[:, :, 0].T  # (k, N)
         ok &= np.all(np.isfinite(dx), axis=0)
         f2 = norms(F)
-        t = np.ones(live.size)
-        accepted = np.zeros(live.size, dtype=bool)
+        t = np.ones(Z.shape[1])
+        accepted = np.zeros(Z.shape[1], dtype=bool)
         Znew, Fnew = Z.copy(), F.copy()
         for _half in range(34):  # down to t = 2**-33 ~ 1e-10, the scalar Newton's last try
-            todo = ok & ~accepted
-            if not todo.any():
+            todo = np.flatnonzero(ok & ~accepted)
+            if not todo.size:
                 break
             Zt = Z[:, todo].copy()
             Zt[zi, :] += t[todo] * dx[:, todo]
             Ft = residual(Zt)
-            good = np.isfinite(norms(Ft)) & (norms(Ft) <= np.sqrt(1 - 1e-4 * t[todo]) * f2[todo])
-            idx = np.flatnonzero(todo)[good]
-            Znew[:, idx], Fnew[:, idx] = Zt[:, good], Ft[:, good]
-            accepted[idx] = True
-            t[todo & ~np.isin(np.arange(live.size), idx)] *= 0.5
+            n2 = norms(Ft)
+            good = np.isfinite(n2) & (n2 <= np.sqrt(1 - 1e-4 * t[todo]) * f2[todo])
+            Znew[:, todo[good]], Fnew[:, todo[good]] = Zt[:, good], Ft[:, good]
+            accepted[todo[good]] = True
+            t[todo[~good]] *= 0.5
         # no descent along the step: a root where the residual is already within the stall tolerance (a
-        # double root at a limit position converges slowly), as the scalar Newton takes it; else dropped
-        stuck = ~accepted & (np.max(np.abs(F), axis=0) <= stall)
-        roots[live[stuck]] = Z[zi][:, stuck].T
-        live, Z, F = live[accepted], Znew[:, accepted], Fnew[:, accepted]
-    return [r for r in roots if np.all(np.isfinite(r))]
+        # double root at a limit position converges slowly), as the scalar Newton takes it
+        if np.any(~accepted & (np.max(np.abs(F), axis=0) <= stall)):
+            return True
+        Z, F = Znew[:, accepted], Fnew[:, accepted]
+    return False
 
 
 def _linear_roots(ck, z, block) -> list[np.ndarray] | None:

@@ -7,48 +7,14 @@ import numpy as np
 
 import loopsolve as ls
 
-MODEL = """
-name = "cam and follower by points"
-units = { length = "mm", angle = "deg" }
-[variables]
-theta2 = { input = true, guess = 0 }
-s = { guess = 0 }
-[vectors]
-re = { length = 5, angle = 0 }
-rf = { length = "sqrt(48**2 - 25) + s", angle = 90 }
-[points]
-O = "0"
-C = "re + rf"
-[cams.c1]
-cam = "theta2"
-follower = "s"
-kind = "translating"
-contact = "roller"
-roller = "8mm"
-offset = "5mm"
-profile = "pitch.csv"
-[bodies]
-cam = { mass = "1kg", inertia = "1e-3kg*m^2", com = "O", angle = "theta2", joints = ["O"] }
-follower = { mass = "0.5kg", com = "C", guide = "rf", joints = [] }
-[[loads]]
-at = "C"
-body = "follower"
-force = [0, "-100N"]
-"""
+from support.models import write_pitch_cam
 
 
 def test_contact_force_of_a_profile_cam(tmp_path):
     """A pitch curve of 360 points: a harmonic rise of 20 mm over 180° and a harmonic return,
     s = 10(1 − cos θ), a single smooth curve (no joins). Along the follower's axis F cos φ − 100 N = m s̈,
     tan φ = (s′ − ε)/(s + √(R_p² − ε²)), with s, s′, s″ of the closed form (R_p = 48, ε = 5)."""
-    th = np.radians(np.arange(360.0))
-    s = 10 * (1 - np.cos(th))
-    C = np.stack([np.full(360, 5.0), math.sqrt(48**2 - 25) + s], axis=-1)
-    c, sn = np.cos(-th), np.sin(-th)
-    P = np.stack([c * C[:, 0] - sn * C[:, 1], sn * C[:, 0] + c * C[:, 1]], axis=-1)
-    (tmp_path / "pitch.csv").write_text("x,y\n" + "".join(f"{float(x)!r},{float(y)!r}\n" for x, y in P))
-    (tmp_path / "cam.toml").write_text(MODEL)
-    mech = ls.load(tmp_path / "cam.toml")
+    mech = ls.load(write_pitch_cam(tmp_path, np.arange(360.0)))
     w = 20.0
     f = ls.forces(mech, 0, 355, 5, speed=w, accel=0.0)
     t = np.radians(np.asarray(f["theta2"]))

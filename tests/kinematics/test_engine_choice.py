@@ -20,6 +20,8 @@ import loopsolve as ls
 from loopsolve.kinematics.numba_engine import jit
 from loopsolve.kinematics.scalar_solver import kernel_of
 
+from support.models import write_pitch_cam
+
 THESIS = ls.models_dir() / "thesis_crank_rocker.toml"
 HAS_NUMBA = importlib.util.find_spec("numba") is not None
 
@@ -89,35 +91,10 @@ def test_every_shipped_model_has_a_fast_lane():
         assert jit.has_lane(kernel_of(ls.load(path).compile())), path.name
 
 
-CAM_BY_POINTS = """
-name = "cam by a pitch table"
-units = { length = "mm", angle = "deg" }
-[variables]
-theta2 = { input = true, guess = 0 }
-s = { guess = 0 }
-[vectors]
-re = { length = 5, angle = 0 }
-rf = { length = "sqrt(48**2 - 25) + s", angle = 90 }
-[cams.c1]
-cam = "theta2"
-follower = "s"
-kind = "translating"
-contact = "roller"
-roller = "8mm"
-offset = "5mm"
-profile = "pitch.csv"
-"""
-
-
 def test_a_model_numba_cannot_compile_in_time_runs_python_and_says_so_under_numba(fresh, tmp_path):
     """A cam declared by 72 pitch points: its spline makes generated functions of hundreds of thousands of
     characters, which numba's type inference does not get through in minutes (it hung a test for 15)."""
-    th = np.radians(np.arange(0.0, 360.0, 5.0))
-    s = 48.0 + 10 * (1 - np.cos(th))  # the pitch radius along the follower's axis, rotated with the cam
-    x, y = 5.0 * np.cos(-th) - s * np.sin(-th), 5.0 * np.sin(-th) + s * np.cos(-th)
-    (tmp_path / "pitch.csv").write_text("x,y\n" + "".join(f"{a!r},{b!r}\n" for a, b in zip(x.tolist(), y.tolist())))
-    (tmp_path / "cam.toml").write_text(CAM_BY_POINTS)
-    mech = ls.load(tmp_path / "cam.toml")
+    mech = ls.load(write_pitch_cam(tmp_path, np.arange(0.0, 360.0, 5.0)))
     kern = kernel_of(mech.compile())
     assert jit.model_source_chars(kern.ck) > jit.MAX_LANE_SOURCE and not jit.has_lane(kern)
     ref = mech.sweep(0, 90, 5, engine="python")

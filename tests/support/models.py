@@ -250,6 +250,25 @@ force = [0, "-100N"]
 """
 
 
+#: the same cam and follower declared by its pitch curve (``profile``) instead of a base circle and a law
+#: (a profile cam's offset is a number: its displacement is computed from the curve when the model is read)
+CAM_FOLLOWER_BY_POINTS = CAM_FOLLOWER.replace('base = "40mm"\n', "").replace('offset = "e"', 'offset = "5mm"').replace(
+    CAM_FOLLOWER[CAM_FOLLOWER.index("law = ["):CAM_FOLLOWER.index("[bodies]")], 'profile = "pitch.csv"\n')
+
+
+def write_pitch_cam(directory, angles_deg):
+    """``directory/cam.toml`` (:data:`CAM_FOLLOWER_BY_POINTS`) and its ``pitch.csv``: the roller centre's pitch
+    curve at the cam angles ``angles_deg`` for the harmonic lift s = 10(1 − cos θ) mm (offset ε = 5 mm, pitch
+    radius 48 mm), in the cam's frame. Returns the model file's path."""
+    th = np.radians(np.asarray(angles_deg, dtype=float))
+    s = 10 * (1 - np.cos(th))
+    cx, cy = np.full(th.shape, 5.0), math.sqrt(48**2 - 25) + s  # the roller centre in the ground frame
+    x, y = np.cos(-th) * cx - np.sin(-th) * cy, np.sin(-th) * cx + np.cos(-th) * cy  # turned with the cam
+    (directory / "pitch.csv").write_text("x,y\n" + "".join(f"{a!r},{b!r}\n" for a, b in zip(x.tolist(), y.tolist())))
+    (directory / "cam.toml").write_text(CAM_FOLLOWER_BY_POINTS)
+    return directory / "cam.toml"
+
+
 # -- a gear pair with bodies and a load torque (a format template: d, rg, rm, extra, load)
 GEAR_TRAIN = """
 name = "gear train"
