@@ -28,6 +28,8 @@ Run from the repository root::
                                                         # at the start, limits (four-bars, slider-cranks),
                                                         # the mixed box
     nice python benchmarks/bench_study.py --part zarr --designs 20000
+    python benchmarks/bench_study.py --part chunks      # the default chunk size against fixed ones: time,
+                                                        # peak memory over the result (2000, 20000 designs)
 """
 
 from __future__ import annotations
@@ -329,15 +331,47 @@ def part_zarr(args):
         shutil.rmtree(tmp, ignore_errors=True)
 
 
+def part_chunks(args):
+    """The default chunk size against fixed ones: CPU time and the peak of numpy's memory (tracemalloc)
+    over the result's size, on the mixed box (designs not assemblable at the start included)."""
+    import tracemalloc
+    import warnings
+
+    from loopsolve.design.designs import sample
+    from loopsolve.design.studies import default_chunk
+
+    warnings.filterwarnings("ignore", category=ls.LoopsolveWarning)
+    mech = ls.load(MODEL)
+    ls.study(mech, sample(MIXED_BOX, 10, seed=0), 0, 360, 1, derivatives=2, progress=False)  # warm up
+    for n in (2000, args.kernel_designs * 10):
+        d = sample(MIXED_BOX, n, seed=4)
+        sizes = [None] + [int(c) for c in args.chunk_sizes.split(",")]
+        print(f"== {n} designs of the mixed box x 361 points, pos/vel/acc; default chunk "
+              f"{default_chunk(n, 361)} ==")
+        for c in sizes:
+            t = time.process_time()
+            tracemalloc.start()
+            ds = ls.study(mech, d, 0, 360, 1, derivatives=2, chunk_size=c, progress=False, max_cells=n * 361)
+            peak = tracemalloc.get_traced_memory()[1]
+            tracemalloc.stop()
+            cpu = time.process_time() - t
+            print(f"chunk {'default' if c is None else c:>7}: {cpu:6.2f} s CPU (traced), peak {peak / 1e6:7.1f} MB "
+                  f"= {peak / ds.nbytes:.2f}x the result ({ds.nbytes / 1e6:.1f} MB)", flush=True)
+            del ds
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--part", choices=("all", "kernel", "handoff", "zarr"), default="all")
+    ap.add_argument("--part", choices=("all", "kernel", "handoff", "zarr", "chunks"), default="all")
     ap.add_argument("--handoff-designs", type=int, default=200, help="designs of each kind in row 2 (default 200)")
     ap.add_argument("--kernel-designs", type=int, default=2000)
-    ap.add_argument("--chunk-kernel", type=int, default=2000, help="designs per chunk in part 1 (default 2000)")
+    ap.add_argument("--chunk-kernel", type=int, default=None,
+                    help="designs per chunk in part 1 (default: the API's, as a user gets it)")
     ap.add_argument("--repeats", type=int, default=5)
     ap.add_argument("--designs", type=int, default=100_000, help="designs of part 2 (default 10^5)")
-    ap.add_argument("--chunk", type=int, default=1000, help="designs per Dask task in part 2 (default 1000)")
+    ap.add_argument("--chunk", type=int, default=None, help="designs per Dask task in part 2 (default: the API's)")
+    ap.add_argument("--chunk-sizes", default="256,1024,4096",
+                    help="--part chunks: the chunk sizes compared with the default (comma-separated)")
     ap.add_argument("--derivatives", type=int, default=2, help="part 2: 2 = positions, velocities, accelerations")
     ap.add_argument("--progress", action="store_true")
     args = ap.parse_args()
@@ -348,6 +382,8 @@ def main():
         part_handoff(args)
     if args.part in ("all", "zarr"):
         part_zarr(args)
+    if args.part == "chunks":
+        part_chunks(args)
 
 
 if __name__ == "__main__":

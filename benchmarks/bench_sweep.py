@@ -283,7 +283,7 @@ def issue21(args):
     sys.path.insert(0, str(Path(__file__).resolve().parent))
     import bench_study
 
-    bench_study.part_handoff(argparse.Namespace(handoff_designs=200, kernel_designs=2000, chunk_kernel=2000,
+    bench_study.part_handoff(argparse.Namespace(handoff_designs=200, kernel_designs=2000, chunk_kernel=None,
                                                 repeats=3))
 
 

@@ -256,7 +256,7 @@ def sweep(mech, start, stop, step, *, speed=None, accel=None, jerk=None, input: 
 def study(mech, vary, start, stop, step, *, samples: 'int | None' = None, lhs: 'int | None' = None,
           seed: 'int | None' = 0, metrics: 'Sequence[str] | Mapping[str, str]' = (), sensitivity: 'bool' = False,
           speed=None, accel=None, jerk=None, mode: 'str | None' = None, derivatives: 'int' = 3,
-          chunk_size: 'int' = 256, client=None, workers: 'int | None' = None, scheduler: 'str | None' = None,
+          chunk_size: 'int | None' = None, client=None, workers: 'int | None' = None, scheduler: 'str | None' = None,
           out=None, progress: 'bool | None' = None, method: 'str' = 'lockstep', max_designs: 'int' = 100000,
           max_cells: 'int' = 5000000):
     """Sweep every design of a parameter grid or sample at once; an xarray Dataset back.

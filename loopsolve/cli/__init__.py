@@ -204,7 +204,9 @@ def build_parser() -> argparse.ArgumentParser:
                    help="a reduction over the input, e.g. mu=min(abs(sin(theta4 - theta3))), or a built-in: "
                    "transmission(a, b), swing(v), stroke(v), time_ratio(v), max_acc(v), grashof(a, b, c, d)")
     p.add_argument("--sensitivity", action="store_true", help="add d<unknown>/d<parameter> at every row")
-    p.add_argument("--chunk", type=int, default=256, help="designs per chunk / Dask task (default 256)")
+    p.add_argument("--chunk", type=int, default=None,
+                   help="designs per chunk / Dask task (default: in this process one chunk up to 1.5e6 designs x "
+                        "rows, tenths of a larger study; at least 4 chunks a worker on a cluster)")
     p.add_argument("--workers", type=int, metavar="N", help="run on a local Dask cluster of N worker processes "
                    "(at most the CPUs of this machine)")
     p.add_argument("--scheduler", metavar="ADDRESS", help="run on the Dask cluster at ADDRESS (tcp://host:port)")

@@ -49,6 +49,17 @@ _SUFFIX = ("", "_vel", "_acc", "_jerk")
 
 #: default cap on designs × rows of one study (``max_cells=``, ``--max-cells``)
 MAX_CELLS = 5_000_000
+
+# The default chunk (designs per chunk, per Dask task), chosen by measurement (benchmarks/bench_study.py
+# --part chunks). The numpy lockstep pays a fixed cost per input row of a chunk whatever its designs
+# (~0.3 s a chunk of 361 rows, more than 1000 designs' own work), so small chunks are slow: 2000
+# four-bars took 3.8 s in chunks of 256 and 0.9 s in one. A chunk's working arrays are ~2.5× its part
+# of the result, so many small chunks bound the peak memory of a large study. The rule takes both:
+CHUNK_CELLS = 1_500_000   # a study of at most this many designs × rows is one chunk (~90 MB of a four-bar's
+                          # result at 361 rows); no chunk holds more (its memory bounded, e.g. with .zarr);
+CHUNK_PARTS = 10          # a larger study is cut in tenths (peak memory ≈ result + 2.5/10 of it)
+CHUNK_MIN = 1024          # of at least this many designs (the row cost amortized);
+CHUNK_PER_WORKER = 4      # on a cluster, at least this many chunks a worker (balance, progress).
 #: the variables every study Dataset has besides the sweep columns
 _PER_DESIGN = ("status", "stop", "events", "nearest", "mode", "lockstep")
 #: designs named in a summarized warning
@@ -196,9 +207,24 @@ def _chunk_dataset(res, ck_info, names, values, offset):
 # ----------------------------------------------------------------------------- the public call
 
 
+def default_chunk(designs: int, rows: int, workers: int | None = None) -> int:
+    """Designs per chunk when the caller gives none: ``designs`` in all, ``rows`` input rows each,
+    ``workers`` the cluster's worker count (``None``: this process). See ``CHUNK_MIN`` and the rest.
+
+    >>> default_chunk(2000, 361), default_chunk(20000, 361), default_chunk(2000, 361, workers=2)
+    (2000, 2000, 250)
+    """
+    cap = max(1, CHUNK_CELLS // max(rows, 1))
+    if workers:
+        return max(1, min(designs, cap, math.ceil(designs / (CHUNK_PER_WORKER * workers))))
+    if designs <= cap:
+        return max(1, designs)
+    return min(cap, max(CHUNK_MIN, math.ceil(designs / CHUNK_PARTS)))
+
+
 def study(mech, vary, start, stop, step, *, samples: int | None = None, lhs: int | None = None, seed: int | None = 0,
           metrics: Sequence[str] | Mapping[str, str] = (), sensitivity: bool = False, speed=None, accel=None,
-          jerk=None, mode: str | None = None, derivatives: int = 3, chunk_size: int = 256, client=None,
+          jerk=None, mode: str | None = None, derivatives: int = 3, chunk_size: int | None = None, client=None,
           workers: int | None = None, scheduler: str | None = None, out=None, progress: bool | None = None,
           method: str = "lockstep", max_designs: int = MAX_DESIGNS, max_cells: int = MAX_CELLS):
     """Sweep every design of a parameter grid or sample over the input; one Dataset back.
@@ -220,8 +246,10 @@ def study(mech, vary, start, stop, step, *, samples: int | None = None, lhs: int
         Add ``d_<unknown>_d_<parameter>`` columns: ∂q/∂p at every row for every varied parameter.
     speed, accel, jerk, mode, derivatives
         As for :func:`loopsolve.sweep` (a ``mode`` sweeps every design by the single-design sweep).
-    chunk_size : int
-        Designs per chunk (per Dask task).
+    chunk_size : int, optional
+        Designs per chunk (per Dask task). Default: :func:`default_chunk` — in this process one chunk
+        for a study of at most 1.5·10⁶ designs × rows, tenths of a larger one (at least 1024 designs);
+        on a cluster at least four chunks a worker; never more than 1.5·10⁶ designs × rows a chunk.
     client : distributed.Client, optional
         Run the chunks on this Dask cluster. ``workers=N`` starts a local cluster of N
         processes; ``scheduler="tcp://..."`` connects to a running one.
@@ -271,7 +299,8 @@ def study(mech, vary, start, stop, step, *, samples: int | None = None, lhs: int
         raise ModelError(f"method {method!r}: expected 'lockstep' or 'single'")
     if derivatives not in (1, 2, 3):
         raise ModelError(f"derivatives={derivatives!r}: expected 1, 2 or 3")
-    if chunk_size < 1:
+    if chunk_size is not None and (isinstance(chunk_size, bool) or not isinstance(chunk_size, (int, np.integer))
+                                   or chunk_size < 1):
         raise ModelError(f"chunk_size={chunk_size!r}: must be at least 1")
     check_cluster(workers, scheduler)
     if seed is not None and (isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0):
@@ -303,7 +332,7 @@ def study(mech, vary, start, stop, step, *, samples: int | None = None, lhs: int
                           f"cells per column, more than the limit of {max_cells:,}: use fewer designs, a larger "
                           "--step or a smaller range, or raise the limit with --max-cells (max_cells=)")
 
-    grid_values(ck, start, stop, step, max_rows=max_cells / max(N, 1), max_rows_error=too_many)  # validate
+    rows = len(grid_values(ck, start, stop, step, max_rows=max_cells / max(N, 1), max_rows_error=too_many)[0])
     designs = designs_from(vary, samples=samples, lhs=lhs, seed=seed, max_designs=max_designs)
     if sensitivity:
         from .sensitivity import phi_p_module
@@ -330,11 +359,10 @@ def study(mech, vary, start, stop, step, *, samples: int | None = None, lhs: int
     opts = {"speed": speed, "accel": accel, "jerk": jerk, "mode": mode, "derivatives": derivatives,
             "method": method, "sensitivity": bool(sensitivity), "metrics": metrics}
     N = len(values)
-    bounds = [(a, min(a + chunk_size, N)) for a in range(0, N, chunk_size)]
-    tasks = [(mech, names, values[a:b], start, stop, step, opts) for a, b in bounds]
     writer = _Writer(out, xr) if out is not None else None
     whole = _Assembler(N, xr)
     warned: list[tuple[int, str]] = []
+    bounds: list[tuple[int, int]] = []
 
     def consume(i, res):
         warned.extend((bounds[i][0] + j, msg) for j, msg in res.get("warnings", ()))
@@ -350,6 +378,10 @@ def study(mech, vary, start, stop, step, *, samples: int | None = None, lhs: int
         if client is None and (workers or scheduler):
             own_client = make_client(workers, scheduler)
             client = own_client
+        if chunk_size is None:
+            chunk_size = default_chunk(N, rows, None if client is None else _worker_count(client))
+        bounds.extend((a, min(a + chunk_size, N)) for a in range(0, N, chunk_size))
+        tasks = [(mech, names, values[a:b], start, stop, step, opts) for a, b in bounds]
         if client is None:
             for i, t in enumerate(tasks):
                 consume(i, _chunk_task(*t))
@@ -395,6 +427,9 @@ class _Assembler:
         self.arrays: dict = {}
 
     def add(self, ds, a: int, b: int) -> None:
+        if a == 0 and b == self.n:  # the whole study in one chunk: it is the result, no copy
+            self.first, self.arrays = ds, {}
+            return
         if self.first is None:
             self.first = ds
             for name, var in ds.variables.items():
@@ -410,6 +445,8 @@ class _Assembler:
 
     def finish(self):
         first = self.first
+        if not self.arrays:
+            return first
         data = {k: (v.dims, self.arrays[k] if k in self.arrays else v.values, v.attrs)
                 for k, v in first.data_vars.items()}
         coords = {k: (v.dims, self.arrays[k] if k in self.arrays else v.values, v.attrs)
@@ -533,14 +570,18 @@ def make_client(workers, scheduler):
     return distributed.Client(cluster)
 
 
+def _worker_count(client) -> int:
+    """The workers a Dask client's cluster has now (at least 1)."""
+    return max(1, len(client.scheduler_info().get("workers", {})))
+
+
 def _run_dask(client, tasks, bounds, consume, bar):
     """Submit the chunks with a bounded number in flight; hand results over in order."""
     import uuid
 
     from distributed import as_completed
 
-    nworkers = max(1, len(client.scheduler_info().get("workers", {})))
-    inflight = 2 * nworkers + 2
+    inflight = 2 * _worker_count(client) + 2
     token = uuid.uuid4().hex[:12]
     pending = list(range(len(tasks)))
     key_of = {}

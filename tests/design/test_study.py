@@ -607,3 +607,31 @@ def test_a_study_holds_its_result_and_one_chunk_not_the_result_twice(thesis):
     chunk = result / 8
     assert peak <= result + 4 * chunk, (peak / result)
     assert ds.sizes["design"] == n and np.array_equal(ds["design"].values, np.arange(n))
+
+
+def test_the_default_chunk_is_one_for_a_small_study_and_tenths_of_a_large_one(thesis, tmp_path, monkeypatch):
+    """Without ``chunk_size`` a study small enough (designs × rows ≤ CHUNK_CELLS) runs as one chunk, and its
+    result is that chunk, not a copy; a larger one is cut in tenths of at least CHUNK_MIN designs, each
+    chunk at most CHUNK_CELLS cells. The ``.zarr`` store's chunks are the study's (one write a chunk)."""
+    zarr = pytest.importorskip("zarr")
+    from loopsolve.design import studies
+
+    box = {"r2": (15, 35), "r3": (50, 90)}
+    rows = 13  # 0, 30, ..., 360
+    small = ls.study(thesis, box, 0, 360, 30, lhs=40, progress=False, out=tmp_path / "small.zarr")
+    assert zarr.open_group(str(tmp_path / "small.zarr"), mode="r")["theta4"].chunks[0] == 40
+    monkeypatch.setattr(studies, "CHUNK_CELLS", 30 * rows)  # 30 designs at most a chunk
+    monkeypatch.setattr(studies, "CHUNK_MIN", 5)
+    big = ls.study(thesis, box, 0, 360, 30, lhs=40, progress=False, out=tmp_path / "big.zarr")
+    assert zarr.open_group(str(tmp_path / "big.zarr"), mode="r")["theta4"].chunks[0] == 5  # tenths of 40 ≥ 5
+    monkeypatch.setattr(studies, "CHUNK_MIN", 16)
+    assert studies.default_chunk(40, rows) == 16 and studies.default_chunk(400, rows) == 30  # the cap
+    assert studies.default_chunk(400, rows, workers=2) == 30 and studies.default_chunk(40, rows, workers=2) == 5
+    local = ls.study(thesis, box, 0, 360, 30, lhs=40, progress=False)  # three chunks of 16, 16, 8
+    for k in small.variables:  # a design's rows do not depend on its chunk's company, but to round-off
+        for other in (big, local):  # (a chunk's Newton iterates until all of its designs converge)
+            a, b = small[k].values, other[k].values
+            if a.dtype.kind == "f":
+                np.testing.assert_allclose(a, b, rtol=0, atol=1e-9, err_msg=k)
+            else:
+                assert np.array_equal(a, b), k
