@@ -623,10 +623,12 @@ def _chunk_to_zarr(task, ck_info, names, a, b, path):
 
 
 def _run_dask_zarr(client, tasks, bounds, ck_info, names, path, bar):
-    """Zarr on a cluster: the store's layout from the first chunk, then every worker writes its own chunks.
+    """Zarr on a cluster: the store's layout from one design swept here, then the workers write every chunk.
 
     Nothing but a count (and the chunk's warnings) travels back to the client, so its memory does not grow with the number
-    of designs, and the compression of the columns runs on the workers in parallel. A chunk
+    of designs, and the compression of the columns runs on the workers in parallel. The client's own work is
+    one design's sweep, whatever the study's size (it swept the whole first chunk before: with the default
+    chunk of a quarter of a worker's share, an eighth of a 2-worker study ran serially here). A chunk
     lost with a worker is recomputed and rewrites the same region.
     """
     import uuid
@@ -637,9 +639,9 @@ def _run_dask_zarr(client, tasks, bounds, ck_info, names, path, bar):
     xr = _need("xarray")
     N = bounds[-1][1]
     c = bounds[0][1] - bounds[0][0]
-    res0 = _chunk_task(*tasks[0])
-    warned = list(res0["warnings"])
-    first = _chunk_dataset(res0, ck_info, names, tasks[0][2], 0)
+    probe = tasks[0][:2] + (tasks[0][2][:1],) + tasks[0][3:]  # the first design alone: names, dtypes, units
+    first = _chunk_dataset(_chunk_task(*probe), ck_info, names, probe[2], 0)
+    warned: list[tuple[int, str]] = []  # its warnings come again with its chunk
 
     def lazy(v):
         shape = (N,) + v.shape[1:]
@@ -660,19 +662,24 @@ def _run_dask_zarr(client, tasks, bounds, ck_info, names, path, bar):
         enc = {k: {"chunks": (c,) + tuple(v.shape[1:])} for k, v in tmpl.variables.items()
                if v.dims and v.dims[0] == "design" and k != "design"}
         tmpl.to_zarr(path, compute=False, mode="w", encoding=enc)
-    _region_write(first, path, *bounds[0])
-    if bar is not None:
-        bar.update(bounds[0][1])
     token = uuid.uuid4().hex[:12]
-    futures = [client.submit(_chunk_to_zarr, tasks[i], ck_info, names, bounds[i][0], bounds[i][1], path,
+    pending = list(range(len(tasks)))[::-1]
+    model = client.scatter(tasks[0][0], broadcast=True)  # sent once, not pickled into every task
+
+    def submit():  # a bounded number in flight
+        i = pending.pop()
+        return client.submit(_chunk_to_zarr, (model,) + tasks[i][1:], ck_info, names, bounds[i][0], bounds[i][1], path,
                              key=f"loopsolve-study-zarr-{token}-{i}", pure=False, retries=3)
-               for i in range(1, len(tasks))]
-    for fut in as_completed(futures):
+
+    ac = as_completed([submit() for _ in range(min(2 * _worker_count(client) + 2, len(pending)))])
+    for fut in ac:
         n, w = fut.result()
         warned.extend(w)
         fut.release()
         if bar is not None:
             bar.update(n)
+        if pending:
+            ac.add(submit())
     return warned
 
 
