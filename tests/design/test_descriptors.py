@@ -180,3 +180,30 @@ def test_a_closed_curve_back_at_its_start_to_round_off_drops_the_repeated_point(
     xy = np.stack([10 + 10 * np.cos(phi), 10 + 8 * np.sin(phi)], axis=1)
     assert not np.array_equal(xy[0], xy[-1])
     assert len(d.check_curve(xy, closed=True)) == 9
+
+
+@pytest.mark.parametrize("rerank", [True, False])
+def test_a_planted_stretch_is_ranked_first_among_thousands_of_near_copies(base, monkeypatch, rerank):
+    """An atlas-sized batch is ranked in single precision, whose distances near 0 carry ~1e-3 of round-off:
+    among 5000 curves a few 1e-5 apart, every good window reads about 0. The best of them are ranked again
+    in double, so the curve the stretch was cut from comes first with its window; without that second
+    ranking (``rerank=False``, the old code) it does not — the test shows the single-precision tie."""
+    xy, _, _ = base
+    N, E, planted = 64, 5000, 3217
+    ref = d.resample(xy, N, closed=True)
+    rng = np.random.default_rng(7)
+    bump = np.stack([np.sin(3 * np.linspace(0, 2 * np.pi, N, endpoint=False) + p) for p in (0.3, 1.1)], axis=1)
+    size = np.ptp(ref, axis=0).max()
+    stored = ref[None] + (1e-5 * size * rng.uniform(0.2, 1.0, E))[:, None, None] * bump[None]
+    stored[planted] = ref
+    idx = (20 + 2 * np.arange(9)) % N
+    stretch = similar(ref[idx], 0.7, 3.0, (5, -2))
+    if not rerank:
+        monkeypatch.setattr(d, "_RERANK", 1)
+        monkeypatch.setattr(d, "_SINGLE_TIE", 0.0)
+    fw, bw = d.procrustes_both(stored, np.ones(E, bool), stretch, strides=(1, 2, 3))
+    best = int(np.argmin(np.minimum(fw[0], bw[0])))
+    if rerank:
+        assert best == planted and fw[0][planted] < 1e-6 and fw[1][planted] == 20 and fw[2][planted] == 2
+    else:
+        assert best != planted

@@ -365,13 +365,38 @@ def procrustes_both(curves, closed, target, strides=(1,), *, both: bool = True):
     curves = np.asarray(curves)
     E = curves.shape[0]
     closed = np.broadcast_to(np.asarray(closed, dtype=bool), (E,))
+    if E >= _SINGLE:  # the ranking in single precision, then its best and their near-ties again in double
+        out = _procrustes_blocks(curves, closed, target, strides, both)
+        best = np.min([r[0] for r in out], axis=0)
+        order = np.argsort(best, kind="stable")
+        edge = max(best[order[min(_RERANK, E) - 1]], best[order[0]] + _SINGLE_TIE)
+        sel = np.sort(order[:min(int(np.searchsorted(best[order], edge, side="right")), _SINGLE - 1)])
+        again = _procrustes_blocks(curves[sel], closed[sel], target, strides, both)
+        for r, a in zip(out, again):
+            for col, new in zip(r, a):
+                col[sel] = new
+        return out
+    return _procrustes_blocks(curves, closed, target, strides, both)
+
+
+#: a batch of this many curves or more is ranked in single precision (its transforms halved)
+_SINGLE = _BLOCK // 4
+#: then this many of its best, and every one within ``_SINGLE_TIE`` of the best, are ranked again in double:
+#: single precision's 1 − |C|²/var carries ~1e-6 of round-off, so distances near 0 (sqrt of it) read ~1e-3
+#: apart from the truth, and a good stretch's best windows all read 0 (the foot path of test_shape: 40 of them)
+_RERANK = 256
+_SINGLE_TIE = 3e-3
+
+
+def _procrustes_blocks(curves, closed, target, strides, both):
+    E = curves.shape[0]
     if E > _BLOCK:  # in blocks: a few arrays of a block's size at a time (an atlas is 10⁵ curves)
-        parts = [procrustes_both(curves[a:a + _BLOCK], closed[a:a + _BLOCK], target, strides, both=both)
+        parts = [_procrustes_blocks(curves[a:a + _BLOCK], closed[a:a + _BLOCK], target, strides, both)
                  for a in range(0, E, _BLOCK)]
         return [tuple(np.concatenate([p[d][i] for p in parts]) for i in range(5)) for d in range(len(parts[0]))]
-    # a large batch (an atlas' curves, stored in single precision anyway) in single precision: the ranking needs
-    # distances to ~1e-3, and it halves the transforms; a small one (a rerank, a test) in double
-    Z = _as_complex(curves).astype(np.complex64 if E >= _BLOCK // 4 else np.complex128)
+    # a large batch (an atlas' curves, stored in single precision anyway) in single precision: it halves the
+    # transforms, and procrustes_both ranks its best again in double; a small one (a rerank, a test) in double
+    Z = _as_complex(curves).astype(np.complex64 if E >= _SINGLE else np.complex128)
     N = Z.shape[1]
     t_f, _, _ = target_vector(target)
     targets = [t_f, t_f[::-1]] if both else [t_f]
