@@ -172,6 +172,14 @@ def _distinct(V, f, k, lo, hi):
 #: missed seeds tried)
 _SAMPLE_RATIO = 30
 
+#: free timing: the lockstep LM's stall stop (a start whose objective fell by less than ``_STALL_DROP``, relative,
+#: over its last ``_STALL`` iterations stops: the basins are told apart early and the exact polish
+#: finishes the best ones; the crawling starts were most of the free-timing LM's iterations) and the largest
+#: change of a free input per step (radians: a longer jump can pass a branch point or a limit of the motion)
+_STALL = 5
+_STALL_DROP = 1e-3
+_FREE_INPUT_STEP = math.radians(10.0)
+
 #: a basin whose lockstep-LM objective exceeds this factor times the best polished design's (or
 #: :func:`_polish_floor`, if larger) is not polished
 _POLISH_MARGIN = 10.0
@@ -279,7 +287,11 @@ def one_run(problem, seed, opts):
         X = np.hstack([s[2] for s in starts])
         di = np.concatenate([s[3] for s in starts])
         # every start polished at once (one batch per iteration); only distinct basins go on
-        V, X, f = batch_lm(problem, V, S, X, iters=opts["lm_iters"], floor=_polish_floor(problem))
+        if problem.free:  # MINPACK's scaling, an active set on the bounds, a stall stop, capped input steps
+            V, X, f = batch_lm(problem, V, S, X, iters=opts["lm_iters"], floor=_polish_floor(problem), trust=True,
+                               stall=(_STALL, _STALL_DROP), pin=True, free_step=_FREE_INPUT_STEP)
+        else:
+            V, X, f = batch_lm(problem, V, S, X, iters=opts["lm_iters"], floor=_polish_floor(problem))
         per, period = periodic(problem)
         order = distinct(V, f, problem.lo, problem.hi, k=opts["polish"], rtol_f=1e-3, dist=0.02,
                          periodic_mask=per, period=period)
