@@ -278,3 +278,87 @@ def test_trust_polish_recovers_a_moved_turned_scaled_design_with_free_timing(fou
         ip = pr.ck.points.index("P")
         pts = pr.batch.points(Z[:, :, j], np.repeat(pr.batch.params(V[j][None]), len(inputs), axis=1))[ip].T
         assert np.allclose(pts, got, atol=1e-9)
+
+
+def _free_timing_problem(fourbar, p, inputs, vary):
+    t = np.array([fourbar_point(p, x, -1) for x in inputs])
+    return define(fourbar, path="P", targets={"x": t[:, 0], "y": t[:, 1]}, vary=vary), t
+
+
+def _free_opts(pr):
+    from loopsolve.design.synthesis.run import _FREE_INPUT_STEP, _STALL, _STALL_DROP
+
+    return dict(trust=True, pin=True, free_step=_FREE_INPUT_STEP, stall=(_STALL, _STALL_DROP), floor=_polish_floor(pr))
+
+
+VARY_FREE = dict(VARY6, theta0=(0, 360))  # (no φ: with free timing it is a shift of every input)
+
+
+def test_free_timing_lockstep_polish_recovers_a_planted_coupler_curve(fourbar):
+    """The polish synthesize runs with free timing (MINPACK scaling, active set, stall stop, capped input steps, the
+    free-timing floor): ten points of a planted crank-rocker met at unknown inputs; starts 1 % off in every
+    dimension and ~2° off at every input end at the planted design, an exact fit against the closed form."""
+    p = dict(PLANTED, theta0=25.0)
+    inputs = np.arange(5.0, 360.0, 36.0)
+    pr, t = _free_timing_problem(fourbar, p, inputs, VARY_FREE)
+    exact = np.array([p[n] for n in pr.names])
+    rng = np.random.default_rng(7)
+    starts = exact[None] * (1 + 0.01 * rng.standard_normal((3, len(exact))))
+    X0 = np.radians(inputs)[:, None] + 0.03 * rng.standard_normal((len(inputs), 3))
+    V, X, f = batch_lm(pr, starts, -np.ones((1, 3)), X0, iters=60, **_free_opts(pr))
+    j = int(np.argmin(f))
+    assert f[j] < 1e-20
+    q = dict(zip(pr.names, V[j]))
+    got = np.array([fourbar_point(q, x, -1) for x in np.degrees(X[:, j])])
+    assert np.sum((got - t) ** 2) < 1e-20  # the closed form at the returned inputs, not the solver's own value
+    assert np.allclose(V[j], exact, rtol=1e-7, atol=1e-7)
+
+
+def test_free_timing_floor_is_far_below_a_real_optimum(fourbar):
+    """The exact-fit floor of free timing is a round-off level (1e-12 of the spread), not the prescribed timing's
+    1e-6 that was about twice the published ellipse's optimum and stopped its polish early."""
+    phi = np.radians(np.arange(0, 361, 40))
+    t = np.stack([10 + 10 * np.cos(phi), 10 + 8 * np.sin(phi)], axis=1)
+    pr = define(fourbar, path="P", targets={"x": t[:, 0], "y": t[:, 1]}, vary=VARY_FREE)
+    prescribed = define(fourbar, path="P", targets={"x": t[:, 0], "y": t[:, 1]}, vary=VARY_FREE,
+                        inputs=list(np.degrees(phi) * 0.99))
+    assert _polish_floor(pr) < 1e-5 * 4.02e-4  # (8.3e-10)
+    assert _polish_floor(prescribed) == pytest.approx(1e6 * _polish_floor(pr))
+
+
+def test_active_set_holds_a_length_on_its_bound_at_the_bounded_minimum(fourbar):
+    """Ten points of a planted crank-rocker with r4 = 3.2, but r4 bounded to [2, 3]: the bounded free-timing minimum
+    has r4 on its bound. The lockstep polish (active set on) reaches it: same objective and design as an
+    independent reference — scipy's bounded ``least_squares`` on the closed-form coupler point, written here."""
+    from scipy.optimize import least_squares
+
+    p = dict(PLANTED, theta0=25.0)
+    inputs = np.arange(5.0, 360.0, 36.0)
+    vary = dict(VARY_FREE, r4=(2.0, 3.0))
+    pr, t = _free_timing_problem(fourbar, p, inputs, vary)
+    names, k = pr.names, len(pr.names)
+    v0 = np.array([p[n] for n in names])
+    v0[names.index("r4")] = 3.0
+    u0 = np.concatenate([v0, inputs])
+
+    def res(u):
+        q = dict(zip(names, u[:k]))
+        pts = [fourbar_point(q, x, -1) for x in u[k:]]
+        if any(pt is None for pt in pts):
+            return np.full(2 * len(inputs), 1e3)
+        return (np.array(pts) - t).ravel()
+
+    lo = np.concatenate([pr.lo, np.full(len(inputs), -np.inf)])
+    hi = np.concatenate([pr.hi, np.full(len(inputs), np.inf)])
+    ref = least_squares(res, u0, bounds=(lo, hi), method="trf", x_scale="jac", xtol=1e-15, ftol=1e-15, gtol=1e-15)
+    f_ref = float(np.sum(res(ref.x) ** 2))
+    assert ref.x[names.index("r4")] == pytest.approx(3.0, abs=1e-9)  # the reference's minimum is on the bound
+    assert f_ref > 1e-6  # and not an exact fit: the bound matters
+
+    V, X, f = batch_lm(pr, v0[None], -np.ones((1, 1)), np.radians(inputs)[:, None], iters=60, **_free_opts(pr))
+    q = dict(zip(names, V[0]))
+    assert q["r4"] == 3.0  # held on its bound, exactly
+    got = np.array([fourbar_point(q, x, -1) for x in np.degrees(X[:, 0])])
+    assert np.sum((got - t) ** 2) == pytest.approx(f[0], rel=1e-9)
+    assert f[0] == pytest.approx(f_ref, rel=1e-6)
+    assert np.allclose(V[0], ref.x[:k], rtol=1e-5, atol=1e-5)

@@ -13,6 +13,8 @@ from loopsolve.design.atlas.build import build_atlas
 from loopsolve.design.synthesis.shape.path_starts import atlas_starts, usable
 from loopsolve.design.synthesis.problem import define
 
+from support.models import fourbar_point
+
 pytest.importorskip("zarr", reason="atlases need zarr (the study extra)")
 
 FOURBAR = ls.models_dir() / "fourbar_path_synthesis.toml"
@@ -82,3 +84,22 @@ def test_problems_the_atlas_cannot_place_get_no_starts(fourbar, atlas):
     assert not usable(timed)
     few = define(fourbar, path="P", targets={"x": t[:4, 0], "y": t[:4, 1]}, vary=VARY)
     assert atlas_starts(few, atlas=atlas) is None
+
+
+def test_the_atlas_starts_polished_as_synthesize_does_reach_the_planted_closed_curve(fourbar, atlas):
+    """The free-timing lockstep polish of a run (MINPACK scaling, active set, stall stop, capped input steps, the
+    free-timing floor) from the atlas starts alone: the planted closed curve (the tenth target repeats the first)
+    is met to round-off, checked against the planted design's own sweep at the returned inputs."""
+    from loopsolve.design.synthesis.lockstep_lm import batch_lm
+    from loopsolve.design.synthesis.run import _FREE_INPUT_STEP, _STALL, _STALL_DROP, _polish_floor
+
+    t = _planted(fourbar, atlas)
+    pr = define(fourbar, path="P", targets={"x": t[:, 0], "y": t[:, 1]}, vary=VARY, crank=True)
+    V, S, X, _ = atlas_starts(pr, atlas=atlas)
+    Vl, Xl, f = batch_lm(pr, V, S, X, iters=60, floor=_polish_floor(pr), trust=True, stall=(_STALL, _STALL_DROP),
+                         pin=True, free_step=_FREE_INPUT_STEP)
+    j = int(np.argmin(f))
+    assert f[j] < 1e-20
+    q = {par.name: float(par.value) for par in fourbar.parameters} | dict(zip(pr.names, map(float, Vl[j])))
+    got = np.array([fourbar_point(q, x, S[0, j]) for x in np.degrees(Xl[:, j])])  # circle intersection
+    assert np.sum((got - t) ** 2) < 1e-20

@@ -137,7 +137,8 @@ _AGREE_ATOL = 1e-12
 
 
 def batch_lm(problem, V, signs, X=None, *, iters: int = 25, hmax: float = POLISH_H, floor: float | None = None,
-             warm: bool = False, poses: bool = False, trust: bool = False, stall=None):
+             warm: bool = False, poses: bool = False, trust: bool = False, stall=None, pin: bool = False,
+             free_step: float | None = None):
     """Levenberg–Marquardt on every row of ``V`` ``(D, k)`` (model units) in its mode ``signs`` ``(nb, D)``.
 
     ``X``: the internal input values at the targets ``(T, D)`` (free timing: the starts of those
@@ -168,6 +169,14 @@ def batch_lm(problem, V, signs, X=None, *, iters: int = 25, hmax: float = POLISH
     ``stall=(n, drop)``: a column also stops once its objective fell by less than ``drop`` (relative)
     over its last ``n`` iterations (after ``2 n``).
 
+    ``pin``: an active set for the bounds. A (non-periodic) parameter on its bound whose gradient pushes
+    it outward is held there for that step — removed from the damped system — instead of being clipped
+    after a step computed as if it could move: the clipped step's other components were solved for a
+    move that did not happen, so a column with a length at its bound (the published ellipse's optimum
+    has one at 80) crawls. ``free_step`` (radians or the input's length unit): the largest change of
+    a free input per step (the step keeps its direction), also with ``trust``: a long jump of the input
+    can pass a branch point or a limit of the motion (without ``trust`` the cap is :data:`_FREE_STEP`).
+
     Requirements (``crank``, ``transmission``; :mod:`loopsolve.design.synthesis.requirements`): the columns are
     first polished without them; the columns whose ends fail them and are better than every end
     that passes are polished again from their starts, each step accepted only when the design still
@@ -177,11 +186,11 @@ def batch_lm(problem, V, signs, X=None, *, iters: int = 25, hmax: float = POLISH
     from . import requirements
 
     if not requirements.active(problem):
-        out = _lm(problem, V, signs, X, iters, hmax, floor, False, warm, trust, stall)
+        out = _lm(problem, V, signs, X, iters, hmax, floor, False, warm, trust, stall, pin, free_step)
         return out if poses and warm else out[:3]
     # the requirements (crank, transmission) cost a trace per iteration: first without them; the
     # columns that end failing them are polished again from their starts, every step kept within them
-    Vr, Xr, fr, Zr = _lm(problem, V, signs, X, iters, hmax, floor, False, warm, trust, stall)
+    Vr, Xr, fr, Zr = _lm(problem, V, signs, X, iters, hmax, floor, False, warm, trust, stall, pin, free_step)
     fin = np.isfinite(fr)
     ok = fin.copy()
     if ok.any():
@@ -195,14 +204,14 @@ def batch_lm(problem, V, signs, X=None, *, iters: int = 25, hmax: float = POLISH
         Vs = np.asarray(V, dtype=float)[redo]
         Xs = None if X is None or not problem.free else np.asarray(X, dtype=float)[:, redo]
         v2, x2, f2, z2 = _lm(problem, Vs, np.asarray(signs, dtype=float)[:, redo], Xs, iters, hmax, floor, True,
-                             warm, trust, stall)
+                             warm, trust, stall, pin, free_step)
         Vr[redo], Xr[:, redo], fr[redo] = v2, x2, f2
         if Zr is not None:
             Zr[..., redo] = z2
     return (Vr, Xr, fr, Zr) if poses and warm else (Vr, Xr, fr)
 
 
-def _lm(problem, V, signs, X, iters, hmax, floor, need, warm, trust=False, stall=None):
+def _lm(problem, V, signs, X, iters, hmax, floor, need, warm, trust=False, stall=None, pin=False, free_step=None):
     """The lockstep Levenberg–Marquardt of :func:`batch_lm`; ``need``: every step within the requirements;
     ``warm``: warm poses at every target, validated by traces. Returns ``(V, X, f, Z)``, ``Z`` the validated
     positions at every target ``(nv, T, D)`` with ``warm``, else None."""
@@ -262,16 +271,25 @@ def _lm(problem, V, signs, X, iters, hmax, floor, need, warm, trust=False, stall
             scl[a] = np.maximum(scl[a], dA)
             dA = scl[a]
         M = A + (lam[a, None, None] * (dA[:, :, None] + 1e-12)) * eye
+        if pin:  # the active set: a parameter on its bound pushed outward by the gradient stays put this step
+            Va = V[a]
+            out_ = ~per & (((Va <= lo) & (g[:, :k] > 0)) | ((Va >= hi) & (g[:, :k] < 0)))
+            if out_.any():
+                held = np.concatenate([out_, np.zeros((len(a), nk - k), dtype=bool)], axis=1)
+                keep = ~held
+                M = M * (keep[:, :, None] & keep[:, None, :]) + held[:, :, None] * eye
+                g = np.where(held, 0.0, g)
         with np.errstate(all="ignore"):
             try:
                 step = -np.linalg.solve(M, g[:, :, None])[:, :, 0]
             except np.linalg.LinAlgError:
                 step = -np.stack([np.linalg.lstsq(Mi, gi, rcond=None)[0] for Mi, gi in zip(M, g)])
         good = np.all(np.isfinite(step), axis=1)
-        if problem.free and not trust:  # a trust region on the input values: a long jump would be a long trace (and
-            # would leave the turn the targets were assigned in); the step keeps its direction
+        cap = free_step if trust else (_FREE_STEP if free_step is None else free_step)
+        if problem.free and cap is not None:  # a trust region on the input values: a long jump would be a long
+            # trace (and would leave the turn the targets were assigned in); the step keeps its direction
             big = np.max(np.abs(step[:, k:]), axis=1)
-            step = step * np.minimum(1.0, _FREE_STEP / np.where(big > 0, big, 1.0))[:, None]
+            step = step * np.minimum(1.0, cap / np.where(big > 0, big, 1.0))[:, None]
         Vn = project(V[a] + np.where(good[:, None], step[:, :k], 0.0))
         Xn = X[:, a] + (np.where(good[:, None], step[:, k:], 0.0).T if problem.free else 0.0)
         # (trust: a trial whose poses Newton cannot reach from the last ones is a rejected step, not traced: the
