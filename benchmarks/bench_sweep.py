@@ -13,13 +13,17 @@ method's largest error against it:
    and ``mechanism`` (``Mechanism.iterate``: fsolve for positions, velocities and accelerations);
 2. 10⁶ points: loopsolve batched against the closed form (positions, velocities and
    accelerations: ``derivatives=2``; and with the jerks as well);
-3. a fresh-process ``loopsolve sweep`` of a cached model against ``python -c "import numpy"``.
+3. a fresh-process ``loopsolve sweep`` of a cached model against ``python -c "import numpy"``;
+4. (``--overhead``) the per-call cost of a short sweep (10 rows, pos/vel/acc) with the default
+   settings, against ``pylinkage``'s numba kernel for 10 steps and a hand-written numba closed
+   form of the same 10 points (the floor), interleaved in one process.
 
 Run from the repository root::
 
     pip install -e .[bench]
     python benchmarks/bench_sweep.py            # --quick for fewer repeats
     python benchmarks/bench_sweep.py --issue21  # issue 21's four rows as ratios (also runs bench_study's)
+    python benchmarks/bench_sweep.py --overhead # issue 32's item 2: a 10-row sweep against pylinkage's call
 
 A peer that does not import is skipped with the reason printed.
 """
@@ -287,13 +291,104 @@ def issue21(args):
                                                 repeats=3))
 
 
+_FLOOR_SRC = """
+import math
+import numpy as np
+from numba import njit
+
+@njit(cache=False)
+def floor(r1, r2, r3, r4, t2s, w2, out):
+    # theta3, theta4, their rates and accelerations of the open four-bar at every crank angle
+    for i in range(t2s.shape[0]):
+        t2 = t2s[i]
+        bx, by = r2 * math.cos(t2), r2 * math.sin(t2)
+        dx, dy = r1 - bx, -by
+        d2 = dx * dx + dy * dy
+        d = math.sqrt(d2)
+        a = (r3 * r3 - r4 * r4 + d2) / (2 * d)
+        h = math.sqrt(max(r3 * r3 - a * a, 0.0))
+        cx = bx + (a * dx - h * dy) / d  # the open mode: C left of B->O4
+        cy = by + (a * dy + h * dx) / d
+        t3 = math.atan2(cy - by, cx - bx)
+        t4 = math.atan2(cy, cx - r1)
+        s34 = math.sin(t3 - t4)
+        w3 = -r2 * w2 * math.sin(t2 - t4) / (r3 * s34)
+        w4 = r2 * w2 * math.sin(t2 - t3) / (r4 * -s34)
+        e3 = (r4 * w4 * w4 - r2 * w2 * w2 * math.cos(t2 - t4) - r3 * w3 * w3 * math.cos(t3 - t4)) / (r3 * s34)
+        e4 = (r2 * w2 * w2 * math.cos(t2 - t3) + r3 * w3 * w3 - r4 * w4 * w4 * math.cos(t4 - t3)) / (r4 * -s34)
+        out[0, i], out[1, i], out[2, i], out[3, i], out[4, i], out[5, i] = t3, t4, w3, w4, e3, e4
+"""
+
+
+def overhead(args):
+    """Issue 32, item 2: the whole call of a 10-row sweep (pos, vel, acc) with the defaults."""
+    from loopsolve.kinematics.numba_engine import jit as numba_jit
+
+    mech = ls.load(MODEL)
+    default = lambda: mech.sweep(0, 9, 1, derivatives=2)  # noqa: E731 - the user's call
+    # the default engine ("auto") switches to numba once this process has swept AUTO_ROWS rows
+    for _ in range(numba_jit.AUTO_ROWS // 10 + 2):
+        ran = default().engine
+    numba = lambda: mech.sweep(0, 9, 1, derivatives=2, engine="numba")  # noqa: E731
+    python = lambda: mech.sweep(0, 9, 1, derivatives=2, engine="python")  # noqa: E731
+    fns = {f"loopsolve mech.sweep(0, 9, 1, derivatives=2), default engine (ran {ran!r})": default,
+           "the same, engine='numba'": numba, "the same, engine='python'": python}
+    try:
+        import pylinkage  # noqa: F401
+    except ImportError as exc:
+        print(f"pylinkage skipped: {exc}")
+    else:
+        lk = pylinkage_build()
+        lk.step_fast_with_kinematics(iterations=10)  # JIT outside the timing
+        fns["pylinkage step_fast_with_kinematics(iterations=10) (numba)"] = \
+            lambda: lk.step_fast_with_kinematics(iterations=10)
+    try:
+        ns = {}
+        exec(_FLOOR_SRC, ns)  # noqa: S102 - the benchmark's own constant source
+        t2s = np.radians(np.arange(10.0))
+        out = np.empty((6, 10))
+        ref = default()
+        w2 = float(ref["theta2_vel"][0])  # the model's input speed (rates are in rad/s, angles in degrees)
+        ns["floor"](R1, R2, R3, R4, t2s, w2, out)
+        err = max(float(np.max(np.abs((np.radians(ref[n]) if i < 2 else np.asarray(ref[n])) - out[i])))
+                  for i, n in enumerate(("theta3", "theta4", "theta3_vel", "theta4_vel", "theta3_acc", "theta4_acc")))
+        fns["floor: hand-written numba closed form, 10 points (pos, vel, acc)"] = \
+            lambda: ns["floor"](R1, R2, R3, R4, t2s, w2, out)
+        print(f"floor agrees with loopsolve's rows to {err:.1e} (rad, rad/s, rad/s^2)")
+    except ImportError as exc:
+        print(f"floor skipped: {exc}")
+    runs = {k: [] for k in fns}
+    batch = 50
+    for _ in range(args.repeats):  # interleaved batches: every candidate sees the same load
+        for k, fn in fns.items():
+            t = time.perf_counter()
+            for _ in range(batch):
+                fn()
+            runs[k].append((time.perf_counter() - t) / batch)
+    base = next((k for k in fns if k.startswith("pylinkage")), None)
+    b = statistics.median(runs[base]) if base else None
+    print(f"== one short sweep, per call (median of {args.repeats} batches of {batch}; best batch) ==")
+    for k, ts in runs.items():
+        m = statistics.median(ts)
+        ratio = f"  {m / b:6.2f}x pylinkage" if b else ""
+        print(f"{k:78s} {m * 1e6:8.1f} us (best {min(ts) * 1e6:8.1f}){ratio}")
+    if b:
+        k0 = next(iter(fns))
+        print(f"GOAL  default 10-row sweep <= 3x pylinkage's call: {statistics.median(runs[k0]) / b:.2f}x "
+              f"(best/best {min(runs[k0]) / min(runs[base]):.2f}x)")
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--quick", action="store_true", help="fewer repeats")
     ap.add_argument("--issue21", action="store_true",
                     help="only the four rows of issue 21's table, as ratios (rows 2 and 3 from bench_study.py)")
-    ap.add_argument("--repeats", type=int, default=101, help="--issue21: interleaved runs of row 1")
+    ap.add_argument("--overhead", action="store_true",
+                    help="only issue 32's item 2: a 10-row sweep's call against pylinkage's and the compiled floor")
+    ap.add_argument("--repeats", type=int, default=101, help="--issue21, --overhead: interleaved runs")
     args = ap.parse_args(argv)
+    if args.overhead:
+        return overhead(args)
     if args.issue21:
         os.environ.setdefault("LOOPSOLVE_CACHE_DIR", tempfile.mkdtemp(prefix="loopsolve-cache-"))
         return issue21(args)
