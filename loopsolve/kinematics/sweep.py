@@ -141,10 +141,14 @@ def solve_rows_tracked(tracer: Tracer, path: Path, rows: Rows, g: Grid) -> RowSo
     return sol
 
 
+#: a sweep of fewer rows gets no automatic bar: it ends well before the bar's half-second delay
+_BAR_ROWS = 2000
+
+
 def _progress(total: int, enabled: bool | None):
     """A tqdm bar on stderr for long sweeps (shown after 0.5 s, only on a terminal)."""
     if enabled is None:
-        enabled = sys.stderr.isatty()
+        enabled = total >= _BAR_ROWS and sys.stderr.isatty()
     if not enabled or total < 2:
         return None
     try:

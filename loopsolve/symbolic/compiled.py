@@ -682,6 +682,37 @@ def compile_mechanism(mech: Mechanism, input: str | Sequence[str] | None = None,
 
         check_cams(mech)  # an undercut profile is a wrong declaration (loopsolve cam reports it in full)
     module = _cached_module(mech, inputs, cache)
+    memo = _COMPILED.get(id(mech))
+    fields = memo[1].get(inputs) if memo is not None and memo[0]() is mech else None
+    if fields is None or fields["module"] is not module:
+        ck = _compiled_kinematics(mech, module)
+        fields = dict(ck.__dict__)
+        del fields["mechanism"]  # not kept: the memo must not keep the mechanism alive
+        try:
+            ref = weakref.ref(mech, lambda _r, i=id(mech): _COMPILED.pop(i, None))
+        except TypeError:  # not weak-referenceable: no memo
+            return ck
+        with _LOCK:
+            memo = _COMPILED.get(id(mech))
+            if memo is None or memo[0]() is not mech:
+                memo = _COMPILED[id(mech)] = (ref, {})
+            memo[1][inputs] = fields
+        return ck
+    # a new object each call, with its own parameter array (a caller may change ``p`` in place)
+    ck = object.__new__(CompiledKinematics)
+    ck.__dict__.update(fields)
+    object.__setattr__(ck, "mechanism", mech)
+    object.__setattr__(ck, "p", fields["p"].copy())
+    return ck
+
+
+#: the fields of the compiled kinematics of live mechanisms but the mechanism itself: id -> (weak
+#: reference, {inputs: fields}); a ``mech.sweep(...)`` compiles every call, and a cached compile is
+#: then a lookup and a copy of ``p``
+_COMPILED: dict = {}
+
+
+def _compiled_kinematics(mech: Mechanism, module: ModuleType) -> CompiledKinematics:
     variables = tuple(module.VARIABLES)
     kinds = tuple(Kind[k] for k in module.KINDS)
     p = np.array([pp.value for pp in mech.parameters], dtype=float)

@@ -36,6 +36,7 @@ def fresh(monkeypatch):
 def _no_numba(monkeypatch):
     real = importlib.util.find_spec
     monkeypatch.setattr(importlib.util, "find_spec", lambda name, *a: None if name == "numba" else real(name, *a))
+    monkeypatch.setitem(sys.modules, "numba", None)  # also when an earlier test imported it: not installed
 
 
 def test_without_numba_the_default_is_python_however_long_the_sweep(fresh, monkeypatch):

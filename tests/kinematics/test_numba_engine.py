@@ -15,6 +15,7 @@ import hashlib
 import importlib.util
 import math
 import os
+import sys
 import warnings
 from pathlib import Path
 
@@ -324,6 +325,7 @@ class TestEngineSwitch:
     def test_numba_without_numba_is_one_line_error(self, monkeypatch, capsys, tmp_path):
         real = importlib.util.find_spec
         monkeypatch.setattr(importlib.util, "find_spec", lambda name, *a: None if name == "numba" else real(name, *a))
+        monkeypatch.setitem(sys.modules, "numba", None)  # also when an earlier test imported it: not installed
         mech = ls.fourbar(60, 25, 70, 45)
         with pytest.raises(MissingDependencyError, match=r"needs numba: pip install 'loopsolve\[fast\]'") as ei:
             mech.sweep(0, 90, 10, engine="numba")

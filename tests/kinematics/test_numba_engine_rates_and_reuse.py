@@ -239,7 +239,19 @@ def test_the_structure_key_is_kept_per_live_mechanism_and_per_inputs():
     n = len(compiled._KEYS)
     del other, copy
     gc.collect()
-    assert len(compiled._KEYS) <= n - 2  # dead mechanisms leave the memo
+    assert len(compiled._KEYS) <= n - 2  # dead mechanisms leave the memos
+    import weakref
+
+    ck = mech.compile()  # compiled once per mechanism and inputs; each call its own parameter array
+    ck.p[1] = 1.0
+    assert mech.compile().p[1] == 25.0 and mech.compile().mechanism is mech
+    dead = ls.fourbar(60, 25, 70, 40)
+    dead.compile()
+    dead.compile()
+    ref = weakref.ref(dead)
+    del dead
+    gc.collect()
+    assert ref() is None  # the compile memo does not keep its mechanism alive
 
 
 @needs_numba

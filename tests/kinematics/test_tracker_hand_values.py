@@ -461,11 +461,12 @@ def test_progress_bar_on_a_terminal(monkeypatch):
             return True
 
     monkeypatch.setattr(sys, "stderr", Terminal())
-    bar = _progress(1000, None)
+    bar = _progress(5000, None)
     assert bar is not None
     bar.close()
+    assert _progress(100, None) is None  # a short sweep ends before the bar's delay: no bar to set up
     monkeypatch.setattr(sys, "stderr", io.StringIO())
-    assert _progress(1000, None) is None
+    assert _progress(5000, None) is None
 
 
 # ----------------------------------------------------------------------------- a start on a limit, heading out
