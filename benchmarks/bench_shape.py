@@ -30,8 +30,8 @@ Three parts, each with the defaults a user gets (the default four-bar atlas of
   with free timing: median and best of ``--runs`` seeded runs and how many were certified, with
   the atlas starts (default) and, with ``--compare``, without them (``atlas=False``).
 * ``speed`` — CPU seconds (``time.process_time``, this process) of a shape query (retrieval, and
-  retrieval + polish + certificates) against the default atlas once loaded, and of one free-timing
-  ``--path`` run on the same curve; the atlas build rate (designs per second, wall clock) in this
+  retrieval + polish + certificates) against the default atlas once loaded — the ellipse (closed) and
+  Wu et al.'s open curve — and of one free-timing ``--path`` run on the ellipse; the atlas build rate (designs per second, wall clock) in this
   process and on local Dask clusters of 1 and 2 workers.
 
     python benchmarks/bench_shape.py                       # everything (the README's figures)
@@ -285,6 +285,14 @@ def speed(args, out):
     res = ls.synthesize(mech, shape="P", targets=xy, atlas=atlas, top=5, progress=False)
     cpu = res.report["statistics"]["cpu_seconds"]
     shape_total = cpu["retrieval"] + cpu["polish_certify"]
+    # an open curve: Wu et al.'s 60 points, compared with every window of every stored curve
+    wu = np.array(_wu3())
+    res_o = ls.synthesize(mech, shape="P", targets=wu, closed=False, atlas=atlas, top=5, progress=False)
+    cpu_o = res_o.report["statistics"]["cpu_seconds"]
+    open_total = cpu_o["retrieval"] + cpu_o["polish_certify"]
+    print(f"speed: Wu et al.'s open curve as a shape query: retrieval {cpu_o['retrieval']:.2f} s, retrieval + polish + "
+          f"certificates {open_total:.2f} s CPU (rms {res_o.report['candidates'][0]['shape_error']['rms']:.4g})",
+          flush=True)
     c0 = time.process_time()
     prob = PATH_PROBLEMS["ellipse (10 points, crank; published 4.02e-4)"]
     try:
@@ -295,7 +303,8 @@ def speed(args, out):
     path_cpu = time.process_time() - c0
     row = {"atlas_load_cpu": load, "retrieval_cpu": cpu["retrieval"], "shape_cpu": shape_total,
            "shape_rms": res.report["candidates"][0]["shape_error"]["rms"], "path_free_timing_cpu": path_cpu,
-           "ratio_path_over_shape": path_cpu / shape_total}
+           "ratio_path_over_shape": path_cpu / shape_total, "open_retrieval_cpu": cpu_o["retrieval"],
+           "open_shape_cpu": open_total, "open_shape_rms": res_o.report["candidates"][0]["shape_error"]["rms"]}
     print(f"speed: default atlas opened in {load:.2f} s CPU; ellipse shape query: retrieval {cpu['retrieval']:.2f} s, "
           f"retrieval + polish + certificates {shape_total:.2f} s CPU (rms {row['shape_rms']:.3g}); "
           f"--path free timing, one run without atlas starts: {path_cpu:.1f} s CPU: {row['ratio_path_over_shape']:.1f}x",

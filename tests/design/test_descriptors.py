@@ -155,6 +155,52 @@ def test_procrustes_finds_a_moved_stretch_of_a_stored_curve(base):
     assert dist[0] < 1e-6 and start[0] == 17
 
 
+def _windows_by_hand(Z, closed, t, strides):
+    """The least Procrustes distance over every window of one stored curve ``Z`` (complex, N points), written out:
+    points s, s + Δ, … (wrapping only when ``closed``), the target ``t`` centred with norm 1."""
+    N, m = len(Z), len(t)
+    best = (math.inf, None, None)
+    for dlt in strides:
+        for s in range(N):
+            idx = s + dlt * np.arange(m)
+            if idx[-1] >= N and not closed or (m - 1) * dlt > N - 1:
+                continue
+            w = Z[idx % N]
+            wc = w - w.mean()
+            dist = math.sqrt(max(1.0 - abs(np.vdot(wc, t)) ** 2 / np.vdot(wc, wc).real, 0.0))
+            if dist < best[0] - 1e-12:
+                best = (dist, s, dlt)
+    return best
+
+
+@pytest.mark.parametrize("single", [False, True])
+def test_procrustes_windows_equal_the_windows_written_out(single):
+    """The FFT window sums (two strides' squared moduli in one transform, blocks of rows, an open curve's windows
+    not wrapping) against every window computed directly, both directions, six strides (the last longer than the
+    curve), in double and in single precision (whose squared distances carry ~1e-5 of round-off)."""
+    rng = np.random.default_rng(3)
+    N, E = 64, 6
+    u = np.linspace(0, 2 * np.pi, N, endpoint=False)
+    curves = np.stack([np.stack([np.cos(u) * a + 0.3 * np.cos(k * u + p), np.sin(u) * b + 0.2 * np.sin(2 * u)], axis=1)
+                       for a, b, k, p in zip(rng.uniform(1, 3, E), rng.uniform(0.5, 2, E), rng.integers(2, 4, E),
+                                             rng.uniform(0, 6, E))])
+    closed = np.array([True, False, True, False, True, False])
+    target = np.stack([np.linspace(0, 2, 9), 0.3 * np.linspace(0, 2, 9) ** 2], axis=1)
+    strides = (1, 2, 3, 4, 6, 8)
+    fw, bw = d._procrustes_blocks(curves.astype(np.float32 if single else float), closed, target, strides, True,
+                                  single=single)
+    t, _, _ = d.target_vector(target)
+    for e in range(E):
+        Z = curves[e, :, 0] + 1j * curves[e, :, 1]
+        for res, tt in ((fw, t), (bw, t[::-1])):
+            dist, s, dlt = _windows_by_hand(Z, closed[e], tt, strides)
+            if single:  # 1 − |C|²/var from single-precision transforms of 64 points: ~1e-5 of round-off
+                assert res[0][e] ** 2 == pytest.approx(dist ** 2, abs=3e-5)
+            else:
+                assert res[0][e] == pytest.approx(dist, abs=1e-12)
+                assert (res[1][e], res[2][e]) == (s, dlt)
+
+
 @pytest.mark.parametrize("rows,closed,message", [
     ([[0, 0], [1, 0], [1, 1], [0, 1]], True, "at least 5"),
     ([[0, 0], [1, 0], [np.nan, 1], [0, 1], [0, 2], [1, 3]], True, "point 3 is not a finite"),

@@ -69,6 +69,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from scipy import fft as _fft
 
 from ...errors import ModelError
 
@@ -331,9 +332,6 @@ def target_vector(xy):
     return t / nrm, c, nrm
 
 
-_BLOCK = 16384
-
-
 def procrustes(curves, closed, target, strides=(1,)):
     """Best similarity fit of a target to a window of every stored curve.
 
@@ -359,87 +357,110 @@ def procrustes_both(curves, closed, target, strides=(1,), *, both: bool = True):
 
     The window sums over every start are circular correlations of each stored curve with a sparse
     kernel (the target's points at every Δ-th place), so they are computed with FFTs: one transform
-    of the curves and of their squared moduli, then one inverse per sum, stride and direction —
-    about 30 transforms of the atlas' curves for an open target's seven strides and two directions.
+    of the curves and of their squared moduli, then one inverse per sum, stride and direction (the
+    squared moduli's sums are real, so two strides share one inverse) — 20 transforms of the atlas'
+    curves for an open target's strides 1, 2, 3, 4, 6 (8 spans 64 points: longer than 64 stored ones)
+    and two directions. scipy's FFT: numpy's transforms a block's short rows one at a time.
     """
     curves = np.asarray(curves)
     E = curves.shape[0]
     closed = np.broadcast_to(np.asarray(closed, dtype=bool), (E,))
     if E >= _SINGLE:  # the ranking in single precision, then its best and their near-ties again in double
-        out = _procrustes_blocks(curves, closed, target, strides, both)
+        out = _procrustes_blocks(curves, closed, target, strides, both, single=True)
         best = np.min([r[0] for r in out], axis=0)
         order = np.argsort(best, kind="stable")
         edge = max(best[order[min(_RERANK, E) - 1]], best[order[0]] + _SINGLE_TIE)
         sel = np.sort(order[:min(int(np.searchsorted(best[order], edge, side="right")), _SINGLE - 1)])
-        again = _procrustes_blocks(curves[sel], closed[sel], target, strides, both)
+        again = _procrustes_blocks(curves[sel], closed[sel], target, strides, both, single=False)
         for r, a in zip(out, again):
             for col, new in zip(r, a):
                 col[sel] = new
         return out
-    return _procrustes_blocks(curves, closed, target, strides, both)
+    return _procrustes_blocks(curves, closed, target, strides, both, single=False)
 
 
 #: a batch of this many curves or more is ranked in single precision (its transforms halved)
-_SINGLE = _BLOCK // 4
+_SINGLE = 4096
 #: then this many of its best, and every one within ``_SINGLE_TIE`` of the best, are ranked again in double:
 #: single precision's 1 − |C|²/var carries ~1e-6 of round-off, so distances near 0 (sqrt of it) read ~1e-3
 #: apart from the truth, and a good stretch's best windows all read 0 (the foot path of test_shape: 40 of them)
 _RERANK = 256
 _SINGLE_TIE = 3e-3
+#: curves per block of the window sums: a block's (rows, N) arrays stay in the processor's cache (64 points:
+#: 1 MB in single precision), where numpy's element-wise passes run about twice as fast as on an atlas' 10⁵ rows
+_ROWS = 2048
 
 
-def _procrustes_blocks(curves, closed, target, strides, both):
-    E = curves.shape[0]
-    if E > _BLOCK:  # in blocks: a few arrays of a block's size at a time (an atlas is 10⁵ curves)
-        parts = [_procrustes_blocks(curves[a:a + _BLOCK], closed[a:a + _BLOCK], target, strides, both)
-                 for a in range(0, E, _BLOCK)]
-        return [tuple(np.concatenate([p[d][i] for p in parts]) for i in range(5)) for d in range(len(parts[0]))]
-    # a large batch (an atlas' curves, stored in single precision anyway) in single precision: it halves the
-    # transforms, and procrustes_both ranks its best again in double; a small one (a rerank, a test) in double
-    Z = _as_complex(curves).astype(np.complex64 if E >= _SINGLE else np.complex128)
-    N = Z.shape[1]
+def _kernels(N, m, dlt, targets):
+    """Conjugated spectra of the stride-``dlt`` kernels: the window's ones, then each target's points."""
+    def spec(k):
+        return np.conj(np.fft.fft(k))
+
+    ones = np.zeros(N)
+    np.add.at(ones, (np.arange(m) * dlt) % N, 1.0)
+    out = [spec(ones)]
+    for t in targets:
+        kern = np.zeros(N, dtype=complex)
+        np.add.at(kern, (np.arange(m) * dlt) % N, np.conj(t))
+        out.append(np.conj(np.fft.fft(np.conj(kern))))
+    return out
+
+
+def _procrustes_blocks(curves, closed, target, strides, both, single):
+    """The window fits of :func:`procrustes_both` (``single``: in single precision), block by block of rows."""
+    E, N = curves.shape[0], curves.shape[1]
+    cdt = np.complex64 if single else np.complex128
     t_f, _, _ = target_vector(target)
     targets = [t_f, t_f[::-1]] if both else [t_f]
     m = len(t_f)
-    Zf = np.fft.fft(Z, axis=1)
-    A2f = np.fft.fft((np.abs(Z) ** 2).astype(Z.real.dtype), axis=1)
-    starts = np.arange(N)
-    rows = np.arange(E)
+    strides = [int(d) for d in strides if (m - 1) * int(d) <= N - 1]  # (a window longer than the stored curve: none)
+    kerns = [[k.astype(cdt) for k in _kernels(N, m, dlt, targets)] for dlt in strides]
+    # the squared moduli's window sums are real: two strides' in one inverse transform (real and imaginary part)
+    pairs = [(kerns[i][0] + (1j * kerns[i + 1][0] if i + 1 < len(strides) else 0)).astype(cdt)
+             for i in range(0, len(strides), 2)]
     res = [[np.full(E, np.inf), np.zeros(E, dtype=int), np.ones(E, dtype=int), np.zeros(E, dtype=complex),
             np.zeros(E, dtype=complex)] for _ in targets]
-    for dlt in strides:
-        span = (m - 1) * dlt
-        if span > N - 1:  # a window longer than the stored curve
-            continue
-        ones = np.zeros(N)
-        for j in range(m):
-            ones[(j * dlt) % N] += 1.0
-        # Σ_j x[s + jΔ] k_j over every start s: the circular correlation of x with the kernel
-        on = np.conj(np.fft.fft(ones)).astype(Z.dtype)
-        S1 = np.fft.ifft(Zf * on, axis=1)
-        S2 = np.fft.ifft(A2f * on, axis=1).real
-        var = S2 - np.abs(S1) ** 2 / m
-        ok = var > 1e-12 * np.maximum(S2, 1e-300)
-        wraps = starts + span >= N
-        ok &= ~(wraps[None, :] & ~closed[:, None])
-        for t, r in zip(targets, res):
-            kern = np.zeros(N, dtype=complex)
-            for j in range(m):
-                kern[(j * dlt) % N] += np.conj(t[j])
-            C = np.fft.ifft(Zf * np.conj(np.fft.fft(np.conj(kern))).astype(Z.dtype), axis=1)
-            with np.errstate(all="ignore"):
-                d2 = 1.0 - np.abs(C) ** 2 / var
-            d2 = np.where(ok, np.maximum(d2, 0.0), np.inf)
-            s = np.argmin(d2, axis=1)
-            v = d2[rows, s]
-            better = v < r[0]
-            r[0] = np.where(better, v, r[0])
-            r[1] = np.where(better, s, r[1])
-            r[2] = np.where(better, dlt, r[2])
-            with np.errstate(all="ignore"):
+    for a in range(0, E, _ROWS):
+        sl = slice(a, a + _ROWS)
+        Z = _as_complex(curves[sl]).astype(cdt)
+        e = Z.shape[0]
+        rows = np.arange(e)
+        open_ = ~closed[sl]
+        Zf = _fft.fft(Z, axis=1)
+        A2f = _fft.fft(Z.real ** 2 + Z.imag ** 2, axis=1)
+        S2s = []
+        for pk in pairs:
+            both_s2 = _fft.ifft(A2f * pk, axis=1, overwrite_x=True)
+            S2s += [both_s2.real, both_s2.imag]
+        blk = [[np.full(e, np.inf), np.zeros(e, dtype=int), np.ones(e, dtype=int), np.zeros(e, dtype=complex),
+                np.zeros(e, dtype=complex)] for _ in targets]
+        for dlt, ks, S2 in zip(strides, kerns, S2s):
+            span = (m - 1) * dlt
+            S1 = _fft.ifft(Zf * ks[0], axis=1, overwrite_x=True)
+            var = S1.real ** 2  # (in place: numpy's passes over the block are the cost)
+            var += S1.imag ** 2
+            var *= -1.0 / m
+            var += S2
+            ok = var > 1e-12 * S2
+            if span > 0 and open_.any():  # an open curve's windows do not wrap around
+                ok[open_, N - span:] = False
+            inv = np.divide(1.0, var, out=np.zeros_like(var), where=ok)
+            any_ok = ok.any(axis=1)
+            for K, r in zip(ks[1:], blk):
+                C = _fft.ifft(Zf * K, axis=1, overwrite_x=True)
+                q = C.real ** 2
+                q += C.imag ** 2
+                q *= inv  # |C|²/var: 1 − the squared distance
+                s = np.argmax(q, axis=1)
+                v = np.where(any_ok, np.maximum(1.0 - q[rows, s], 0.0), np.inf)
+                better = v < r[0]
+                r[0] = np.where(better, v, r[0])
+                r[1] = np.where(better, s, r[1])
+                r[2] = np.where(better, dlt, r[2])
                 # C = Σ w conj(t): the factor a with a (w − w̄) ≈ t is ⟨w − w̄, t⟩ / ‖w − w̄‖² = conj(C)/var
-                fac = np.conj(C[rows, s]) / var[rows, s]
-            r[3] = np.where(better, fac, r[3])
-            r[4] = np.where(better, S1[rows, s] / m, r[4])
-    out = [(np.sqrt(r[0]), r[1], r[2], r[3], r[4]) for r in res]
-    return out
+                r[3] = np.where(better, np.conj(C[rows, s]) * inv[rows, s], r[3])
+                r[4] = np.where(better, S1[rows, s] / m, r[4])
+        for r, b in zip(res, blk):
+            for col, new in zip(r, b):
+                col[sl] = new
+    return [(np.sqrt(r[0]), r[1], r[2], r[3], r[4]) for r in res]
