@@ -27,9 +27,12 @@ Dataset layout
 
 from __future__ import annotations
 
+import contextlib
 import math
 import os
+import shutil
 import sys
+import tempfile
 import warnings
 from collections.abc import Mapping, Sequence
 
@@ -374,36 +377,46 @@ def study(mech, vary, start, stop, step, *, samples: int | None = None, lhs: int
 
     bar = _bar(N, progress)
     own_client = None
+    scratch = None  # .nc on a cluster: the directory of the workers' temporary store, removed whatever happens
     try:
-        if client is None and (workers or scheduler):
-            own_client = make_client(workers, scheduler)
-            client = own_client
-        if chunk_size is None:
-            chunk_size = default_chunk(N, rows, None if client is None else _worker_count(client))
-        bounds.extend((a, min(a + chunk_size, N)) for a in range(0, N, chunk_size))
-        tasks = [(mech, names, values[a:b], start, stop, step, opts) for a, b in bounds]
-        if client is None:
-            for i, t in enumerate(tasks):
-                consume(i, _chunk_task(*t))
-                if bar is not None:
-                    bar.update(bounds[i][1] - bounds[i][0])
-        elif writer is not None and writer.streaming:
-            warned.extend(_run_dask_zarr(client, tasks, bounds, ck_info, names, writer.path, bar))
-            writer.started = True
-        else:
-            _run_dask(client, tasks, bounds, consume, bar)
+        try:
+            if client is None and (workers or scheduler):
+                own_client = make_client(workers, scheduler)
+                client = own_client
+            if chunk_size is None:
+                chunk_size = default_chunk(N, rows, None if client is None else _worker_count(client))
+            bounds.extend((a, min(a + chunk_size, N)) for a in range(0, N, chunk_size))
+            tasks = [(mech, names, values[a:b], start, stop, step, opts) for a, b in bounds]
+            if client is None:
+                for i, t in enumerate(tasks):
+                    consume(i, _chunk_task(*t))
+                    if bar is not None:
+                        bar.update(bounds[i][1] - bounds[i][0])
+            elif writer is not None and writer.streaming:
+                warned.extend(_run_dask_zarr(client, tasks, bounds, ck_info, names, writer.path, bar))
+                writer.started = True
+            elif writer is not None and writer.netcdf:
+                scratch = _scratch_dir(writer.path)
+                warned.extend(_run_dask_zarr(client, tasks, bounds, ck_info, names, _scratch_store(scratch), bar))
+            else:
+                _run_dask(client, tasks, bounds, consume, bar)
+        finally:
+            if bar is not None:
+                bar.close()
+            if own_client is not None:
+                cluster = own_client.cluster
+                own_client.close()
+                if cluster is not None and workers:
+                    cluster.close()
+        for line in summarize_warnings(warned, N):
+            warn(line)
+        if writer is not None and writer.streaming:
+            return writer.finish()
+        if scratch is not None:
+            return store_to_netcdf(_scratch_store(scratch), writer.path)
     finally:
-        if bar is not None:
-            bar.close()
-        if own_client is not None:
-            cluster = own_client.cluster
-            own_client.close()
-            if cluster is not None and workers:
-                cluster.close()
-    for line in summarize_warnings(warned, N):
-        warn(line)
-    if writer is not None and writer.streaming:
-        return writer.finish()
+        if scratch is not None:
+            shutil.rmtree(scratch, ignore_errors=True)
     ds = whole.finish()
     if writer is not None:
         write(ds, out)
@@ -618,6 +631,8 @@ def _region_write(ds, path, a, b):
 def _chunk_to_zarr(task, ck_info, names, a, b, path):
     """A Dask task: sweep one chunk and write it into its region of the store; its size and warnings."""
     res = _chunk_task(*task)
+    if not os.path.isdir(path):  # a study interrupted meanwhile removed its temporary store: do not recreate it
+        raise FileNotFoundError(f"the study's store {path!r} is gone")
     _region_write(_chunk_dataset(res, ck_info, names, task[2], a), path, a, b)
     return b - a, [(a + j, msg) for j, msg in res["warnings"]]
 
@@ -672,14 +687,19 @@ def _run_dask_zarr(client, tasks, bounds, ck_info, names, path, bar):
                              key=f"loopsolve-study-zarr-{token}-{i}", pure=False, retries=3)
 
     ac = as_completed([submit() for _ in range(min(2 * _worker_count(client) + 2, len(pending)))])
-    for fut in ac:
-        n, w = fut.result()
-        warned.extend(w)
-        fut.release()
-        if bar is not None:
-            bar.update(n)
-        if pending:
-            ac.add(submit())
+    try:
+        for fut in ac:
+            n, w = fut.result()
+            warned.extend(w)
+            fut.release()
+            if bar is not None:
+                bar.update(n)
+            if pending:
+                ac.add(submit())
+    except BaseException:  # an error or Ctrl-C: the chunks not yet started are not started
+        with contextlib.suppress(Exception):
+            client.cancel(list(ac.futures))
+        raise
     return warned
 
 
@@ -694,6 +714,7 @@ class _Writer:
         if ext not in (".nc", ".zarr", ".csv"):
             raise ModelError(f"output {self.path!r}: the extension must be .nc (netCDF), .zarr or .csv")
         self.streaming = ext == ".zarr"
+        self.netcdf = ext == ".nc"
         self.started = False
 
     def append(self, ds):
@@ -749,27 +770,92 @@ def write(ds, path) -> None:
             warnings.simplefilter("ignore")
             ds.to_zarr(path, mode="w")
     elif ext == ".nc":
-        engine = None
-        try:
-            import netCDF4  # noqa: F401
-
-            engine = "netcdf4"
-        except ImportError:
-            try:
-                import h5netcdf  # noqa: F401
-                import h5py  # noqa: F401
-
-                engine = "h5netcdf"
-            except ImportError:
-                raise MissingDependencyError("writing .nc needs netCDF4 (or h5netcdf with h5py): "
-                                             "pip install 'loopsolve[study]'") from None
-        out = ds.copy()
-        for k in ("status", "events", "nearest", "mode"):
-            if k in out:
-                out[k] = out[k].astype(str)
-        out["lockstep"] = out["lockstep"].astype("int8")
-        out.to_netcdf(path, engine=engine)
+        _netcdf_ready(ds).to_netcdf(path, engine=_netcdf_engine())
     elif ext == ".csv":
         to_long_frame(ds).to_csv(path, index=False)
     else:
         raise ModelError(f"output {path!r}: the extension must be .nc (netCDF), .zarr or .csv")
+
+
+def _netcdf_engine() -> str:
+    try:
+        import netCDF4  # noqa: F401
+
+        return "netcdf4"
+    except ImportError:
+        try:
+            import h5netcdf  # noqa: F401
+            import h5py  # noqa: F401
+
+            return "h5netcdf"
+        except ImportError:
+            raise MissingDependencyError("writing .nc needs netCDF4 (or h5netcdf with h5py): "
+                                         "pip install 'loopsolve[study]'") from None
+
+
+def _plain_strings(block):
+    """An array of text as an object array of Python ``str``: what netCDF's variable-length strings take
+    from any source (numpy's ``StringDType`` of a newer zarr, or ``str`` mixed with ``np.str_``, which the
+    lowest xarray the project allows cannot encode)."""
+    out = np.empty(block.shape, dtype=object)
+    out.ravel()[:] = [str(x) for x in block.ravel()]
+    return out
+
+
+def _netcdf_ready(ds):
+    """The study Dataset as netCDF stores it: text as variable-length strings, ``lockstep`` as int8 (netCDF has
+    no bool). An in-memory Dataset is converted here; a Dask-backed one (a store opened lazily) chunk by
+    chunk when it is written."""
+    out = ds.copy()
+    for k in ("status", "events", "nearest", "mode"):
+        if k not in out:
+            continue
+        data = out[k].data
+        if hasattr(data, "map_blocks"):
+            out[k] = out[k].copy(data=data.map_blocks(_plain_strings, dtype=object))
+        else:
+            out[k] = out[k].copy(data=_plain_strings(np.asarray(data)))
+    out["lockstep"] = out["lockstep"].astype("int8")
+    return out
+
+
+def _scratch_dir(path) -> str:
+    """A new, empty directory next to the output ``path`` for the workers' temporary store (a fresh name:
+    nothing of the user's is ever written into or removed with it). Next to the output, because a cluster's
+    workers can write where the output goes (the same rule as for ``.zarr``) and the store is on its disk."""
+    folder = os.path.dirname(os.path.abspath(path))
+    try:
+        return tempfile.mkdtemp(prefix=f".{os.path.basename(path)}.", suffix=".tmp", dir=folder)
+    except OSError as exc:
+        raise ModelError(f"output {path!r}: cannot create the temporary store next to it "
+                         f"({type(exc).__name__}: {exc.strerror or exc})") from None
+
+
+def _scratch_store(scratch: str) -> str:
+    return os.path.join(scratch, "study.zarr")
+
+
+def store_to_netcdf(store, path):
+    """Convert a finished study store (``.zarr``) to netCDF at ``path``, one zarr chunk at a time, and return
+    the file opened lazily.
+
+    Why: a study on a Dask cluster has its workers write the chunks into a store; the client then reads it
+    back chunk by chunk (Dask's synchronous scheduler in this process, whatever Dask client is the default)
+    so its memory is bounded by a chunk, not by the study. The values are those of the single-process
+    ``.nc``: the same variables, dtypes on disk, attributes and units.
+    """
+    xr = _need("xarray")
+    import dask
+
+    engine = _netcdf_engine()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        src = xr.open_zarr(store, chunks={})
+        for v in src.variables.values():  # the store's own encoding (compressors, zarr chunks) is not netCDF's
+            v.encoding = {}
+        with dask.config.set(scheduler="synchronous"):
+            _netcdf_ready(src).to_netcdf(path, engine=engine)
+        src.close()
+        ds = xr.open_dataset(path, engine=engine)
+    ds["lockstep"] = ds["lockstep"].astype(bool)
+    return ds
