@@ -413,8 +413,8 @@ def test_a_cluster_nc_study_costs_its_client_a_chunk_whatever_the_designs(thesis
     """The conversion of the workers' store to ``.nc`` reads one zarr chunk of one variable at a time, so the
     client's peak memory (tracemalloc: numpy's buffers too) stays below a chunk's part of the result. What grows
     with the designs is Dask's graph of the conversion (~7 kB per chunk and variable, not the data): 4N designs
-    cost at most half a chunk more than N (measured: 0.35 and 0.63 chunk, the sweeps' layout included).
-    Gathering the chunks (the code before) held all 16 chunks."""
+    cost at most a quarter chunk more than N (measured at 4 and 16 chunks: 0.35 and 0.63 chunk, the sweeps'
+    layout included). Gathering the chunks (the code before) held all of them."""
     import gc
     import tracemalloc
 
@@ -430,11 +430,12 @@ def test_a_cluster_nc_study_costs_its_client_a_chunk_whatever_the_designs(thesis
         finally:
             tracemalloc.stop()
 
-    peak(c)
+    ls.study(thesis, box, 0, 360, step, lhs=40, chunk_size=20, client=cluster, out=tmp_path / "warm.nc",
+             progress=False).close()  # the workers' caches
     ds = ls.study(thesis, box, 0, 360, step, lhs=20, chunk_size=20, progress=False)
     chunk = c / 20 * sum(v.values.nbytes for v in ds.variables.values() if "design" in v.dims)
-    small, big = peak(4 * c), peak(16 * c)
-    assert big < chunk and big <= small + chunk / 2, (small / chunk, big / chunk)
+    small, big = peak(2 * c), peak(8 * c)
+    assert big < chunk and big <= small + chunk / 4, (small / chunk, big / chunk)
 
 
 def test_text_columns_of_any_string_kind_round_trip_through_nc(local_run, tmp_path):
