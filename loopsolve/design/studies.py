@@ -8,7 +8,10 @@ and assembles an :class:`xarray.Dataset` with dims ``design`` and the input. Chu
 this process, or as Dask tasks on a cluster (``client=``, ``workers=``, ``scheduler=``); a
 chunk lost with a dying worker is recomputed by Dask. Written to ``.zarr`` the chunks are
 streamed to the store in order, so memory stays bounded by a few chunks whatever the number
-of designs; ``.nc`` (netCDF) and long-format ``.csv`` are written from the assembled Dataset.
+of designs. ``.nc`` (netCDF) is written from the assembled Dataset in this process; on a cluster the
+workers write a temporary zarr store next to the output and the client converts it chunk by chunk
+(:func:`store_to_netcdf`), so the client never holds the study. Long-format ``.csv`` is written from
+the assembled Dataset.
 
 Dataset layout
 --------------
@@ -27,8 +30,10 @@ Dataset layout
 
 from __future__ import annotations
 
+import contextlib
 import math
 import os
+import shutil
 import sys
 import warnings
 from collections.abc import Mapping, Sequence
@@ -36,8 +41,10 @@ from collections.abc import Mapping, Sequence
 import numpy as np
 
 from .designs import MAX_DESIGNS, design_count, designs_from
-from ..errors import MissingDependencyError, ModelError, warn
+from ..errors import ModelError, warn
 from .designops import DesignOps
+from .studyfiles import Writer as _Writer, need as _need, scratch_dir as _scratch_dir, scratch_store as _scratch_store
+from .studyfiles import store_to_netcdf, to_long_frame, write
 from .lockstep import sweep_chunk
 from .metrics import evaluate_metrics, parse_metric
 from ..kinematics.results import angle_turns, in_display_units
@@ -64,14 +71,6 @@ CHUNK_PER_WORKER = 4      # on a cluster, at least this many chunks a worker (ba
 _PER_DESIGN = ("status", "stop", "events", "nearest", "mode", "lockstep")
 #: designs named in a summarized warning
 _FIRST = 5
-
-
-def _need(module: str):
-    try:
-        return __import__(module)
-    except ImportError:
-        raise MissingDependencyError(
-            f"design studies need {module}: pip install 'loopsolve[study]'") from None
 
 
 # ----------------------------------------------------------------------------- one chunk
@@ -257,7 +256,11 @@ def study(mech, vary, start, stop, step, *, samples: int | None = None, lhs: int
         Also write the Dataset (``.nc``, ``.zarr``, ``.csv``); ``.zarr`` is streamed chunk by
         chunk and the returned Dataset is opened lazily from the store. On a Dask cluster the
         workers write their chunks into the store themselves (so the path must be on storage
-        they can write: the local disk for a local cluster, a shared filesystem otherwise).
+        they can write: the local disk for a local cluster, a shared filesystem otherwise). ``.nc``
+        on a cluster: the workers write a temporary store in a new hidden directory next to the
+        output (the same rule), the client converts it to netCDF a chunk at a time and removes it
+        (also on an error or Ctrl-C); the returned Dataset is the file opened lazily. An existing
+        output file is replaced, as in this process.
     progress : bool, optional
         Completed designs of the total (tqdm) on stderr; default: on a terminal.
     method : {"lockstep", "single"}
@@ -374,36 +377,46 @@ def study(mech, vary, start, stop, step, *, samples: int | None = None, lhs: int
 
     bar = _bar(N, progress)
     own_client = None
+    scratch = None  # .nc on a cluster: the directory of the workers' temporary store, removed whatever happens
     try:
-        if client is None and (workers or scheduler):
-            own_client = make_client(workers, scheduler)
-            client = own_client
-        if chunk_size is None:
-            chunk_size = default_chunk(N, rows, None if client is None else _worker_count(client))
-        bounds.extend((a, min(a + chunk_size, N)) for a in range(0, N, chunk_size))
-        tasks = [(mech, names, values[a:b], start, stop, step, opts) for a, b in bounds]
-        if client is None:
-            for i, t in enumerate(tasks):
-                consume(i, _chunk_task(*t))
-                if bar is not None:
-                    bar.update(bounds[i][1] - bounds[i][0])
-        elif writer is not None and writer.streaming:
-            warned.extend(_run_dask_zarr(client, tasks, bounds, ck_info, names, writer.path, bar))
-            writer.started = True
-        else:
-            _run_dask(client, tasks, bounds, consume, bar)
+        try:
+            if client is None and (workers or scheduler):
+                own_client = make_client(workers, scheduler)
+                client = own_client
+            if chunk_size is None:
+                chunk_size = default_chunk(N, rows, None if client is None else _worker_count(client))
+            bounds.extend((a, min(a + chunk_size, N)) for a in range(0, N, chunk_size))
+            tasks = [(mech, names, values[a:b], start, stop, step, opts) for a, b in bounds]
+            if client is None:
+                for i, t in enumerate(tasks):
+                    consume(i, _chunk_task(*t))
+                    if bar is not None:
+                        bar.update(bounds[i][1] - bounds[i][0])
+            elif writer is not None and writer.streaming:
+                warned.extend(_run_dask_zarr(client, tasks, bounds, ck_info, names, writer.path, bar))
+                writer.started = True
+            elif writer is not None and writer.netcdf:
+                scratch = _scratch_dir(writer.path)
+                warned.extend(_run_dask_zarr(client, tasks, bounds, ck_info, names, _scratch_store(scratch), bar))
+            else:
+                _run_dask(client, tasks, bounds, consume, bar)
+        finally:
+            if bar is not None:
+                bar.close()
+            if own_client is not None:
+                cluster = own_client.cluster
+                own_client.close()
+                if cluster is not None and workers:
+                    cluster.close()
+        for line in summarize_warnings(warned, N):
+            warn(line)
+        if writer is not None and writer.streaming:
+            return writer.finish()
+        if scratch is not None:
+            return store_to_netcdf(_scratch_store(scratch), writer.path)
     finally:
-        if bar is not None:
-            bar.close()
-        if own_client is not None:
-            cluster = own_client.cluster
-            own_client.close()
-            if cluster is not None and workers:
-                cluster.close()
-    for line in summarize_warnings(warned, N):
-        warn(line)
-    if writer is not None and writer.streaming:
-        return writer.finish()
+        if scratch is not None:
+            shutil.rmtree(scratch, ignore_errors=True)
     ds = whole.finish()
     if writer is not None:
         write(ds, out)
@@ -618,6 +631,8 @@ def _region_write(ds, path, a, b):
 def _chunk_to_zarr(task, ck_info, names, a, b, path):
     """A Dask task: sweep one chunk and write it into its region of the store; its size and warnings."""
     res = _chunk_task(*task)
+    if not os.path.isdir(path):  # a study interrupted meanwhile removed its temporary store: do not recreate it
+        raise FileNotFoundError(f"the study's store {path!r} is gone")
     _region_write(_chunk_dataset(res, ck_info, names, task[2], a), path, a, b)
     return b - a, [(a + j, msg) for j, msg in res["warnings"]]
 
@@ -672,104 +687,17 @@ def _run_dask_zarr(client, tasks, bounds, ck_info, names, path, bar):
                              key=f"loopsolve-study-zarr-{token}-{i}", pure=False, retries=3)
 
     ac = as_completed([submit() for _ in range(min(2 * _worker_count(client) + 2, len(pending)))])
-    for fut in ac:
-        n, w = fut.result()
-        warned.extend(w)
-        fut.release()
-        if bar is not None:
-            bar.update(n)
-        if pending:
-            ac.add(submit())
+    try:
+        for fut in ac:
+            n, w = fut.result()
+            warned.extend(w)
+            fut.release()
+            if bar is not None:
+                bar.update(n)
+            if pending:
+                ac.add(submit())
+    except BaseException:  # an error or Ctrl-C: the chunks not yet started are not started
+        with contextlib.suppress(Exception):
+            client.cancel(list(ac.futures))
+        raise
     return warned
-
-
-# ----------------------------------------------------------------------------- output files
-
-
-class _Writer:
-    def __init__(self, path, xr):
-        self.path = os.fspath(path)
-        self.xr = xr
-        ext = os.path.splitext(self.path)[1].lower()
-        if ext not in (".nc", ".zarr", ".csv"):
-            raise ModelError(f"output {self.path!r}: the extension must be .nc (netCDF), .zarr or .csv")
-        self.streaming = ext == ".zarr"
-        self.started = False
-
-    def append(self, ds):
-        _need("zarr")
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")
-            if not self.started:
-                ds.to_zarr(self.path, mode="w")
-                self.started = True
-            else:
-                ds.to_zarr(self.path, append_dim="design")
-
-    def finish(self):
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")
-            return self.xr.open_zarr(self.path)
-
-
-def to_long_frame(ds):
-    """Long-format table: one row per design and input value, with the parameters, status and metrics."""
-    pd = _need("pandas")
-    inp = [d for d in ds.dims if d != "design"][0]
-    two = [k for k, v in ds.data_vars.items() if v.dims == ("design", inp)]
-    one = [k for k, v in ds.data_vars.items() if v.dims == ("design",)]
-    params = [k for k, v in ds.coords.items() if v.dims == ("design",) and k != "design"]
-    D, K = ds.sizes["design"], ds.sizes[inp]
-    frame = {"design": np.repeat(ds["design"].values, K)}
-    for p in params:
-        frame[p] = np.repeat(ds[p].values, K)
-    frame[inp] = np.tile(ds[inp].values, D)
-    for k in two:
-        if k != inp:
-            frame[k] = np.asarray(ds[k].values).reshape(-1)
-    for k in one:
-        frame[k] = np.repeat(np.asarray(ds[k].values), K)
-    df = pd.DataFrame(frame)
-    cols = [k for k in two if k != inp]
-    if cols:  # rows a design does not have are left out; a design without rows keeps one (its status)
-        has = np.isfinite(np.asarray(ds[cols[0]].values))
-        none = ~np.any(has, axis=1)
-        has[none, 0] = True
-        df = df[has.reshape(-1)]
-    return df.reset_index(drop=True)
-
-
-def write(ds, path) -> None:
-    """Write a study Dataset by extension: ``.nc`` (netCDF), ``.zarr`` or long-format ``.csv``."""
-    path = os.fspath(path)
-    ext = os.path.splitext(path)[1].lower()
-    if ext == ".zarr":
-        _need("zarr")
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")
-            ds.to_zarr(path, mode="w")
-    elif ext == ".nc":
-        engine = None
-        try:
-            import netCDF4  # noqa: F401
-
-            engine = "netcdf4"
-        except ImportError:
-            try:
-                import h5netcdf  # noqa: F401
-                import h5py  # noqa: F401
-
-                engine = "h5netcdf"
-            except ImportError:
-                raise MissingDependencyError("writing .nc needs netCDF4 (or h5netcdf with h5py): "
-                                             "pip install 'loopsolve[study]'") from None
-        out = ds.copy()
-        for k in ("status", "events", "nearest", "mode"):
-            if k in out:
-                out[k] = out[k].astype(str)
-        out["lockstep"] = out["lockstep"].astype("int8")
-        out.to_netcdf(path, engine=engine)
-    elif ext == ".csv":
-        to_long_frame(ds).to_csv(path, index=False)
-    else:
-        raise ModelError(f"output {path!r}: the extension must be .nc (netCDF), .zarr or .csv")
