@@ -37,6 +37,14 @@ design of a chunk along the same input values:
 
 Mechanisms with a solve-order block larger than 2×2 (where a signature need not single out
 one root) are swept design by design.
+
+**Engines.** Where the numba engine is chosen for the chunk (``engine=``, ``LOOPSOLVE_ENGINE``, or
+``"auto"`` by :func:`~loopsolve.kinematics.numba_engine.jit.engine_for` on the chunk's designs × rows;
+the model needs a compiled lane), steps 2 and 3 run compiled, design by design in one loop
+(:mod:`loopsolve.kinematics.numba_engine.lockstep_kernel`, in the model's numba module with its
+generated functions): the same predictor, corrector, checks and rows as the numpy loop here, which
+stays the engine without numba (and with ``engine="python"``); the two agree to round-off. The
+start (step 1), the limits and the hand-offs are the same code for both.
 """
 
 from __future__ import annotations
