@@ -311,9 +311,9 @@ def _compiled_lockstep(ck, engine, rows):
     kern = kernel_of(ck)
     if engine_for(engine, kern, rows) != "numba":
         return None
-    from ..kinematics.numba_engine.jit import _numba_module
+    from ..kinematics.numba_engine.jit import numba_module
 
-    return _numba_module(ck)
+    return numba_module(ck)
 
 
 def _not_assemblable(ck, P, xs, xs_disp, cand, ch) -> np.ndarray:

@@ -50,7 +50,8 @@ from types import ModuleType
 
 from ...errors import MissingDependencyError, ModelError, warn
 
-__all__ = ["ENGINES", "AUTO_ROWS", "MAX_LANE_SOURCE", "model_source_chars", "use_numba", "engine_for", "has_lane", "fast_lane", "numba_source"]
+__all__ = ["ENGINES", "AUTO_ROWS", "MAX_LANE_SOURCE", "model_source_chars", "use_numba", "engine_for", "has_lane", "fast_lane", "numba_source",
+           "numba_module"]
 
 ENGINES = ("python", "numba", "auto")
 FORMAT = 6  # bump when the generated numba module or its compile options change (6: the lockstep kernel)
@@ -415,6 +416,12 @@ def _numba_module(ck) -> ModuleType:
         _MEMO[key] = module
         _BY_MODULE[id(ck.module)] = (ck.module, module)
     return module
+
+
+def numba_module(ck) -> ModuleType:
+    """The model's compiled numba module (its functions compiled at their first call): what the compiled
+    lockstep of a study chunk calls (``lockstep_run``, :mod:`loopsolve.kinematics.numba_engine.lockstep_kernel`)."""
+    return _numba_module(ck)
 
 
 def fast_lane(kern, *, lazy: bool = False):
