@@ -54,6 +54,9 @@ MODEL = ROOT / "models" / "thesis_crank_rocker.toml"
 R1, R4 = 60.0, 45.0
 OMEGA = 10 * 2 * math.pi / 60  # the model's 10 rpm
 BOX = {"r2": (15.0, 28.0), "r3": (55.0, 75.0)}  # every design a Grashof crank-rocker
+#: designs of a warm-up study: 64 x 361 rows pass the "auto" engine's AUTO_ROWS, so the warm-up loads (or
+#: compiles, once per cache) the numba engine the measured studies then run, as a user's later studies do
+WARM = 64
 
 
 def designs(n, seed=0):
@@ -96,7 +99,7 @@ def part_kernel(args):
     x = np.arange(361.0)
     D = len(r2)
     print(f"== {D} crank-rocker designs x {len(x)} points, positions + velocities + accelerations ==")
-    ls.study(mech, d.slice(0, 10), 0, 360, 1, derivatives=2)  # imports, compile, warm caches
+    ls.study(mech, d.slice(0, WARM), 0, 360, 1, derivatives=2)  # imports, compile, warm caches
 
     fns = {"loopsolve": lambda: ls.study(mech, d, 0, 360, 1, derivatives=2, chunk_size=args.chunk_kernel,
                                          progress=False, max_cells=D * len(x)),
@@ -218,7 +221,7 @@ def part_handoff(args):
 
     warnings.filterwarnings("ignore", category=ls.LoopsolveWarning)  # designs stopping at limits
     mech = ls.load(MODEL)
-    ls.study(mech, sample(MIXED_BOX, 10, seed=0), 0, 360, 1, derivatives=2, progress=False)  # warm up
+    ls.study(mech, sample(MIXED_BOX, WARM, seed=0), 0, 360, 1, derivatives=2, progress=False)  # warm up
     n = args.handoff_designs
     na = sample(GAP_BOX, n, seed=2)
     ordinary = designs(n, seed=3)
@@ -280,7 +283,7 @@ def _slider_crank_limits(args):
 
     mech = ls.load(SC_MODEL)
     n = args.handoff_designs
-    ls.study(mech, sample(SC_BOX, 10, seed=0), 0, 360, 1, derivatives=2, progress=False)  # warm up
+    ls.study(mech, sample(SC_BOX, WARM, seed=0), 0, 360, 1, derivatives=2, progress=False)  # warm up
 
     def run(d):
         return lambda: ls.study(mech, d, 0, 360, 1, derivatives=2, chunk_size=args.chunk_kernel, progress=False)
@@ -342,7 +345,7 @@ def part_chunks(args):
 
     warnings.filterwarnings("ignore", category=ls.LoopsolveWarning)
     mech = ls.load(MODEL)
-    ls.study(mech, sample(MIXED_BOX, 10, seed=0), 0, 360, 1, derivatives=2, progress=False)  # warm up
+    ls.study(mech, sample(MIXED_BOX, WARM, seed=0), 0, 360, 1, derivatives=2, progress=False)  # warm up
     for n in (2000, args.kernel_designs * 10):
         d = sample(MIXED_BOX, n, seed=4)
         sizes = [None] + [int(c) for c in args.chunk_sizes.split(",")]

@@ -37,6 +37,14 @@ design of a chunk along the same input values:
 
 Mechanisms with a solve-order block larger than 2×2 (where a signature need not single out
 one root) are swept design by design.
+
+**Engines.** Where the numba engine is chosen for the chunk (``engine=``, ``LOOPSOLVE_ENGINE``, or
+``"auto"`` by :func:`~loopsolve.kinematics.numba_engine.jit.engine_for` on the chunk's designs × rows;
+the model needs a compiled lane), steps 2 and 3 run compiled, design by design in one loop
+(:mod:`loopsolve.kinematics.numba_engine.lockstep_kernel`, in the model's numba module with its
+generated functions): the same predictor, corrector, checks and rows as the numpy loop here, which
+stays the engine without numba (and with ``engine="python"``); the two agree to round-off. The
+start (step 1), the limits and the hand-offs are the same code for both.
 """
 
 from __future__ import annotations
@@ -75,7 +83,7 @@ class Chunk:
 
     def __init__(self, nv, D, K, npts=0, derivatives=3):
         # rows are written for every design by the lockstep loop; the rest is set to NaN after it
-        self.Z = [np.empty((nv, K, D)) for _ in range(derivatives + 1)]
+        self.Z = list(np.empty((derivatives + 1, nv, K, D)))  # views of one array (the compiled lockstep fills it)
         self.points = np.empty((derivatives + 1, npts, 2, K, D)) if npts else None
         self.filled = 0  # grid rows written by the lockstep loop
         self.status = np.array(["ok"] * D, dtype=object)
@@ -152,7 +160,8 @@ def _no_path(message: str, mech) -> str:
     return message.removeprefix(src + ": ").replace(src, os.path.basename(src))
 
 
-def _sweep_one(mech, names, row, start, stop, step, speed, accel, jerk, mode, derivatives, ch, j, xs_disp):
+def _sweep_one(mech, names, row, start, stop, step, speed, accel, jerk, mode, derivatives, ch, j, xs_disp,
+               engine=None):
     """The single sweep of design j, or None with its status and events set in ``ch``."""
     def text(exc, default):
         return _no_path(str(exc).splitlines()[0], mech) if str(exc) else default
@@ -165,7 +174,7 @@ def _sweep_one(mech, names, row, start, stop, step, speed, accel, jerk, mode, de
         return None
     try:
         return m.sweep(start, stop, step, speed=speed, accel=accel, jerk=jerk, mode=mode,
-                       derivatives=derivatives, progress=False)
+                       derivatives=derivatives, progress=False, engine=engine)
     except AssemblyError as exc:
         ch.status[j] = "not-assemblable"
         ch.nearest[j] = ", ".join(f"{v:.10g}" for v in exc.nearest)
@@ -180,7 +189,7 @@ def _sweep_one(mech, names, row, start, stop, step, speed, accel, jerk, mode, de
     return None
 
 
-def _single(mech, names, row, start, stop, step, speed, accel, jerk, mode, derivatives, ch, j, xs_disp):
+def _single(mech, names, row, start, stop, step, speed, accel, jerk, mode, derivatives, ch, j, xs_disp, engine=None):
     """Sweep design j alone with the public sweep and put its rows, events and status into ``ch``.
 
     Its loopsolve warnings (a stop at a limit ...) go to ``ch.warnings`` without the model
@@ -188,7 +197,8 @@ def _single(mech, names, row, start, stop, step, speed, accel, jerk, mode, deriv
     """
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        sw = _sweep_one(mech, names, row, start, stop, step, speed, accel, jerk, mode, derivatives, ch, j, xs_disp)
+        sw = _sweep_one(mech, names, row, start, stop, step, speed, accel, jerk, mode, derivatives, ch, j, xs_disp,
+                        engine)
     for w in caught:
         if issubclass(w.category, LoopsolveWarning):
             ch.warnings.append((j, _no_path(str(w.message), mech)))
@@ -214,11 +224,15 @@ def _single(mech, names, row, start, stop, step, speed, accel, jerk, mode, deriv
 
 
 def sweep_chunk(mech, names, values, start, stop, step, *, speed=None, accel=None, jerk=None, mode=None,
-                derivatives: int = 3, method: str = "lockstep") -> tuple[Chunk, object, np.ndarray]:
+                derivatives: int = 3, method: str = "lockstep", engine: str | None = None
+                ) -> tuple[Chunk, object, np.ndarray]:
     """Sweep the designs ``values`` ``(D, k)`` of the parameters ``names``; returns ``(chunk, ck, P)``.
 
     ``method="lockstep"`` (vectorized, with hand-off) or ``"single"`` (every design by the
-    public sweep). See the module docstring.
+    public sweep). See the module docstring. ``engine`` as for :func:`loopsolve.sweep`: where
+    :func:`~loopsolve.kinematics.numba_engine.jit.engine_for` picks ``"numba"`` for the chunk's
+    designs × rows, the continuation runs compiled (:mod:`loopsolve.kinematics.numba_engine.lockstep_kernel`);
+    the designs swept alone get the same ``engine``.
 
     Examples
     --------
@@ -257,7 +271,9 @@ def sweep_chunk(mech, names, values, start, stop, step, *, speed=None, accel=Non
 
         # the single sweep tracks on to `stop` past the last grid row (a limit there is its event): so do the checks
         x_end = input_value(ck, stop, ck.inputs[0], reduce=False)
-        alive, last, irregular, sig0 = _lockstep(ck, lops, Pr, P, xs, ch, rates, derivatives, ~invalid, x_end=x_end)
+        lane = _compiled_lockstep(ck, engine, D * K)
+        alive, last, irregular, sig0 = _lockstep(ck, lops, Pr, P, xs, ch, rates, derivatives, ~invalid, x_end=x_end,
+                                                 lane=lane)
     ch.lockstep[:] = alive
     for arr in ch.Z:
         arr[:, ch.filled:, :] = np.nan
@@ -282,8 +298,22 @@ def sweep_chunk(mech, names, values, start, stop, step, *, speed=None, accel=Non
         if ch.points is not None:
             ch.points[..., j] = np.nan
     for j in single:
-        _single(mech, names, values[j], start, stop, step, speed, accel, jerk, mode, derivatives, ch, j, xs_disp)
+        _single(mech, names, values[j], start, stop, step, speed, accel, jerk, mode, derivatives, ch, j, xs_disp,
+                engine=engine)
     return ch, ck, P
+
+
+def _compiled_lockstep(ck, engine, rows):
+    """The numba module whose ``lockstep_run`` sweeps a chunk of ``rows`` designs × grid rows, or None (numpy)."""
+    from ..kinematics.numba_engine.jit import engine_for
+    from ..kinematics.scalar_solver import kernel_of
+
+    kern = kernel_of(ck)
+    if engine_for(engine, kern, rows) != "numba":
+        return None
+    from ..kinematics.numba_engine.jit import numba_module
+
+    return numba_module(ck)
 
 
 def _not_assemblable(ck, P, xs, xs_disp, cand, ch) -> np.ndarray:
@@ -353,11 +383,12 @@ def _newton_start(ops, Z, P, scale, alive):
     return Z
 
 
-def _lockstep(ck, ops, P, Pfull, xs, ch, rates, derivatives, alive=None, x_end=None):
+def _lockstep(ck, ops, P, Pfull, xs, ch, rates, derivatives, alive=None, x_end=None, lane=None):
     """``P``: the parameter rows as the generated code takes them (fixed ones as one value).
 
     ``alive``: the designs to sweep (default all); the others are left out from the start.
     ``x_end``: the end of the range (internal units); the checks run on to it past the last grid row.
+    ``lane``: the model's numba module: the continuation after the start runs compiled (:func:`_run_compiled`).
     """
     from ..kinematics.solve import initial_z
 
@@ -404,6 +435,9 @@ def _lockstep(ck, ops, P, Pfull, xs, ch, rates, derivatives, alive=None, x_end=N
             # between the last row and `stop` (less than a step): checked, no row stored
             m = max(1, int(math.ceil(abs(x_end - a) / hmax - 1e-9)))
             targets += [(a + (x_end - a) * i / m, -1) for i in range(1, m + 1)]
+        if lane is not None and _run_compiled(lane, ck, ops, Z, Pfull, alive, sig0, scale, x_guess, targets, ch,
+                                              rates, derivatives, last, irregular):
+            targets = []
         zk1 = np.zeros_like(Z)
         zk1[ix] = 1.0
         x_prev = x_guess
@@ -432,6 +466,47 @@ def _lockstep(ck, ops, P, Pfull, xs, ch, rates, derivatives, alive=None, x_end=N
     for j in np.flatnonzero(alive):
         ch.mode[j] = "".join(codes[:, j])
     return alive, last, irregular, sig0
+
+
+def _run_compiled(lane, ck, ops, Z, Pfull, alive, sig0, scale, x_guess, targets, ch, rates, derivatives, last,
+                  irregular) -> bool:
+    """The continuation through ``targets`` by the compiled ``lockstep_run`` of the model's numba module;
+    ``alive``, ``last``, ``irregular`` and the rows of ``ch`` updated in place. False when numba cannot
+    compile it for this model (one warning; the numpy loop then runs)."""
+    D = Z.shape[1]
+    nb = len(ops.blocks)
+    bs = np.array([len(c) for _, c in ops.blocks], dtype=np.int64)
+    be = np.array([(e[0], e[-1]) for e, _ in ops.blocks], dtype=np.int64).reshape(nb, 2)
+    bc = np.array([(c[0], c[-1]) for _, c in ops.blocks], dtype=np.int64).reshape(nb, 2)
+    tx = np.array([t[0] for t in targets], dtype=float)
+    tk = np.array([t[1] for t in targets], dtype=np.int64)
+    OZ = ch.Z[0].base if ch.Z[0].base is not None and ch.Z[0].base.shape[0] == len(ch.Z) else np.stack(ch.Z)
+    OP = ch.points if ch.points is not None else np.empty((len(ch.Z), 0, 2, OZ.shape[2], D))
+    ok = np.array(alive, dtype=bool)
+    lastc = np.full(D, -1, dtype=np.int64)
+    irr = np.zeros(D, dtype=bool)
+    cf = np.array([FOLD_SLOPE, FIRST_CORRECTION, _CONVERGED, REGULAR_MIN])
+    try:
+        lane.lockstep_run(np.ascontiguousarray(Z.T), np.ascontiguousarray(Pfull.T), ok, np.asarray(sig0, dtype=float),
+                          np.ascontiguousarray(scale, dtype=float), np.asarray(ops.is_len, dtype=np.bool_),
+                          float(x_guess), tx, tk, np.array(rates, dtype=float), int(derivatives), cf, ops.ix,
+                          np.asarray(ops.iu, dtype=np.int64), bs, be, bc, OZ, OP, lastc, irr)
+    except Exception as exc:
+        if not type(exc).__module__.startswith("numba"):
+            raise
+        from ..errors import warn
+
+        warn(f"{ck.mechanism.source or ck.mechanism.name}: numba could not compile the study's lockstep "
+             f"({type(exc).__name__}); the numpy lockstep runs")
+        return False
+    if OZ is not ch.Z[0].base:  # (a chunk not made by Chunk: copy the rows back)
+        for a in range(len(ch.Z)):
+            ch.Z[a][...] = OZ[a]
+    ch.filled = OZ.shape[2]
+    alive[:] = ok
+    last[:] = lastc
+    irregular |= irr
+    return True
 
 
 def _store_row(ck, ops, Z, J, P, ch, k, rates, derivatives):

@@ -152,7 +152,7 @@ def _chunk_task(mech, names, values, start, stop, step, opts):
     """Sweep one chunk of designs and evaluate its metrics; plain arrays out (what a Dask task returns)."""
     ch, ck, P = sweep_chunk(mech, names, values, start, stop, step, speed=opts["speed"], accel=opts["accel"],
                             jerk=opts["jerk"], mode=opts["mode"], derivatives=opts["derivatives"],
-                            method=opts["method"])
+                            method=opts["method"], engine=opts.get("engine"))
     from .lockstep import grid_values
 
     ops = DesignOps(ck)
@@ -204,6 +204,17 @@ def _chunk_dataset(res, ck_info, names, values, offset):
 
 
 # ----------------------------------------------------------------------------- the public call
+
+
+def _study_engine(ck, engine, cells: int) -> str:
+    """The engine of every chunk of a study of ``cells`` designs × rows, decided once here (``engine`` as for
+    :func:`loopsolve.sweep`: None is ``$LOOPSOLVE_ENGINE``, else ``"auto"`` by the study's size): the chunks
+    of one study, in this process or on the workers of a cluster, run the same engine (the compiled lockstep
+    and the numpy one agree to round-off, not to the bit), whatever each process swept before."""
+    from ..kinematics.numba_engine.jit import engine_for
+    from ..kinematics.scalar_solver import kernel_of
+
+    return engine_for(engine, kernel_of(ck), cells)
 
 
 def default_chunk(designs: int, rows: int, workers: int | None = None) -> int:
@@ -359,9 +370,10 @@ def study(mech, vary, start, stop, step, *, samples: int | None = None, lhs: int
                "attrs": {"model": mech.name, "source": str(mech.source or ""), "start": str(start), "stop": str(stop),
                          "step": str(step), "fixed": repr(fixed), "metrics": "; ".join(metrics),
                          "length_unit": mech.units.length, "angle_unit": mech.units.angle}}
-    opts = {"speed": speed, "accel": accel, "jerk": jerk, "mode": mode, "derivatives": derivatives,
-            "method": method, "sensitivity": bool(sensitivity), "metrics": metrics}
     N = len(values)
+    opts = {"speed": speed, "accel": accel, "jerk": jerk, "mode": mode, "derivatives": derivatives,
+            "method": method, "sensitivity": bool(sensitivity), "metrics": metrics,
+            "engine": _study_engine(ck, None, N * rows)}
     writer = _Writer(out, xr) if out is not None else None
     whole = _Assembler(N, xr)
     warned: list[tuple[int, str]] = []

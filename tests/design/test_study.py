@@ -705,9 +705,10 @@ def test_a_study_holds_its_result_and_one_chunk_not_the_result_twice(thesis):
     import gc
     import tracemalloc
 
-    ls.study(thesis, {"r2": (15, 35), "r3": (50, 90)}, 0, 360, 30, lhs=16, chunk_size=8, progress=False)  # caches
-    gc.collect()
     n = 400
+    # caches, and the engine a study of this size runs ("auto": numba's compile is not the study's memory)
+    ls.study(thesis, {"r2": (15, 35), "r3": (50, 90)}, 0, 360, 2, lhs=n, chunk_size=n // 8, progress=False)
+    gc.collect()
     tracemalloc.start()
     try:
         ds = ls.study(thesis, {"r2": (15, 35), "r3": (50, 90)}, 0, 360, 2, lhs=n, chunk_size=n // 8, progress=False)

@@ -50,20 +50,25 @@ from types import ModuleType
 
 from ...errors import MissingDependencyError, ModelError, warn
 
-__all__ = ["ENGINES", "AUTO_ROWS", "MAX_LANE_SOURCE", "model_source_chars", "use_numba", "engine_for", "has_lane", "fast_lane", "numba_source"]
+__all__ = ["ENGINES", "AUTO_ROWS", "MAX_LANE_SOURCE", "model_source_chars", "use_numba", "engine_for", "has_lane", "fast_lane", "numba_source",
+           "numba_module"]
 
 ENGINES = ("python", "numba", "auto")
-FORMAT = 5  # bump when the generated numba module or its compile options change
+FORMAT = 6  # bump when the generated numba module or its compile options change (6: the lockstep kernel)
 _MEMO: dict[str, ModuleType] = {}
 _LOCK = threading.Lock()
 #: the numba module of each generated kinematics module (held with it: ids are not reused)
 _BY_MODULE: dict[int, tuple[ModuleType, ModuleType]] = {}
 #: the model's generated functions the fast lane calls
 _MODEL_FUNCTIONS = ("phi", "jac", "rhs1", "rhs2", "rhs3")
+#: the model's generated points the lockstep kernel calls (as array forms, with the model's functions)
+_POINT_FUNCTIONS = ("points0", "points1", "points2", "points3")
 #: the generated tuple helpers (inlined)
 _HELPERS = ("ztuple", "zset", "rvec")
 #: the generated functions of the model's structure (compiled, not inlined)
 _GENERATED = ("start_rates", "natural_step")
+#: the generated array forms of the model's functions (the compiled lockstep's calls; not inlined)
+_WRAPPERS = ("phi_a", "jac_a", "rhs1_a", "rhs2_a", "rhs3_a", "points0_a", "points1_a", "points2_a", "points3_a")
 
 #: ``"auto"`` takes the fast lane once the process's sweeps have asked for this many rows: the
 #: break-even of importing numba and loading a cached compiled model (~1 s in a fresh process on
@@ -256,7 +261,9 @@ def _start_rates(single2: bool) -> str:
 def numba_source(ck) -> str:
     """Text of the numba module of ``ck``: its Φ, Φ_q, b₁–b₃, the natural step generated for its block
     structure (:func:`loopsolve.kinematics.stepgen.step_source`, the text the Python tracer runs) and
-    the fast lane's template."""
+    the fast lane's template; then the model's points, the array wrappers and the compiled lockstep of
+    a study chunk (:mod:`loopsolve.kinematics.numba_engine.lockstep_kernel`). numba compiles a function
+    at its first call: a tracer never compiles the lockstep's functions."""
     from ... import __version__
     from ..scalar_solver import kernel_of
     from ..stepgen import step_source
@@ -274,6 +281,12 @@ def numba_source(ck) -> str:
     parts.append(_start_rates(bool(kern.single2)))
     parts.append(step_source(kern, "numba"))
     parts.append(template_source())
+    from . import lockstep_kernel
+
+    npts = len(ck.points)
+    names = _MODEL_FUNCTIONS + (_POINT_FUNCTIONS if npts else ())
+    parts.append(lockstep_kernel.wrapper_source({name: _model_function(source, name) for name in names}, kern.n, npts))
+    parts.append(lockstep_kernel.template_source())
     return "\n".join(parts) + "\n"
 
 
@@ -397,15 +410,24 @@ def _numba_module(ck) -> ModuleType:
     inline = numba.njit(cache=cache, error_model="numpy", inline="always")
     from .steps import TEMPLATE_FUNCTIONS, TEMPLATE_INLINE
 
+    from .lockstep_kernel import TEMPLATE_FUNCTIONS as LOCKSTEP_FUNCTIONS
+
     inlined = _MODEL_FUNCTIONS + _HELPERS + tuple(fn.__name__ for fn in TEMPLATE_INLINE)
     for name in inlined:
         setattr(module, name, _miss_on_error(inline(getattr(module, name))))
-    for name in _GENERATED + tuple(fn.__name__ for fn in TEMPLATE_FUNCTIONS if fn.__name__ not in inlined):
+    for name in _GENERATED + _WRAPPERS + tuple(fn.__name__ for fn in TEMPLATE_FUNCTIONS + LOCKSTEP_FUNCTIONS
+                                               if fn.__name__ not in inlined):
         setattr(module, name, _miss_on_error(jit(getattr(module, name))))
     with _LOCK:
         _MEMO[key] = module
         _BY_MODULE[id(ck.module)] = (ck.module, module)
     return module
+
+
+def numba_module(ck) -> ModuleType:
+    """The model's compiled numba module (its functions compiled at their first call): what the compiled
+    lockstep of a study chunk calls (``lockstep_run``, :mod:`loopsolve.kinematics.numba_engine.lockstep_kernel`)."""
+    return _numba_module(ck)
 
 
 def fast_lane(kern, *, lazy: bool = False):

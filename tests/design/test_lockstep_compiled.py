@@ -1,0 +1,126 @@
+"""The compiled lockstep of a study chunk (issue 32, item 3) against the numpy lockstep.
+
+``sweep_chunk(engine="numba")`` runs the continuation of a chunk's designs in the model's numba
+module (:mod:`loopsolve.kinematics.numba_engine.lockstep_kernel`), ``engine="python"`` in numpy.
+On a four-bar, an offset slider-crank (blocks 1×1), an engine slider-crank whose guesses are not
+at the start, and a Stephenson III six-bar (two 2×2 blocks), each on a small box with ordinary,
+limit and not-assemblable designs, the two give the same status, stop, nearest inputs, events,
+mode, lockstep flags and rows (positions, rates, points) to round-off.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import loopsolve as ls
+from loopsolve.design import lockstep
+
+numba = pytest.importorskip("numba", reason="the compiled lockstep needs numba")
+
+
+@pytest.fixture
+def runs(monkeypatch):
+    """Which engine ran each chunk's continuation: a list of True (compiled) / False (numpy)."""
+    seen = []
+    real = lockstep._run_compiled
+
+    def spy(*a, **k):
+        ok = real(*a, **k)
+        seen.append(ok)
+        return ok
+
+    monkeypatch.setattr(lockstep, "_run_compiled", spy)
+    return seen
+
+
+def _agree(mech, names, values, runs, start=0, stop=360, step=5.0, derivatives=3):
+    """Both engines on one chunk; asserts they agree and returns the compiled chunk."""
+    a, _, _ = lockstep.sweep_chunk(mech, names, values, start, stop, step, derivatives=derivatives, engine="python")
+    assert runs == []  # the numpy lockstep
+    b, _, _ = lockstep.sweep_chunk(mech, names, values, start, stop, step, derivatives=derivatives, engine="numba")
+    assert runs == [True]  # the compiled lockstep
+    assert b.status.tolist() == a.status.tolist()
+    assert b.events.tolist() == a.events.tolist()
+    assert b.nearest.tolist() == a.nearest.tolist()
+    assert b.mode.tolist() == a.mode.tolist()
+    assert b.lockstep.tolist() == a.lockstep.tolist()
+    np.testing.assert_allclose(b.stop, a.stop, rtol=0, atol=1e-9, equal_nan=True)
+    for za, zb in zip(a.Z, b.Z):
+        assert np.array_equal(np.isnan(za), np.isnan(zb))
+        np.testing.assert_allclose(zb, za, rtol=1e-11, atol=1e-11 * np.nanmax(np.abs(za)), equal_nan=True)
+    if a.points is not None:
+        assert np.array_equal(np.isnan(a.points), np.isnan(b.points))
+        for k in range(derivatives + 1):
+            scale = np.nanmax(np.abs(a.points[k]))
+            np.testing.assert_allclose(b.points[k], a.points[k], rtol=1e-11, atol=1e-11 * scale, equal_nan=True)
+    return b
+
+
+@pytest.mark.filterwarnings("ignore:.*limit position")
+def test_fourbar_chunk_compiled_equals_numpy(runs):
+    rng = np.random.default_rng(32)
+    # ordinary crank-rockers, cranks too long (limits), and designs not assemblable at 0°
+    v = np.vstack([np.column_stack([rng.uniform(15, 25, 12), rng.uniform(60, 80, 12)]),
+                   np.column_stack([rng.uniform(35, 45, 6), rng.uniform(55, 70, 6)]),
+                   np.column_stack([rng.uniform(30, 40, 4), rng.uniform(25, 30, 4)])])
+    b = _agree(ls.fourbar(60, 25, 70, 45), ("r2", "r3"), v, runs)
+    st = set(b.status.tolist())
+    assert {"ok", "limit", "not-assemblable"} <= st, st
+    assert b.lockstep[b.status == "ok"].all()
+
+
+@pytest.mark.filterwarnings("ignore:.*limit position")
+def test_offset_slider_crank_chunk_compiled_equals_numpy(runs):
+    rng = np.random.default_rng(21)
+
+    def box(n, *ranges):
+        return np.column_stack([rng.uniform(*r, n) for r in ranges])
+
+    v = np.vstack([box(8, (400, 560), (1400, 1700), (-200, 200)),
+                   box(4, (1100, 1400), (500, 900), (-100, 100)),  # a limit before 90°
+                   box(3, (900, 1000), (850, 900), (150, 250)),  # a limit after 180°
+                   box(3, (400, 560), (400, 550), (600, 800))])  # not assemblable at 0°
+    b = _agree(ls.load(ls.models_dir() / "prob2_offset_slider_crank.toml"), ("r2", "r3", "e"), v, runs,
+               step=3.0)
+    assert {"ok", "limit", "not-assemblable"} <= set(b.status.tolist())
+
+
+@pytest.mark.filterwarnings("ignore:.*limit position")
+def test_guesses_off_the_start_compiled_equals_numpy(runs):
+    """The slider-crank's guesses are at θ2 = 0, the range starts at 40°: the path runs from the guesses to the
+    start first (cranks longer than the rod have their limit on the way: started in the chunk, or swept alone)."""
+    rng = np.random.default_rng(23)
+    v = np.column_stack([np.concatenate([rng.uniform(400, 560, 6), rng.uniform(1100, 1400, 4)]),
+                         np.concatenate([rng.uniform(1400, 1700, 6), rng.uniform(500, 900, 4)]),
+                         rng.uniform(-100, 100, 10)])
+    _agree(ls.load(ls.models_dir() / "prob2_offset_slider_crank.toml"), ("r2", "r3", "e"), v, runs, start=40,
+           stop=400, derivatives=1)
+
+
+@pytest.mark.filterwarnings("ignore:.*limit position")
+def test_sixbar_chunk_compiled_equals_numpy(runs):
+    rng = np.random.default_rng(22)
+
+    def box(n, *ranges):
+        return np.column_stack([rng.uniform(*r, n) for r in ranges])
+
+    four = ((24, 26), (68, 72), (44, 46))
+    v = np.vstack([box(8, *four, (55, 65), (65, 75)),
+                   box(4, *four, (40, 46), (40, 46)),  # the output dyad does not reach C all the way round
+                   box(3, (35, 42), (40, 50), (40, 50), (55, 65), (65, 75)),  # triple rockers
+                   box(2, *four, (10, 12), (10, 12))])  # the output dyad reaches C nowhere
+    b = _agree(ls.load(ls.models_dir() / "stephenson3_sixbar.toml"),
+               ("r_crank", "r_coupler", "r_rocker", "r_link5", "r_link6"), v, runs, derivatives=2)
+    assert "limit" in set(b.status.tolist())
+
+
+def test_python_engine_and_small_auto_chunks_stay_numpy(runs, monkeypatch):
+    from loopsolve.kinematics.numba_engine import jit
+
+    monkeypatch.setattr(jit, "_AUTO_SEEN", [0])
+    mech = ls.fourbar(60, 25, 70, 45)
+    ch, _, _ = lockstep.sweep_chunk(mech, ("r2",), np.array([[20.0], [22.0]]), 0, 360, 90, engine="python")
+    assert ch.lockstep.all() and runs == []
+    ch, _, _ = lockstep.sweep_chunk(mech, ("r2",), np.array([[20.0], [22.0]]), 0, 360, 90, engine="auto")
+    assert ch.lockstep.all() and runs == []  # 10 rows: not worth numba's import under "auto"
