@@ -58,7 +58,7 @@ from ..errors import AssemblyError, LoopsolveWarning, ModelError, SingularPositi
 from ..model.units import Kind
 from .designops import REGULAR_MIN, DesignOps, design_scale, display_value_of, param_matrix
 
-__all__ = ["sweep_chunk", "FOLD_SLOPE", "REGULAR_MIN", "Chunk"]
+__all__ = ["sweep_chunk", "lockstep_engine", "AUTO_CELLS", "FOLD_SLOPE", "REGULAR_MIN", "Chunk"]
 
 #: a design is handed to the single-design sweep when a scaled |dq/dx| exceeds this
 FOLD_SLOPE = 3.0
@@ -303,13 +303,33 @@ def sweep_chunk(mech, names, values, start, stop, step, *, speed=None, accel=Non
     return ch, ck, P
 
 
-def _compiled_lockstep(ck, engine, rows):
-    """The numba module whose ``lockstep_run`` sweeps a chunk of ``rows`` designs × grid rows, or None (numpy)."""
-    from ..kinematics.numba_engine.jit import engine_for
+#: under ``engine="auto"`` a chunk's continuation runs compiled from this many designs × rows on, whatever
+#: the process swept before: 2000 four-bars × 361 rows (7.2·10⁵) took 3.4 s in numpy and 2.2 s compiled
+#: (benchmarks/bench_study.py --part chunks), a saving of about the ~1 s that importing numba and loading a
+#: model's cached kernel costs a fresh process; the first study of a model also compiles its kernel
+#: (10–15 s, once: cached on disk)
+AUTO_CELLS = 1_000_000
+
+
+def lockstep_engine(ck, engine, cells: int) -> str:
+    """The engine of the continuation of ``cells`` designs × rows: ``"numba"`` or ``"python"`` (numpy).
+
+    ``engine`` as for :func:`loopsolve.sweep` (None: ``$LOOPSOLVE_ENGINE``, else ``"auto"``); ``"auto"`` is
+    numba when it is installed, the model has a compiled lane and ``cells`` reaches :data:`AUTO_CELLS`.
+    """
+    from ..kinematics.numba_engine import jit
     from ..kinematics.scalar_solver import kernel_of
 
     kern = kernel_of(ck)
-    if engine_for(engine, kern, rows) != "numba":
+    name, _ = jit.engine_name(engine)
+    if name != "auto":
+        return jit.engine_for(name, kern, cells)
+    return "numba" if cells >= AUTO_CELLS and jit.has_lane(kern) and jit.use_numba(name) else "python"
+
+
+def _compiled_lockstep(ck, engine, rows):
+    """The numba module whose ``lockstep_run`` sweeps a chunk of ``rows`` designs × grid rows, or None (numpy)."""
+    if lockstep_engine(ck, engine, rows) != "numba":
         return None
     from ..kinematics.numba_engine.jit import numba_module
 

@@ -207,14 +207,13 @@ def _chunk_dataset(res, ck_info, names, values, offset):
 
 
 def _study_engine(ck, engine, cells: int) -> str:
-    """The engine of every chunk of a study of ``cells`` designs × rows, decided once here (``engine`` as for
-    :func:`loopsolve.sweep`: None is ``$LOOPSOLVE_ENGINE``, else ``"auto"`` by the study's size): the chunks
-    of one study, in this process or on the workers of a cluster, run the same engine (the compiled lockstep
-    and the numpy one agree to round-off, not to the bit), whatever each process swept before."""
-    from ..kinematics.numba_engine.jit import engine_for
-    from ..kinematics.scalar_solver import kernel_of
+    """The engine of every chunk of a study of ``cells`` designs × rows, decided once here
+    (:func:`~loopsolve.design.lockstep.lockstep_engine`: ``"auto"`` by the study's size): the chunks of one
+    study, in this process or on the workers of a cluster, run the same engine (the compiled lockstep and
+    the numpy one agree to round-off, not to the bit), whatever each process swept before."""
+    from .lockstep import lockstep_engine
 
-    return engine_for(engine, kernel_of(ck), cells)
+    return lockstep_engine(ck, engine, cells)
 
 
 def default_chunk(designs: int, rows: int, workers: int | None = None) -> int:

@@ -124,3 +124,19 @@ def test_python_engine_and_small_auto_chunks_stay_numpy(runs, monkeypatch):
     assert ch.lockstep.all() and runs == []
     ch, _, _ = lockstep.sweep_chunk(mech, ("r2",), np.array([[20.0], [22.0]]), 0, 360, 90, engine="auto")
     assert ch.lockstep.all() and runs == []  # 10 rows: not worth numba's import under "auto"
+
+
+def test_auto_compiles_a_study_by_its_own_size_not_by_what_the_process_swept(monkeypatch):
+    """``"auto"`` (the default) runs the continuation compiled from AUTO_CELLS designs × rows on, and in numpy
+    below it even after the process swept millions of rows (a small study does not pay numba's import and
+    the kernel's first compile); ``LOOPSOLVE_ENGINE`` and ``engine=`` decide otherwise."""
+    from loopsolve.kinematics.numba_engine import jit
+
+    monkeypatch.delenv("LOOPSOLVE_ENGINE", raising=False)
+    monkeypatch.setattr(jit, "_AUTO_SEEN", [10**9])
+    ck = ls.fourbar(60, 25, 70, 45).compile()
+    assert lockstep.lockstep_engine(ck, None, lockstep.AUTO_CELLS - 1) == "python"
+    assert lockstep.lockstep_engine(ck, None, lockstep.AUTO_CELLS) == "numba"
+    assert lockstep.lockstep_engine(ck, "numba", 10) == "numba"
+    monkeypatch.setenv("LOOPSOLVE_ENGINE", "python")
+    assert lockstep.lockstep_engine(ck, None, 10 * lockstep.AUTO_CELLS) == "python"

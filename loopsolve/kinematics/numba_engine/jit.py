@@ -50,7 +50,7 @@ from types import ModuleType
 
 from ...errors import MissingDependencyError, ModelError, warn
 
-__all__ = ["ENGINES", "AUTO_ROWS", "MAX_LANE_SOURCE", "model_source_chars", "use_numba", "engine_for", "has_lane", "fast_lane", "numba_source",
+__all__ = ["ENGINES", "AUTO_ROWS", "MAX_LANE_SOURCE", "model_source_chars", "use_numba", "engine_name", "engine_for", "has_lane", "fast_lane", "numba_source",
            "numba_module"]
 
 ENGINES = ("python", "numba", "auto")
@@ -80,7 +80,7 @@ AUTO_ROWS = 20_000
 _AUTO_SEEN = [0]
 
 
-def _engine_name(engine: str | None) -> tuple[str, str]:
+def engine_name(engine: str | None) -> tuple[str, str]:
     """``engine``, or ``$LOOPSOLVE_ENGINE``, else ``"auto"``, checked; and where it came from."""
     src = "engine"
     if engine is None:
@@ -114,7 +114,7 @@ def use_numba(engine: str | None) -> bool:
     ...
     loopsolve.errors.ModelError: engine='cuda': expected one of python, numba, auto
     """
-    engine, src = _engine_name(engine)
+    engine, src = engine_name(engine)
     if engine == "python":
         return False
     installed = _installed()
@@ -190,7 +190,7 @@ def engine_for(engine: str | None, kern, rows: int) -> str:
     >>> engine_for("python", kern, 10**6)
     'python'
     """
-    name, _ = _engine_name(engine)
+    name, _ = engine_name(engine)
     if name == "python":
         return "python"
     if name == "numba":
