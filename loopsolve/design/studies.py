@@ -665,7 +665,8 @@ def _run_dask_zarr(client, tasks, bounds, ck_info, names, path, bar):
     xr = _need("xarray")
     N = bounds[-1][1]
     c = bounds[0][1] - bounds[0][0]
-    probe = tasks[0][:2] + (tasks[0][2][:1],) + tasks[0][3:]  # the first design alone: names, dtypes, units
+    # the first design alone: names, dtypes, units (in numpy: the client never loads the compiled lockstep)
+    probe = tasks[0][:2] + (tasks[0][2][:1],) + tasks[0][3:6] + ({**tasks[0][6], "engine": "python"},)
     first = _chunk_dataset(_chunk_task(*probe), ck_info, names, probe[2], 0)
     warned: list[tuple[int, str]] = []  # its warnings come again with its chunk
 
