@@ -415,10 +415,7 @@ def study(mech, vary, start, stop, step, *, samples: int | None = None, lhs: int
             if bar is not None:
                 bar.close()
             if own_client is not None:
-                cluster = own_client.cluster
-                own_client.close()
-                if cluster is not None and workers:
-                    cluster.close()
+                close_client(own_client, workers)
         for line in summarize_warnings(warned, N):
             warn(line)
         if writer is not None and writer.streaming:
@@ -592,6 +589,14 @@ def make_client(workers, scheduler):
     cluster = distributed.LocalCluster(n_workers=int(workers), threads_per_worker=1, processes=True,
                                        host="127.0.0.1", dashboard_address=":0")
     return distributed.Client(cluster)
+
+
+def close_client(client, workers) -> None:
+    """Close a client :func:`make_client` made, and with ``workers`` the local cluster it started."""
+    cluster = client.cluster
+    client.close()
+    if cluster is not None and workers:
+        cluster.close()
 
 
 def _worker_count(client) -> int:

@@ -83,25 +83,46 @@ def structure_key(mech: Mechanism, inputs: Sequence[str]) -> str:
     Kept on the mechanism per choice of inputs (a ``Mechanism`` is immutable; hashing its
     declaration is most of a cached ``compile()``, which every ``mech.sweep(...)`` calls)."""
     inputs = tuple(inputs)
-    hit = _KEYS.get(id(mech))
-    if hit is not None and hit[0]() is mech and inputs in hit[1]:
-        return hit[1][inputs]
-    key = _structure_key(mech, inputs)
-    try:
-        ref = weakref.ref(mech, lambda _r, i=id(mech): _KEYS.pop(i, None))
-    except TypeError:  # not weak-referenceable: no memo
-        return key
-    with _LOCK:
-        hit = _KEYS.get(id(mech))
-        if hit is None or hit[0]() is not mech:
-            hit = _KEYS[id(mech)] = (ref, {})
-        hit[1][inputs] = key
+    key = _KEYS.get(mech, inputs)
+    if key is None:
+        key = _structure_key(mech, inputs)
+        _KEYS.put(mech, inputs, key)
     return key
 
 
-#: structure keys of live mechanisms: id -> (weak reference, {inputs: key}) (not in the object:
-#: a pickled mechanism must not carry a key of another loopsolve version)
-_KEYS: dict = {}
+class _PerMechanism:
+    """A memo per live mechanism and choice of inputs: ``id(mech) -> (weak reference, {inputs: value})``.
+
+    It keeps no mechanism alive (the weak reference's callback drops the entry) and is not stored in the
+    object (a pickled mechanism must not carry what another loopsolve version computed)."""
+
+    def __init__(self):
+        self._by_id: dict = {}
+
+    def __len__(self) -> int:  # the mechanisms it holds values of
+        return len(self._by_id)
+
+    def get(self, mech, inputs):
+        hit = self._by_id.get(id(mech))
+        return hit[1].get(inputs) if hit is not None and hit[0]() is mech else None
+
+    def put(self, mech, inputs, value) -> bool:
+        """Remember ``value``; False when ``mech`` cannot be weakly referenced (nothing remembered)."""
+        by_id = self._by_id
+        try:
+            ref = weakref.ref(mech, lambda _r, i=id(mech): by_id.pop(i, None))
+        except TypeError:
+            return False
+        with _LOCK:
+            hit = by_id.get(id(mech))
+            if hit is None or hit[0]() is not mech:
+                hit = by_id[id(mech)] = (ref, {})
+            hit[1][inputs] = value
+        return True
+
+
+#: structure keys of live mechanisms (hashing the declaration is most of a cached ``compile()``)
+_KEYS = _PerMechanism()
 
 
 def _structure_key(mech: Mechanism, inputs: tuple) -> str:
@@ -682,21 +703,12 @@ def compile_mechanism(mech: Mechanism, input: str | Sequence[str] | None = None,
 
         check_cams(mech)  # an undercut profile is a wrong declaration (loopsolve cam reports it in full)
     module = _cached_module(mech, inputs, cache)
-    memo = _COMPILED.get(id(mech))
-    fields = memo[1].get(inputs) if memo is not None and memo[0]() is mech else None
+    fields = _COMPILED.get(mech, inputs)
     if fields is None or fields["module"] is not module:
         ck = _compiled_kinematics(mech, module)
         fields = dict(ck.__dict__)
         del fields["mechanism"]  # not kept: the memo must not keep the mechanism alive
-        try:
-            ref = weakref.ref(mech, lambda _r, i=id(mech): _COMPILED.pop(i, None))
-        except TypeError:  # not weak-referenceable: no memo
-            return ck
-        with _LOCK:
-            memo = _COMPILED.get(id(mech))
-            if memo is None or memo[0]() is not mech:
-                memo = _COMPILED[id(mech)] = (ref, {})
-            memo[1][inputs] = fields
+        _COMPILED.put(mech, inputs, fields)
         return ck
     # a new object each call, with its own parameter array (a caller may change ``p`` in place)
     ck = object.__new__(CompiledKinematics)
@@ -706,10 +718,9 @@ def compile_mechanism(mech: Mechanism, input: str | Sequence[str] | None = None,
     return ck
 
 
-#: the fields of the compiled kinematics of live mechanisms but the mechanism itself: id -> (weak
-#: reference, {inputs: fields}); a ``mech.sweep(...)`` compiles every call, and a cached compile is
-#: then a lookup and a copy of ``p``
-_COMPILED: dict = {}
+#: the fields of the compiled kinematics of live mechanisms but the mechanism itself; a ``mech.sweep(...)``
+#: compiles every call, and a cached compile is then a lookup and a copy of ``p``
+_COMPILED = _PerMechanism()
 
 
 def _compiled_kinematics(mech: Mechanism, module: ModuleType) -> CompiledKinematics:

@@ -236,10 +236,10 @@ def test_the_structure_key_is_kept_per_live_mechanism_and_per_inputs():
     assert compiled.structure_key(slider, slider.inputs) != k2
     copy = pickle.loads(pickle.dumps(mech))  # the memo is not part of the object
     assert "_structure_keys" not in vars(copy) and compiled.structure_key(copy, ("theta2",)) == k2
-    n = len(compiled._KEYS)
+    n, m = len(compiled._KEYS), len(compiled._COMPILED)
     del other, copy
     gc.collect()
-    assert len(compiled._KEYS) <= n - 2  # dead mechanisms leave the memos
+    assert len(compiled._KEYS) <= n - 2 and len(compiled._COMPILED) <= m - 1  # dead mechanisms leave the memos
     import weakref
 
     ck = mech.compile()  # compiled once per mechanism and inputs; each call its own parameter array

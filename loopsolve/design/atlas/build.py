@@ -379,10 +379,9 @@ def _build_into(mech, path, meta, size, workers, scheduler, client, progress, de
         if bar is not None:
             bar.close()
         if own is not None:
-            cluster = own.cluster
-            own.close()
-            if cluster is not None and workers:
-                cluster.close()
+            from ..studies import close_client
+
+            close_client(own, workers)
 
 
 def _run_dask(client, todo, text, source, meta, g, size, bar):
