@@ -266,8 +266,95 @@ def lockstep_run(Z0, P, alive, sig0, scale, islen, x_start, tx, tk, rates, deriv
                     OP[o, i, 1, k, j] = math.nan
 
 
+def follow_run(Zw, P, X, alive, sig0, scale, islen, hmax, cf, ix, iu, bs, be, bc, Zt, reached):
+    """:meth:`Batch.follow <loopsolve.design.synthesis.candidates.Batch.follow>` after its start, compiled: every
+    design ``j`` with ``alive[j]`` from ``Zw[j]`` (its position at ``X[0, j]``, parameters ``P[j]``) through its
+    inputs ``X[:, j]``; ``cf`` = (FIRST_CORRECTION, converged, regularity floor or −inf). Target after target
+    (``X[t]``): the substeps of a target are as many as the largest input change of the designs still going
+    needs (numpy takes them for all those designs at once); each substep a tangent predictor and Newton with
+    Φ_q refreshed every second iteration, then the block signs ``sig0`` and the regularity checked. Writes
+    ``Zt`` (nv, T, D) at the targets a design reached, ``reached``, ``alive``; ``Zw`` is the work array."""
+    D = Zw.shape[0]
+    nv = Zw.shape[1]
+    n = iu.shape[0]
+    T = X.shape[0]
+    first, conv, regmin = cf[0], cf[1], cf[2]
+    Js = np.empty((D, n * n))
+    Jn = np.empty(n * n)
+    zk1 = np.zeros(nv)
+    zk1[ix] = 1.0
+    F = np.empty(n)
+    B = np.empty(n)
+    U = np.empty(n)
+    Tq = np.empty(n)
+    w = np.empty(n)
+    cs = np.empty(n)
+    sol = np.empty(n, dtype=np.int64)
+    for j in range(D):
+        if alive[j]:
+            jac_a(Zw[j], P[j], Js[j])  # noqa: F821 - generated next to the model's functions
+    for t in range(1, T):
+        amax = -math.inf
+        going = False
+        for j in range(D):
+            if alive[j]:
+                going = True
+                a = abs(X[t, j] - X[t - 1, j])
+                if a > amax or a != a:
+                    amax = a
+        if not going:
+            break
+        m = max(1, int(math.ceil(amax / hmax - 1e-9)))
+        for j in range(D):
+            if not alive[j]:
+                continue
+            z = Zw[j]
+            p = P[j]
+            J = Js[j]
+            for c in range(n):
+                w[c] = 1.0 / scale[j] if islen[c] else 1.0
+                cs[c] = scale[j] if islen[c] else 1.0
+            dx = X[t, j] - X[t - 1, j]
+            h = dx / m
+            ok = True
+            for s in range(1, m + 1):
+                rhs1_a(z, zk1, p, B)  # noqa: F821
+                ls_solve(J, B, Tq, sol, n, bs, be, bc)
+                z[ix] = X[t - 1, j] + dx * (s / m)
+                for c in range(n):
+                    z[iu[c]] = z[iu[c]] + Tq[c] * h
+                done = False
+                for it in range(10):
+                    phi_a(z, p, F)  # noqa: F821
+                    if it % 2 == 0:
+                        jac_a(z, p, Jn)  # noqa: F821
+                    for c in range(n):
+                        F[c] = -F[c]
+                    ls_solve(Jn, F, U, sol, n, bs, be, bc)
+                    size = ls_scaled_max(U, w, n)
+                    if it == 0 and not (size - size == 0.0 and size <= first):
+                        break
+                    for c in range(n):
+                        z[iu[c]] = z[iu[c]] + U[c]
+                    if size <= conv:
+                        done = True
+                        break
+                if not done:
+                    ok = False
+                    break
+                jac_a(z, p, J)  # noqa: F821
+                if not ls_regular(J, sig0, j, cs, n, bs, be, bc, regmin):
+                    ok = False
+                    break
+            alive[j] = ok
+            if ok:
+                for i in range(nv):
+                    Zt[i, t, j] = z[i]
+                reached[j] = t + 1
+
+
 #: the template functions, in the order they are written into the model's numba module
-TEMPLATE_FUNCTIONS = (ls_solve, ls_sign, ls_regular, ls_scaled_max, ls_store, lockstep_run)
+TEMPLATE_FUNCTIONS = (ls_solve, ls_sign, ls_regular, ls_scaled_max, ls_store, lockstep_run, follow_run)
 
 
 def template_source() -> str:
