@@ -20,6 +20,13 @@ One :class:`Batch` wraps a compiled model and the list of varied parameters. Eve
   targets and its exact derivative: ∂q/∂p = −Φ_q⁻¹ Φ_p (implicit function theorem, Φ_p from
   :mod:`loopsolve.design.sensitivity`), ∂q/∂x = Φ_q⁻¹ b₁ for free input values, and the explicit
   ∂P/∂p of a point from a generated kernel (sympy once, cached like the other kernels).
+
+The hot loops — :meth:`Batch.follow` after its start and the block Newton of :meth:`Batch.assemble` —
+run compiled where numba is installed (``follow_run`` and ``block_newton_run`` of
+:mod:`loopsolve.kinematics.numba_engine.lockstep_kernel`, in the model's numba module): the same
+operations design by design, so the two agree to round-off (``tests/design/test_synthesis_compiled.py``);
+numpy stays the reference and the fallback. Which one runs: :func:`follow_engine` (``LOOPSOLVE_ENGINE``;
+``auto`` once the process has done enough of this work to pay numba's import).
 """
 
 from __future__ import annotations
@@ -223,7 +230,9 @@ class Batch:
                 sc = np.tile(scale, S)
                 for a, c in enumerate(cols):
                     Zs[self.iu[c]] = S0[:, a, :].reshape(-1)
-                conv = self._block_newton(Zs, Ps, eqs, cols, sc)
+                conv = self._block_newton_compiled(Zs, Ps, eqs, cols, sc)
+                if conv is None:
+                    conv = self._block_newton(Zs, Ps, eqs, cols, sc)
                 J = self.ops.jac(Zs, Ps)
                 if len(cols) == 1:
                     det = J[eqs[0] * n + cols[0]]
@@ -242,6 +251,27 @@ class Batch:
                 for c in cols:
                     Zfull[self.iu[c], cols_ix] = np.where(found, Zs[self.iu[c], idx], Zfull[self.iu[c], cols_ix])
         return found, np.any(conv, axis=0)
+
+    def _block_newton_compiled(self, Z, P, eqs, cols, scale, iters: int = 30):
+        """:meth:`_block_newton` by the compiled ``block_newton_run`` of the model's numba module, or None (numpy
+        runs it: the engine's choice, :func:`follow_engine`, or a block larger than 2×2)."""
+        if len(cols) > 2:
+            return None
+        lane = self._lane(Z.shape[1])
+        if lane is None:
+            return None
+        Zw = np.array(Z.T, dtype=float, order="C")
+        lim = np.array([scale if self.is_len[c] else np.ones_like(scale) for c in cols], dtype=float)
+        conv = np.zeros(Z.shape[1], dtype=bool)
+        try:
+            lane.block_newton_run(Zw, np.ascontiguousarray(P.T, dtype=float), np.asarray(eqs, dtype=np.int64),
+                                  np.asarray(cols, dtype=np.int64), np.asarray(self.iu, dtype=np.int64), lim,
+                                  np.ascontiguousarray(scale, dtype=float), int(iters), conv)
+        except Exception as exc:
+            self._numba_failed(exc, "assembly")
+            return None
+        Z[...] = Zw.T
+        return conv
 
     def _block_newton(self, Z, P, eqs, cols, scale, iters: int = 30) -> np.ndarray:
         """Newton on one block's unknowns (the others fixed), in place; returns converged flags.
@@ -382,19 +412,34 @@ class Batch:
         return Zt, reached
 
     def _follow_lane(self, X, alive, hmax):
-        """The model's numba module when :meth:`follow` of these designs runs compiled (:func:`follow_engine`), else None."""
+        """The model's numba module when :meth:`follow` of these designs runs compiled (:func:`follow_engine`),
+        else None."""
         if not alive.any():
             return None
         Xa = X[:, alive]
         if not np.all(np.isfinite(Xa)):
             return None  # (numpy's substep count raises on a NaN input: left to it)
         steps = np.ceil(np.max(np.abs(np.diff(Xa, axis=0)), axis=1) / hmax - 1e-9) if X.shape[0] > 1 else np.zeros(0)
-        cells = int(np.maximum(steps, 1).sum()) * int(alive.sum())
-        if follow_engine(self.ck, self.engine, cells) != "numba":
+        return self._lane(int(np.maximum(steps, 1).sum()) * int(alive.sum()))
+
+    def _lane(self, cells):
+        """The model's numba module when work of ``cells`` designs × substeps runs compiled (:func:`follow_engine`)."""
+        if self.engine == "python" or follow_engine(self.ck, self.engine, cells) != "numba":
             return None
         from ...kinematics.numba_engine.jit import numba_module
 
         return numba_module(self.ck)
+
+    def _numba_failed(self, exc, what):
+        """numba could not compile ``what`` for this model: one warning, then numpy for this batch."""
+        if not type(exc).__module__.startswith("numba"):
+            raise exc
+        from ...errors import warn
+
+        if self.engine != "python":
+            warn(f"{self.mech.source or self.mech.name}: numba could not compile the synthesis {what} "
+                 f"({type(exc).__name__}); numpy runs it")
+        self.engine = "python"
 
     def _follow_compiled(self, lane, Z, P, X, alive, sig0, scale, hmax, stop_on_singular, Zt, reached) -> bool:
         """:meth:`follow` after its start by the compiled ``follow_run`` of the model's numba module (``Zt``,
@@ -413,15 +458,7 @@ class Batch:
                             np.ascontiguousarray(scale, dtype=float), np.asarray(self.is_len, dtype=np.bool_),
                             float(hmax), cf, int(self.ix), np.asarray(self.iu, dtype=np.int64), bs, be, bc, Zt, got)
         except Exception as exc:
-            if not type(exc).__module__.startswith("numba"):
-                raise
-            from ...errors import warn
-
-            if not getattr(self, "_warned_lane", False):
-                self._warned_lane = True
-                warn(f"{self.mech.source or self.mech.name}: numba could not compile the synthesis trace "
-                     f"({type(exc).__name__}); the numpy trace runs")
-            self.engine = "python"
+            self._numba_failed(exc, "trace")
             return False
         np.maximum(reached, got, out=reached)
         return True
