@@ -16,6 +16,10 @@ import and the model's cached kernel (~0.8 s; the first run after a change of th
 
     python benchmarks/bench_synthesis_engine.py --runs 3            # the README's figures
     python benchmarks/bench_synthesis_engine.py --runs 1 --only five
+    LOOPSOLVE_ENGINE=python python benchmarks/bench_synthesis_engine.py --profile --only five   # where the CPU goes
+
+``--profile``: one run (seed 0) of each problem under cProfile, with the engine of the environment;
+prints the functions sorted by cumulative and by own time.
 """
 
 from __future__ import annotations
@@ -80,9 +84,31 @@ def main(argv=None):
     ap.add_argument("--runs", type=int, default=3)
     ap.add_argument("--only", choices=list(RUNS))
     ap.add_argument("--json", help="write the figures here")
+    ap.add_argument("--profile", action="store_true", help="profile one run of each problem instead")
     args = ap.parse_args(argv)
     mech = ls.load(Path(ls.models_dir()) / "fourbar_path_synthesis.toml")
     import scipy.stats  # noqa: F401 - imported by the multistart either way: not in the first run's figure
+
+    if args.profile:
+        import cProfile
+        import pstats
+
+        for name, fn in RUNS.items():
+            if args.only and name != args.only:
+                continue
+            prof = cProfile.Profile()
+            c0 = time.process_time()
+            prof.enable()
+            try:
+                f = fn(mech, 0).objective
+            except ls.SynthesisError:
+                f = math.inf
+            prof.disable()
+            print(f"{name} seed 0 (LOOPSOLVE_ENGINE={os.environ.get('LOOPSOLVE_ENGINE', 'auto')}): f={f:.10g}, "
+                  f"{time.process_time() - c0:.2f} s CPU", flush=True)
+            for key in ("cumulative", "tottime"):
+                pstats.Stats(prof, stream=sys.stdout).sort_stats(key).print_stats(30)
+        return
 
     out = {}
     for name, fn in RUNS.items():
