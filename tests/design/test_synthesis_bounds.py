@@ -22,6 +22,7 @@ import pytest
 import loopsolve as ls
 from loopsolve.cli import main
 from loopsolve.design.synthesis.classical import burmester as burmester_mod
+from loopsolve.design.synthesis.classical import burmester_search as burmester_search_mod
 from loopsolve.design.synthesis.classical import freudenstein as freudenstein_mod
 from loopsolve.design.synthesis import run as synthesis_run
 
@@ -39,6 +40,9 @@ def no_work(monkeypatch):
     monkeypatch.setattr(synthesis_run, "one_run", forbidden)
     monkeypatch.setattr(synthesis_run, "_dask_runs", forbidden)
     monkeypatch.setattr(burmester_mod, "pose_dyads", forbidden)
+    # (burmester_search binds pose_dyads at its import: patched there too, or a first import of it during
+    # this fixture kept the forbidden function for every later test of the process)
+    monkeypatch.setattr(burmester_search_mod, "pose_dyads", forbidden)
     monkeypatch.setattr(freudenstein_mod, "freudenstein_constants", forbidden)
 
 

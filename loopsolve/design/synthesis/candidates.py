@@ -20,12 +20,20 @@ One :class:`Batch` wraps a compiled model and the list of varied parameters. Eve
   targets and its exact derivative: ∂q/∂p = −Φ_q⁻¹ Φ_p (implicit function theorem, Φ_p from
   :mod:`loopsolve.design.sensitivity`), ∂q/∂x = Φ_q⁻¹ b₁ for free input values, and the explicit
   ∂P/∂p of a point from a generated kernel (sympy once, cached like the other kernels).
+
+The hot loops — :meth:`Batch.follow` after its start and the block Newton of :meth:`Batch.assemble` —
+run compiled where numba is installed (``follow_run`` and ``block_newton_run`` of
+:mod:`loopsolve.kinematics.numba_engine.lockstep_kernel`, in the model's numba module): the same
+operations design by design, so the two agree to round-off (``tests/design/test_synthesis_compiled.py``);
+numpy stays the reference and the fallback. Which one runs: :func:`follow_engine` (``LOOPSOLVE_ENGINE``;
+``auto`` once the process has done enough of this work to pay numba's import).
 """
 
 from __future__ import annotations
 
 import itertools
 import math
+import threading
 
 import numpy as np
 
@@ -33,13 +41,45 @@ from ..designops import DesignOps, design_scale, param_matrix
 from ...kinematics.solve import initial_z
 from ...model.units import Kind
 
-__all__ = ["Batch", "points_p_module"]
+__all__ = ["Batch", "points_p_module", "follow_engine", "FOLLOW_AUTO_CELLS"]
 
 #: a design whose scaled block regularity (≈ 2/cond) drops below this is stopped (search only)
 REGULAR_MIN = 1e-4
 #: ... or whose first corrector step exceeds this (scaled units)
 FIRST_CORRECTION = 0.3
 _TOL = 1e-11
+
+#: under ``engine="auto"`` :meth:`Batch.follow` runs compiled once the traces of this process have asked for
+#: this many designs × substeps (a rent-or-buy rule, as the tracer's ``AUTO_ROWS``): numpy costs 4–10 µs per
+#: design-substep (the ellipse / five-point benchmarks of issue 32), the compiled trace ~0.7 µs, and importing
+#: numba and loading the model's cached ``follow_run`` ~0.8 s CPU. A one-off prescribed-timing run (~90 000)
+#: stays in numpy; a free-timing run (~2.5·10⁷) switches within its first second. The first run of a model
+#: with a new numba module also compiles it (~10 s, once: cached on disk).
+FOLLOW_AUTO_CELLS = 100_000
+_FOLLOW_SEEN = [0]
+_FOLLOW_LOCK = threading.Lock()
+
+
+def follow_engine(ck, engine, cells: int) -> str:
+    """The engine of a :meth:`Batch.follow` of ``cells`` designs × substeps: ``"numba"`` or ``"python"`` (numpy).
+
+    ``engine`` as for :func:`loopsolve.sweep` (None: ``$LOOPSOLVE_ENGINE``, else ``"auto"``); ``"auto"`` is numba
+    when it is installed, the model has a compiled lane and the traces of this process, this one included,
+    have asked for :data:`FOLLOW_AUTO_CELLS` designs × substeps (numba is not imported before).
+    """
+    from ...kinematics.numba_engine import jit
+    from ...kinematics.scalar_solver import kernel_of
+
+    kern = kernel_of(ck)
+    name, _ = jit.engine_name(engine)
+    if name != "auto":
+        return jit.engine_for(name, kern, cells)
+    if not jit.has_lane(kern):
+        return "python"
+    with _FOLLOW_LOCK:
+        _FOLLOW_SEEN[0] += int(cells)
+        worth = _FOLLOW_SEEN[0] >= FOLLOW_AUTO_CELLS
+    return "numba" if worth and jit.use_numba(name) else "python"
 
 
 def generate_points_p_source(kin) -> str:
@@ -91,6 +131,8 @@ class Batch:
         self.x_guess = float(z0[self.ix])
         self.is_len = self.ops.is_len
         self.input_is_angle = ck.kinds[self.ix] is Kind.ANGLE
+        #: the engine of :meth:`follow` (:func:`follow_engine`; None: ``$LOOPSOLVE_ENGINE``, else ``"auto"``)
+        self.engine = None
 
     # ------------------------------------------------------------------ parameters and modes
     def params(self, V) -> np.ndarray:
@@ -188,7 +230,9 @@ class Batch:
                 sc = np.tile(scale, S)
                 for a, c in enumerate(cols):
                     Zs[self.iu[c]] = S0[:, a, :].reshape(-1)
-                conv = self._block_newton(Zs, Ps, eqs, cols, sc)
+                conv = self._block_newton_compiled(Zs, Ps, eqs, cols, sc)
+                if conv is None:
+                    conv = self._block_newton(Zs, Ps, eqs, cols, sc)
                 J = self.ops.jac(Zs, Ps)
                 if len(cols) == 1:
                     det = J[eqs[0] * n + cols[0]]
@@ -207,6 +251,27 @@ class Batch:
                 for c in cols:
                     Zfull[self.iu[c], cols_ix] = np.where(found, Zs[self.iu[c], idx], Zfull[self.iu[c], cols_ix])
         return found, np.any(conv, axis=0)
+
+    def _block_newton_compiled(self, Z, P, eqs, cols, scale, iters: int = 30):
+        """:meth:`_block_newton` by the compiled ``block_newton_run`` of the model's numba module, or None (numpy
+        runs it: the engine's choice, :func:`follow_engine`, or a block larger than 2×2)."""
+        if len(cols) > 2:
+            return None
+        lane = self._lane(Z.shape[1])
+        if lane is None:
+            return None
+        Zw = np.array(Z.T, dtype=float, order="C")
+        lim = np.array([scale if self.is_len[c] else np.ones_like(scale) for c in cols], dtype=float)
+        conv = np.zeros(Z.shape[1], dtype=bool)
+        try:
+            lane.block_newton_run(Zw, np.ascontiguousarray(P.T, dtype=float), np.asarray(eqs, dtype=np.int64),
+                                  np.asarray(cols, dtype=np.int64), np.asarray(self.iu, dtype=np.int64), lim,
+                                  np.ascontiguousarray(scale, dtype=float), int(iters), conv)
+        except Exception as exc:
+            self._numba_failed(exc, "assembly")
+            return None
+        Z[...] = Zw.T
+        return conv
 
     def _block_newton(self, Z, P, eqs, cols, scale, iters: int = 30) -> np.ndarray:
         """Newton on one block's unknowns (the others fixed), in place; returns converged flags.
@@ -290,6 +355,10 @@ class Batch:
                 alive &= reg >= REGULAR_MIN
             Zt[:, 0] = np.where(alive, Z, np.nan)
             reached = alive.astype(int)
+            lane = self._follow_lane(X, alive, hmax)
+            if lane is not None and self._follow_compiled(lane, Z, P, X, alive, sig0, scale, hmax, stop_on_singular,
+                                                          Zt, reached):
+                return Zt, reached
             # only the designs still going are computed on: the columns are compacted as they stop
             cols = np.flatnonzero(alive)
             Z, P, J, scale, w, sig0, X = (Z[:, cols], P[:, cols], J[:, cols], scale[cols], w[:, cols],
@@ -341,6 +410,58 @@ class Batch:
                 Zt[:, t, cols] = Z
                 reached[cols] = t + 1
         return Zt, reached
+
+    def _follow_lane(self, X, alive, hmax):
+        """The model's numba module when :meth:`follow` of these designs runs compiled (:func:`follow_engine`),
+        else None."""
+        if not alive.any():
+            return None
+        Xa = X[:, alive]
+        if not np.all(np.isfinite(Xa)):
+            return None  # (numpy's substep count raises on a NaN input: left to it)
+        steps = np.ceil(np.max(np.abs(np.diff(Xa, axis=0)), axis=1) / hmax - 1e-9) if X.shape[0] > 1 else np.zeros(0)
+        return self._lane(int(np.maximum(steps, 1).sum()) * int(alive.sum()))
+
+    def _lane(self, cells):
+        """The model's numba module when work of ``cells`` designs × substeps runs compiled (:func:`follow_engine`)."""
+        if self.engine == "python" or follow_engine(self.ck, self.engine, cells) != "numba":
+            return None
+        from ...kinematics.numba_engine.jit import numba_module
+
+        return numba_module(self.ck)
+
+    def _numba_failed(self, exc, what):
+        """numba could not compile ``what`` for this model: one warning, then numpy for this batch."""
+        if not type(exc).__module__.startswith("numba"):
+            raise exc
+        from ...errors import warn
+
+        if self.engine != "python":
+            warn(f"{self.mech.source or self.mech.name}: numba could not compile the synthesis {what} "
+                 f"({type(exc).__name__}); numpy runs it")
+        self.engine = "python"
+
+    def _follow_compiled(self, lane, Z, P, X, alive, sig0, scale, hmax, stop_on_singular, Zt, reached) -> bool:
+        """:meth:`follow` after its start by the compiled ``follow_run`` of the model's numba module (``Zt``,
+        ``reached`` filled in place). False when numba cannot compile it for this model (one warning; numpy runs)."""
+        ops = self.ops
+        nb = len(ops.blocks)
+        bs = np.array([len(c) for _, c in ops.blocks], dtype=np.int64)
+        be = np.array([(e[0], e[-1]) for e, _ in ops.blocks], dtype=np.int64).reshape(nb, 2)
+        bc = np.array([(c[0], c[-1]) for _, c in ops.blocks], dtype=np.int64).reshape(nb, 2)
+        cf = np.array([FIRST_CORRECTION, _TOL, REGULAR_MIN if stop_on_singular else -math.inf])
+        ok = np.array(alive, dtype=bool)
+        got = np.zeros(len(ok), dtype=np.int64)
+        try:
+            lane.follow_run(np.array(Z.T, dtype=float, order="C"), np.ascontiguousarray(P.T, dtype=float),
+                            np.ascontiguousarray(X, dtype=float), ok, np.ascontiguousarray(sig0, dtype=float),
+                            np.ascontiguousarray(scale, dtype=float), np.asarray(self.is_len, dtype=np.bool_),
+                            float(hmax), cf, int(self.ix), np.asarray(self.iu, dtype=np.int64), bs, be, bc, Zt, got)
+        except Exception as exc:
+            self._numba_failed(exc, "trace")
+            return False
+        np.maximum(reached, got, out=reached)
+        return True
 
     def newton(self, Z, P, signs, iters: int = 12):
         """Newton on all unknowns from ``Z`` (a nearby solution, e.g. the last polish step's); in place.

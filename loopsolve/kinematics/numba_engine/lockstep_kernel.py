@@ -17,6 +17,13 @@ Every operation is the numpy lockstep's in the same order (:meth:`DesignOps.solv
 change there must be made here too (``tests/design/test_lockstep_compiled.py`` compares the two).
 The numpy corrector evaluates Φ and Φ_q with a fused kernel, so the two agree to round-off, not
 to the bit.
+
+Synthesis (issue 32, item 5) runs two more loops here on the same pieces: :func:`follow_run`, the trace
+of many candidate designs through their own input values (:meth:`Batch.follow
+<loopsolve.design.synthesis.candidates.Batch.follow>`: per-design inputs and a substep count shared by
+the designs still going, which ``lockstep_run``'s shared grid cannot express), and
+:func:`block_newton_run`, the block Newton of its multistart assembly (``Batch._block_newton``); the
+same rule holds (``tests/design/test_synthesis_compiled.py``).
 """
 
 from __future__ import annotations
@@ -266,8 +273,179 @@ def lockstep_run(Z0, P, alive, sig0, scale, islen, x_start, tx, tk, rates, deriv
                     OP[o, i, 1, k, j] = math.nan
 
 
+def follow_run(Zw, P, X, alive, sig0, scale, islen, hmax, cf, ix, iu, bs, be, bc, Zt, reached):
+    """:meth:`Batch.follow <loopsolve.design.synthesis.candidates.Batch.follow>` after its start, compiled: every
+    design ``j`` with ``alive[j]`` from ``Zw[j]`` (its position at ``X[0, j]``, parameters ``P[j]``) through its
+    inputs ``X[:, j]``; ``cf`` = (FIRST_CORRECTION, converged, regularity floor or −inf). Target after target
+    (``X[t]``): the substeps of a target are as many as the largest input change of the designs still going
+    needs (numpy takes them for all those designs at once); each substep a tangent predictor and Newton with
+    Φ_q refreshed every second iteration, then the block signs ``sig0`` and the regularity checked. Writes
+    ``Zt`` (nv, T, D) at the targets a design reached, ``reached``, ``alive``; ``Zw`` is the work array."""
+    D = Zw.shape[0]
+    nv = Zw.shape[1]
+    n = iu.shape[0]
+    T = X.shape[0]
+    first, conv, regmin = cf[0], cf[1], cf[2]
+    Js = np.empty((D, n * n))
+    Jn = np.empty(n * n)
+    zk1 = np.zeros(nv)
+    zk1[ix] = 1.0
+    F = np.empty(n)
+    B = np.empty(n)
+    U = np.empty(n)
+    Tq = np.empty(n)
+    w = np.empty(n)
+    cs = np.empty(n)
+    sol = np.empty(n, dtype=np.int64)
+    for j in range(D):
+        if alive[j]:
+            jac_a(Zw[j], P[j], Js[j])  # noqa: F821 - generated next to the model's functions
+    for t in range(1, T):
+        amax = -math.inf
+        going = False
+        for j in range(D):
+            if alive[j]:
+                going = True
+                a = abs(X[t, j] - X[t - 1, j])
+                if a > amax or a != a:
+                    amax = a
+        if not going:
+            break
+        m = max(1, int(math.ceil(amax / hmax - 1e-9)))
+        for j in range(D):
+            if not alive[j]:
+                continue
+            z = Zw[j]
+            p = P[j]
+            J = Js[j]
+            for c in range(n):
+                w[c] = 1.0 / scale[j] if islen[c] else 1.0
+                cs[c] = scale[j] if islen[c] else 1.0
+            dx = X[t, j] - X[t - 1, j]
+            h = dx / m
+            ok = True
+            for s in range(1, m + 1):
+                rhs1_a(z, zk1, p, B)  # noqa: F821
+                ls_solve(J, B, Tq, sol, n, bs, be, bc)
+                z[ix] = X[t - 1, j] + dx * (s / m)
+                for c in range(n):
+                    z[iu[c]] = z[iu[c]] + Tq[c] * h
+                done = False
+                for it in range(10):
+                    phi_a(z, p, F)  # noqa: F821
+                    if it % 2 == 0:
+                        jac_a(z, p, Jn)  # noqa: F821
+                    for c in range(n):
+                        F[c] = -F[c]
+                    ls_solve(Jn, F, U, sol, n, bs, be, bc)
+                    size = ls_scaled_max(U, w, n)
+                    if it == 0 and not (size - size == 0.0 and size <= first):
+                        break
+                    for c in range(n):
+                        z[iu[c]] = z[iu[c]] + U[c]
+                    if size <= conv:
+                        done = True
+                        break
+                if not done:
+                    ok = False
+                    break
+                jac_a(z, p, J)  # noqa: F821
+                if not ls_regular(J, sig0, j, cs, n, bs, be, bc, regmin):
+                    ok = False
+                    break
+            alive[j] = ok
+            if ok:
+                for i in range(nv):
+                    Zt[i, t, j] = z[i]
+                reached[j] = t + 1
+
+
+def block_newton_run(Zw, P, eqs, cols, iu, lim, scale, iters, conv):
+    """:meth:`Batch._block_newton <loopsolve.design.synthesis.candidates.Batch._block_newton>`, compiled: Newton on
+    one 1×1 or 2×2 block's unknowns ``cols`` (equations ``eqs``) of every column ``j`` of ``Zw`` (N, nv) from
+    where it is, the others fixed; a step at most ``lim[:, j]`` per unknown (a radian, or the design's scale),
+    a column still far from closing the loop at iteration 12 dropped. Writes ``conv`` and the roots in ``Zw``."""
+    N = Zw.shape[0]
+    nc = cols.shape[0]
+    n = iu.shape[0]
+    F = np.empty(n)
+    J = np.empty(n * n)
+    dU = np.empty(2)
+    for j in range(N):
+        z = Zw[j]
+        p = P[j]
+        la0 = lim[0, j]
+        lmax = lim[0, j]
+        for a in range(1, nc):
+            if lim[a, j] > lmax:
+                lmax = lim[a, j]
+        ok = False
+        for it in range(iters):
+            phi_a(z, p, F)  # noqa: F821 - generated next to the model's functions
+            jac_a(z, p, J)  # noqa: F821
+            f0 = F[eqs[0]]
+            f1 = F[eqs[nc - 1]]
+            if it == 12:  # no root near: Newton still far from closing the loop
+                fm = abs(f0)
+                if nc == 2:
+                    v = abs(f1)
+                    if fm != fm or v != v:
+                        fm = math.nan
+                    elif v > fm:
+                        fm = v
+                if fm > 1e-2 * la0 * lmax:
+                    break
+            if nc == 1:
+                dU[0] = -f0 / J[eqs[0] * n + cols[0]]
+            else:
+                e0 = eqs[0]
+                e1 = eqs[1]
+                c0 = cols[0]
+                c1 = cols[1]
+                a_ = J[e0 * n + c0]
+                b_ = J[e0 * n + c1]
+                c_ = J[e1 * n + c0]
+                d_ = J[e1 * n + c1]
+                det = a_ * d_ - b_ * c_
+                dU[0] = (-d_ * f0 + b_ * f1) / det
+                dU[1] = (c_ * f0 - a_ * f1) / det
+            big = -math.inf
+            for a in range(nc):
+                v = abs(dU[a]) / lim[a, j]
+                if v != v:
+                    big = math.nan
+                    break
+                if v > big:
+                    big = v
+            if not big <= 1.0:
+                for a in range(nc):
+                    dU[a] = dU[a] / big
+            finite = True
+            for a in range(nc):
+                if not (dU[a] - dU[a] == 0.0):
+                    finite = False
+            step = 0.0
+            for a in range(nc):
+                if not finite:
+                    dU[a] = 0.0
+                z[iu[cols[a]]] = z[iu[cols[a]]] + dU[a]
+                v = abs(dU[a]) / lim[a, j]
+                if v > step:
+                    step = v
+            if step <= 1e-13 or not finite:
+                ok = finite
+                break
+        if ok:
+            phi_a(z, p, F)  # noqa: F821
+            for a in range(nc):
+                if not abs(F[eqs[a]]) <= 1e-9 * scale[j]:
+                    ok = False
+        conv[j] = ok
+
+
 #: the template functions, in the order they are written into the model's numba module
-TEMPLATE_FUNCTIONS = (ls_solve, ls_sign, ls_regular, ls_scaled_max, ls_store, lockstep_run)
+TEMPLATE_FUNCTIONS = (ls_solve, ls_sign, ls_regular, ls_scaled_max, ls_store, lockstep_run, follow_run,
+                      block_newton_run)
 
 
 def template_source() -> str:
