@@ -307,7 +307,9 @@ def sweep_chunk(mech, names, values, start, stop, step, *, speed=None, accel=Non
 #: the process swept before: 2000 four-bars × 361 rows (7.2·10⁵) took 3.4 s in numpy and 2.2 s compiled
 #: (benchmarks/bench_study.py --part chunks), a saving of about the ~1 s that importing numba and loading a
 #: model's cached kernel costs a fresh process; the first study of a model also compiles its kernel
-#: (10–15 s, once: cached on disk)
+#: (10–15 s, once: cached on disk). Those two times were measured under tracemalloc, which slows the numpy
+#: lockstep's many small arrays most; untraced (issue 32, benchmarks/README.md "A study's chunk size") the same
+#: 2000 designs took 0.96 s in numpy and 1.48 s compiled, 20000 in chunks of 2000 13.6 s and 16.0 s
 AUTO_CELLS = 1_000_000
 
 
