@@ -28,8 +28,10 @@ Run from the repository root::
                                                         # at the start, limits (four-bars, slider-cranks),
                                                         # the mixed box
     nice python benchmarks/bench_study.py --part zarr --designs 20000
-    python benchmarks/bench_study.py --part chunks      # the default chunk size against fixed ones: time,
-                                                        # peak memory over the result (2000, 20000 designs)
+    python benchmarks/bench_study.py --part chunks      # the default chunk size against fixed ones: CPU time
+                                                        # (untraced), peak memory over the result (2000, 20000
+                                                        # designs); --engines python,numba --no-memory
+                                                        # --chunk-sizes 128,256,512,1024 --repeats 3
 """
 
 from __future__ import annotations
@@ -335,8 +337,15 @@ def part_zarr(args):
 
 
 def part_chunks(args):
-    """The default chunk size against fixed ones: CPU time and the peak of numpy's memory (tracemalloc)
-    over the result's size, on the mixed box (designs not assemblable at the start included)."""
+    """The default chunk size against fixed ones on the mixed box (designs not assemblable at the start
+    included): CPU time, best of ``--repeats`` with the sizes (and engines) interleaved and nothing traced;
+    then, unless ``--no-memory``, one more run of each under ``tracemalloc`` for the peak of numpy's memory
+    over the result's size.
+
+    Timed apart from the memory: tracemalloc traces every allocation, and a chunk's start, not-assemblable
+    test, limits and columns make thousands of small numpy arrays, so under it each chunk cost ~0.2–0.3 s
+    more CPU (issue 32: the "per-chunk cost outside the lockstep" that made small chunks look twice as
+    slow at 20000 designs was this; untraced, a chunk of the compiled lockstep costs ~0.05 s)."""
     import tracemalloc
     import warnings
 
@@ -345,22 +354,50 @@ def part_chunks(args):
 
     warnings.filterwarnings("ignore", category=ls.LoopsolveWarning)
     mech = ls.load(MODEL)
-    ls.study(mech, sample(MIXED_BOX, WARM, seed=0), 0, 360, 1, derivatives=2, progress=False)  # warm up
-    for n in (2000, args.kernel_designs * 10):
+    engines = [e.strip() for e in args.engines.split(",")]
+    before = os.environ.get("LOOPSOLVE_ENGINE")
+
+    def engine(e):  # "default": as a user gets it ($LOOPSOLVE_ENGINE if set, else "auto")
+        if e == "default":
+            if before is None:
+                os.environ.pop("LOOPSOLVE_ENGINE", None)
+            else:
+                os.environ["LOOPSOLVE_ENGINE"] = before
+        else:
+            os.environ["LOOPSOLVE_ENGINE"] = e
+
+    for e in engines:  # warm up: imports, and the compiled lockstep loaded (or compiled once per cache)
+        engine(e)
+        ls.study(mech, sample(MIXED_BOX, WARM, seed=0), 0, 360, 1, derivatives=2, progress=False)
+    for n in [int(v) for v in args.chunk_designs.split(",")]:
         d = sample(MIXED_BOX, n, seed=4)
-        sizes = [None] + [int(c) for c in args.chunk_sizes.split(",")]
-        print(f"== {n} designs of the mixed box x 361 points, pos/vel/acc; default chunk "
-              f"{default_chunk(n, 361)} ==")
-        for c in sizes:
-            t = time.process_time()
-            tracemalloc.start()
-            ds = ls.study(mech, d, 0, 360, 1, derivatives=2, chunk_size=c, progress=False, max_cells=n * 361)
-            peak = tracemalloc.get_traced_memory()[1]
-            tracemalloc.stop()
-            cpu = time.process_time() - t
-            print(f"chunk {'default' if c is None else c:>7}: {cpu:6.2f} s CPU (traced), peak {peak / 1e6:7.1f} MB "
-                  f"= {peak / ds.nbytes:.2f}x the result ({ds.nbytes / 1e6:.1f} MB)", flush=True)
-            del ds
+        sizes = [None] + [int(c) for c in args.chunk_sizes.split(",") if int(c) < n]
+        print(f"== {n} designs of the mixed box x 361 points, pos/vel/acc; default chunk {default_chunk(n, 361)}; "
+              f"CPU best of {args.repeats} (median), interleaved ==", flush=True)
+
+        def run(c):
+            return ls.study(mech, d, 0, 360, 1, derivatives=2, chunk_size=c, progress=False, max_cells=n * 361)
+
+        cpu = {(e, c): [] for e in engines for c in sizes}
+        for _ in range(args.repeats):
+            for e, c in cpu:
+                engine(e)
+                t = time.process_time()
+                run(c)
+                cpu[e, c].append(time.process_time() - t)
+        for (e, c), v in cpu.items():
+            line = (f"engine {e:>7} chunk {'default' if c is None else c:>7}: {min(v):6.2f} s CPU "
+                    f"({statistics.median(v):.2f})")
+            if not args.no_memory:
+                engine(e)
+                tracemalloc.start()
+                ds = run(c)
+                peak = tracemalloc.get_traced_memory()[1]
+                tracemalloc.stop()
+                line += f", peak {peak / 1e6:7.1f} MB = {peak / ds.nbytes:.2f}x the result ({ds.nbytes / 1e6:.1f} MB)"
+                del ds
+            print(line, flush=True)
+    engine("default")
 
 
 def main():
@@ -375,6 +412,10 @@ def main():
     ap.add_argument("--chunk", type=int, default=None, help="designs per Dask task in part 2 (default: the API's)")
     ap.add_argument("--chunk-sizes", default="256,1024,4096",
                     help="--part chunks: the chunk sizes compared with the default (comma-separated)")
+    ap.add_argument("--chunk-designs", default="2000,20000", help="--part chunks: the studies' sizes (comma-separated)")
+    ap.add_argument("--engines", default="default",
+                    help="--part chunks: engines compared (comma-separated: default, python, numba, auto)")
+    ap.add_argument("--no-memory", action="store_true", help="--part chunks: CPU times only (no traced run)")
     ap.add_argument("--derivatives", type=int, default=2, help="part 2: 2 = positions, velocities, accelerations")
     ap.add_argument("--progress", action="store_true")
     args = ap.parse_args()

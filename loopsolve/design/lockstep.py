@@ -81,10 +81,17 @@ class Chunk:
     ``warnings`` the warnings of the designs swept alone (summarized per study by the caller).
     """
 
-    def __init__(self, nv, D, K, npts=0, derivatives=3):
-        # rows are written for every design by the lockstep loop; the rest is set to NaN after it
-        self.Z = list(np.empty((derivatives + 1, nv, K, D)))  # views of one array (the compiled lockstep fills it)
-        self.points = np.empty((derivatives + 1, npts, 2, K, D)) if npts else None
+    def __init__(self, nv, D, K, npts=0, derivatives=3, design_major=False):
+        # rows are written for every design by the lockstep loop; the rest is set to NaN after it.
+        # ``design_major``: each design's rows contiguous in memory (the compiled lockstep writes design by
+        # design: in the numpy loop's layout every value it stores is a cache line of its own)
+        if design_major:
+            self.rows = np.moveaxis(np.empty((D, derivatives + 1, nv, K)), 0, -1)
+            self.points = np.moveaxis(np.empty((D, derivatives + 1, npts, 2, K)), 0, -1) if npts else None
+        else:
+            self.rows = np.empty((derivatives + 1, nv, K, D))
+            self.points = np.empty((derivatives + 1, npts, 2, K, D)) if npts else None
+        self.Z = list(self.rows)  # views of one array ``rows`` (d+1, nv, K, D) (the compiled lockstep fills it)
         self.filled = 0  # grid rows written by the lockstep loop
         self.status = np.array(["ok"] * D, dtype=object)
         self.stop = np.full(D, np.nan)
@@ -251,10 +258,11 @@ def sweep_chunk(mech, names, values, start, stop, step, *, speed=None, accel=Non
     xs, xs_disp = grid_values(ck, start, stop, step)
     K = len(xs)
     nv = len(ck.variables)
-    ch = Chunk(nv, D, K, len(ck.points), derivatives)
     rates = input_rates(ck, speed, accel, jerk)
     lockstep = (method == "lockstep" and mode is None and all(len(c) <= 2 for _, c in ops.blocks)
                 and ops.n > 0)
+    lane = _compiled_lockstep(ck, engine, D * K) if lockstep else None
+    ch = Chunk(nv, D, K, len(ck.points), derivatives, design_major=lane is not None)
     from .designs import design_problems
 
     problems = design_problems(mech, names, values)  # the model file's checks, design by design
@@ -271,7 +279,6 @@ def sweep_chunk(mech, names, values, start, stop, step, *, speed=None, accel=Non
 
         # the single sweep tracks on to `stop` past the last grid row (a limit there is its event): so do the checks
         x_end = input_value(ck, stop, ck.inputs[0], reduce=False)
-        lane = _compiled_lockstep(ck, engine, D * K)
         alive, last, irregular, sig0 = _lockstep(ck, lops, Pr, P, xs, ch, rates, derivatives, ~invalid, x_end=x_end,
                                                  lane=lane)
     ch.lockstep[:] = alive
@@ -307,7 +314,9 @@ def sweep_chunk(mech, names, values, start, stop, step, *, speed=None, accel=Non
 #: the process swept before: 2000 four-bars × 361 rows (7.2·10⁵) took 3.4 s in numpy and 2.2 s compiled
 #: (benchmarks/bench_study.py --part chunks), a saving of about the ~1 s that importing numba and loading a
 #: model's cached kernel costs a fresh process; the first study of a model also compiles its kernel
-#: (10–15 s, once: cached on disk)
+#: (10–15 s, once: cached on disk). Those two times were measured under tracemalloc, which slows the numpy
+#: lockstep's many small arrays most; untraced (issue 32, benchmarks/README.md "A study's chunk size") the same
+#: 2000 designs took 0.90 s in numpy and 1.09 s compiled, 20000 in chunks of 2000 13.3 s and 14.3 s
 AUTO_CELLS = 1_000_000
 
 
@@ -500,8 +509,15 @@ def _run_compiled(lane, ck, ops, Z, Pfull, alive, sig0, scale, x_guess, targets,
     bc = np.array([(c[0], c[-1]) for _, c in ops.blocks], dtype=np.int64).reshape(nb, 2)
     tx = np.array([t[0] for t in targets], dtype=float)
     tk = np.array([t[1] for t in targets], dtype=np.int64)
-    OZ = ch.Z[0].base if ch.Z[0].base is not None and ch.Z[0].base.shape[0] == len(ch.Z) else np.stack(ch.Z)
-    OP = ch.points if ch.points is not None else np.empty((len(ch.Z), 0, 2, OZ.shape[2], D))
+    # the kernel writes design-major arrays (D, ...): a design-major Chunk's own, else copies written back
+    rows = getattr(ch, "rows", None)
+    OZ = np.moveaxis(rows if rows is not None else np.stack(ch.Z), -1, 0)
+    own = rows is not None and OZ.flags.c_contiguous  # a view of the chunk's rows: written in place
+    OZ = OZ if own else np.ascontiguousarray(OZ)
+    K = OZ.shape[3]
+    OP = (np.empty((D, len(ch.Z), 0, 2, K)) if ch.points is None else
+          np.ascontiguousarray(np.moveaxis(ch.points, -1, 0)))
+    own_points = ch.points is None or np.may_share_memory(OP, ch.points)
     ok = np.array(alive, dtype=bool)
     lastc = np.full(D, -1, dtype=np.int64)
     irr = np.zeros(D, dtype=bool)
@@ -519,10 +535,12 @@ def _run_compiled(lane, ck, ops, Z, Pfull, alive, sig0, scale, x_guess, targets,
         warn(f"{ck.mechanism.source or ck.mechanism.name}: numba could not compile the study's lockstep "
              f"({type(exc).__name__}); the numpy lockstep runs")
         return False
-    if OZ is not ch.Z[0].base:  # (a chunk not made by Chunk: copy the rows back)
+    if not own:  # (a chunk in the numpy loop's layout, or not made by Chunk: copy the rows back)
         for a in range(len(ch.Z)):
-            ch.Z[a][...] = OZ[a]
-    ch.filled = OZ.shape[2]
+            ch.Z[a][...] = np.moveaxis(OZ[:, a], 0, -1)
+    if not own_points:
+        ch.points[...] = np.moveaxis(OP, 0, -1)
+    ch.filled = K
     alive[:] = ok
     last[:] = lastc
     irregular |= irr

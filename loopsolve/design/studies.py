@@ -60,8 +60,10 @@ MAX_CELLS = 5_000_000
 # The default chunk (designs per chunk, per Dask task), chosen by measurement (benchmarks/bench_study.py
 # --part chunks). The numpy lockstep pays a fixed cost per input row of a chunk whatever its designs
 # (~0.3 s a chunk of 361 rows, more than 1000 designs' own work), so small chunks are slow: 2000
-# four-bars took 3.8 s in chunks of 256 and 0.9 s in one. A chunk's working arrays are ~2.5× its part
-# of the result, so many small chunks bound the peak memory of a large study. The rule takes both:
+# four-bars took 3.8 s in chunks of 256 and 0.9 s in one. The compiled lockstep pays ~0.02–0.05 s a chunk
+# (20000 designs: 14.3 s in chunks of 2000, 15.9 s in chunks of 256, 14.0 s in 4155; benchmarks/README.md,
+# issue 32, untraced: tracemalloc added ~0.25 s a chunk to the figures before). A chunk's working arrays are
+# ~2.5× its part of the result, so many small chunks bound the peak memory of a large study. The rule takes both:
 CHUNK_CELLS = 1_500_000   # a study of at most this many designs × rows is one chunk (~90 MB of a four-bar's
                           # result at 361 rows); no chunk holds more (its memory bounded, e.g. with .zarr);
 CHUNK_PARTS = 10          # a larger study is cut in tenths (peak memory ≈ result + 2.5/10 of it)

@@ -40,6 +40,8 @@ def _agree(mech, names, values, runs, start=0, stop=360, step=5.0, derivatives=3
     assert runs == []  # the numpy lockstep
     b, _, _ = lockstep.sweep_chunk(mech, names, values, start, stop, step, derivatives=derivatives, engine="numba")
     assert runs == [True]  # the compiled lockstep
+    # it wrote the chunk's own rows in place, each design's together (not one value a cache line)
+    assert np.moveaxis(b.rows, -1, 0).flags.c_contiguous and all(np.shares_memory(z, b.rows) for z in b.Z)
     assert b.status.tolist() == a.status.tolist()
     assert b.events.tolist() == a.events.tolist()
     assert b.nearest.tolist() == a.nearest.tolist()
@@ -68,6 +70,28 @@ def test_fourbar_chunk_compiled_equals_numpy(runs):
     st = set(b.status.tolist())
     assert {"ok", "limit", "not-assemblable"} <= st, st
     assert b.lockstep[b.status == "ok"].all()
+
+
+@pytest.mark.filterwarnings("ignore:.*limit position")
+def test_a_chunk_in_the_numpy_layout_gets_the_same_compiled_rows(runs, monkeypatch):
+    """The kernel writes design-major arrays; a chunk laid out for the numpy loop (design last in memory)
+    gets them copied back: the same values to the bit, the rows after a limit NaN."""
+    mech = ls.fourbar(60, 25, 70, 45)
+    v = np.array([[20.0, 70.0], [22.0, 65.0], [45.0, 55.0], [44.0, 58.0]])  # the last two stop at limits
+    a, _, _ = lockstep.sweep_chunk(mech, ("r2", "r3"), v, 0, 360, 10, derivatives=2, engine="numba")
+
+    class NumpyLayout(lockstep.Chunk):
+        def __init__(self, *args, design_major=False, **kw):
+            super().__init__(*args, **kw)
+
+    monkeypatch.setattr(lockstep, "Chunk", NumpyLayout)
+    b, _, _ = lockstep.sweep_chunk(mech, ("r2", "r3"), v, 0, 360, 10, derivatives=2, engine="numba")
+    assert runs == [True, True]
+    assert b.rows.flags.c_contiguous and not a.rows.flags.c_contiguous
+    assert "limit" in a.status.tolist() and b.status.tolist() == a.status.tolist()
+    for za, zb in zip(a.Z, b.Z):
+        assert np.array_equal(za, zb, equal_nan=True)
+    assert np.array_equal(a.points, b.points, equal_nan=True)
 
 
 @pytest.mark.filterwarnings("ignore:.*limit position")

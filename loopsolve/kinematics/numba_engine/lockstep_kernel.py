@@ -126,7 +126,7 @@ def ls_store(zk, z, J, p, j, k, rates, derivatives, ix, iu, n, bs, be, bc, B, X,
     nv = z.shape[0]
     for i in range(nv):
         zk[0, i] = z[i]
-        OZ[0, i, k, j] = z[i]
+        OZ[j, 0, i, k] = z[i]
     for order in range(1, derivatives + 1):
         for i in range(nv):
             zk[order, i] = 0.0
@@ -141,7 +141,7 @@ def ls_store(zk, z, J, p, j, k, rates, derivatives, ix, iu, n, bs, be, bc, B, X,
         for c in range(n):
             zk[order, iu[c]] = X[c]
         for i in range(nv):
-            OZ[order, i, k, j] = zk[order, i]
+            OZ[j, order, i, k] = zk[order, i]
     if npts > 0:
         for order in range(derivatives + 1):
             if order == 0:
@@ -153,21 +153,24 @@ def ls_store(zk, z, J, p, j, k, rates, derivatives, ix, iu, n, bs, be, bc, B, X,
             else:
                 points3_a(zk[0], zk[1], zk[2], zk[3], p, PT)  # noqa: F821
             for i in range(npts):
-                OP[order, i, 0, k, j] = PT[2 * i]
-                OP[order, i, 1, k, j] = PT[2 * i + 1]
+                OP[j, order, i, 0, k] = PT[2 * i]
+                OP[j, order, i, 1, k] = PT[2 * i + 1]
 
 
 def lockstep_run(Z0, P, alive, sig0, scale, islen, x_start, tx, tk, rates, derivatives, cf, ix, iu, bs, be, bc,
                  OZ, OP, last, irregular):
     """The lockstep continuation of every design ``j`` of a chunk from its start ``Z0[j]`` (at ``x_start``)
     through the targets ``tx`` (grid row ``tk`` or −1), parameters ``P[j]``; ``cf`` = (FOLD_SLOPE,
-    FIRST_CORRECTION, converged, REGULAR_MIN). Writes the rows (``OZ`` (d+1, nv, K, D), ``OP`` the
-    points; NaN after a design's last row), ``alive``, ``last`` and ``irregular`` as _lockstep has them."""
+    FIRST_CORRECTION, converged, REGULAR_MIN). Writes the rows (``OZ`` positions and rates, ``OP`` the
+    points; NaN after a design's last row), ``alive``, ``last`` and ``irregular`` as _lockstep has them.
+    ``OZ`` and ``OP`` are design-major, ``(D, d+1, nv, K)`` and ``(D, d+1, P, 2, K)``: a design's rows are
+    written together (the chunk sees them as ``(d+1, nv, K, D)``; written there, every value stored would be
+    a cache line of its own)."""
     D = Z0.shape[0]
     nv = Z0.shape[1]
     n = iu.shape[0]
-    K = OZ.shape[2]
-    npts = OP.shape[1]
+    K = OZ.shape[3]
+    npts = OP.shape[2]
     fold, first, conv, regmin = cf[0], cf[1], cf[2], cf[3]
     z = np.empty(nv)
     zk = np.zeros((4, nv))
@@ -264,13 +267,14 @@ def lockstep_run(Z0, P, alive, sig0, scale, islen, x_start, tx, tk, rates, deriv
                         has_t = True
                     last[j] = k
         alive[j] = ok
-        for k in range(last[j] + 1, K):
-            for o in range(OZ.shape[0]):
-                for i in range(nv):
-                    OZ[o, i, k, j] = math.nan
-                for i in range(npts):
-                    OP[o, i, 0, k, j] = math.nan
-                    OP[o, i, 1, k, j] = math.nan
+        for o in range(OZ.shape[1]):
+            for i in range(nv):
+                for k in range(last[j] + 1, K):
+                    OZ[j, o, i, k] = math.nan
+            for i in range(npts):
+                for k in range(last[j] + 1, K):
+                    OP[j, o, i, 0, k] = math.nan
+                    OP[j, o, i, 1, k] = math.nan
 
 
 def follow_run(Zw, P, X, alive, sig0, scale, islen, hmax, cf, ix, iu, bs, be, bc, Zt, reached):
