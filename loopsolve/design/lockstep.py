@@ -58,7 +58,7 @@ from ..errors import AssemblyError, LoopsolveWarning, ModelError, SingularPositi
 from ..model.units import Kind
 from .designops import REGULAR_MIN, DesignOps, design_scale, display_value_of, param_matrix
 
-__all__ = ["sweep_chunk", "lockstep_engine", "AUTO_CELLS", "FOLD_SLOPE", "REGULAR_MIN", "Chunk"]
+__all__ = ["sweep_chunk", "lockstep_engine", "AUTO_CELLS", "AUTO_CHUNK", "FOLD_SLOPE", "REGULAR_MIN", "Chunk"]
 
 #: a design is handed to the single-design sweep when a scaled |dq/dx| exceeds this
 FOLD_SLOPE = 3.0
@@ -261,7 +261,7 @@ def sweep_chunk(mech, names, values, start, stop, step, *, speed=None, accel=Non
     rates = input_rates(ck, speed, accel, jerk)
     lockstep = (method == "lockstep" and mode is None and all(len(c) <= 2 for _, c in ops.blocks)
                 and ops.n > 0)
-    lane = _compiled_lockstep(ck, engine, D * K) if lockstep else None
+    lane = _compiled_lockstep(ck, engine, D, K) if lockstep else None
     ch = Chunk(nv, D, K, len(ck.points), derivatives, design_major=lane is not None)
     from .designs import design_problems
 
@@ -310,21 +310,26 @@ def sweep_chunk(mech, names, values, start, stop, step, *, speed=None, accel=Non
     return ch, ck, P
 
 
-#: under ``engine="auto"`` a chunk's continuation runs compiled from this many designs × rows on, whatever
-#: the process swept before: 2000 four-bars × 361 rows (7.2·10⁵) took 3.4 s in numpy and 2.2 s compiled
-#: (benchmarks/bench_study.py --part chunks), a saving of about the ~1 s that importing numba and loading a
-#: model's cached kernel costs a fresh process; the first study of a model also compiles its kernel
-#: (10–15 s, once: cached on disk). Those two times were measured under tracemalloc, which slows the numpy
-#: lockstep's many small arrays most; untraced (issue 32, benchmarks/README.md "A study's chunk size") the same
-#: 2000 designs took 0.90 s in numpy and 1.09 s compiled, 20000 in chunks of 2000 13.3 s and 14.3 s
+#: under ``engine="auto"`` a study's continuation runs compiled from this many designs × rows on, whatever
+#: the process swept before (below it the saving cannot pay the ~1 s of importing numba and loading the
+#: model's cached kernel; the first study of a model also compiles the kernel, 10–15 s once, cached on disk)
+#: — and only when its chunks are smaller than :data:`AUTO_CHUNK`
 AUTO_CELLS = 1_000_000
+#: under ``engine="auto"`` chunks of at least this many designs run the numpy lockstep: its vectorized passes
+#: cost ~0.3 s a chunk and then as much per design as the compiled kernel (issue 32, benchmarks/README.md "A
+#: study's chunk size", untraced CPU: 20000 designs in chunks of 2000 13.3 s numpy, 14.3 s compiled; 2000
+#: designs in chunks of 1024 1.49 / 1.40 s, of 512 2.07–2.45 / 1.16 s, of 256 3.1 / 1.5 s). A cluster's
+#: chunks are small (a few per worker): those run compiled.
+AUTO_CHUNK = 1024
 
 
-def lockstep_engine(ck, engine, cells: int) -> str:
-    """The engine of the continuation of ``cells`` designs × rows: ``"numba"`` or ``"python"`` (numpy).
+def lockstep_engine(ck, engine, cells: int, designs: int | None = None) -> str:
+    """The engine of the continuation of ``cells`` designs × rows in chunks of ``designs``: ``"numba"`` or
+    ``"python"`` (numpy).
 
     ``engine`` as for :func:`loopsolve.sweep` (None: ``$LOOPSOLVE_ENGINE``, else ``"auto"``); ``"auto"`` is
-    numba when it is installed, the model has a compiled lane and ``cells`` reaches :data:`AUTO_CELLS`.
+    numba when it is installed, the model has a compiled lane, ``cells`` reaches :data:`AUTO_CELLS` and the
+    chunks have fewer than :data:`AUTO_CHUNK` designs (``designs=None``: not looked at).
     """
     from ..kinematics.numba_engine import jit
     from ..kinematics.scalar_solver import kernel_of
@@ -333,12 +338,14 @@ def lockstep_engine(ck, engine, cells: int) -> str:
     name, _ = jit.engine_name(engine)
     if name != "auto":
         return jit.engine_for(name, kern, cells)
-    return "numba" if cells >= AUTO_CELLS and jit.has_lane(kern) and jit.use_numba(name) else "python"
+    if cells < AUTO_CELLS or (designs is not None and designs >= AUTO_CHUNK):
+        return "python"
+    return "numba" if jit.has_lane(kern) and jit.use_numba(name) else "python"
 
 
-def _compiled_lockstep(ck, engine, rows):
-    """The numba module whose ``lockstep_run`` sweeps a chunk of ``rows`` designs × grid rows, or None (numpy)."""
-    if lockstep_engine(ck, engine, rows) != "numba":
+def _compiled_lockstep(ck, engine, designs, rows):
+    """The numba module whose ``lockstep_run`` sweeps a chunk of ``designs`` × ``rows`` grid rows, or None (numpy)."""
+    if lockstep_engine(ck, engine, rows * designs, designs) != "numba":
         return None
     from ..kinematics.numba_engine.jit import numba_module
 

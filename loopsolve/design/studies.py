@@ -208,14 +208,15 @@ def _chunk_dataset(res, ck_info, names, values, offset):
 # ----------------------------------------------------------------------------- the public call
 
 
-def _study_engine(ck, engine, cells: int) -> str:
-    """The engine of every chunk of a study of ``cells`` designs × rows, decided once here
-    (:func:`~loopsolve.design.lockstep.lockstep_engine`: ``"auto"`` by the study's size): the chunks of one
+def _study_engine(ck, engine, cells: int, chunk: int) -> str:
+    """The engine of every chunk of a study of ``cells`` designs × rows in chunks of ``chunk`` designs, decided
+    once here (:func:`~loopsolve.design.lockstep.lockstep_engine`: ``"auto"`` by the study's size and its
+    chunks'): the chunks of one
     study, in this process or on the workers of a cluster, run the same engine (the compiled lockstep and
     the numpy one agree to round-off, not to the bit), whatever each process swept before."""
     from .lockstep import lockstep_engine
 
-    return lockstep_engine(ck, engine, cells)
+    return lockstep_engine(ck, engine, cells, chunk)
 
 
 def default_chunk(designs: int, rows: int, workers: int | None = None) -> int:
@@ -373,8 +374,7 @@ def study(mech, vary, start, stop, step, *, samples: int | None = None, lhs: int
                          "length_unit": mech.units.length, "angle_unit": mech.units.angle}}
     N = len(values)
     opts = {"speed": speed, "accel": accel, "jerk": jerk, "mode": mode, "derivatives": derivatives,
-            "method": method, "sensitivity": bool(sensitivity), "metrics": metrics,
-            "engine": _study_engine(ck, None, N * rows)}
+            "method": method, "sensitivity": bool(sensitivity), "metrics": metrics}
     writer = _Writer(out, xr) if out is not None else None
     whole = _Assembler(N, xr)
     warned: list[tuple[int, str]] = []
@@ -398,6 +398,7 @@ def study(mech, vary, start, stop, step, *, samples: int | None = None, lhs: int
                 client = own_client
             if chunk_size is None:
                 chunk_size = default_chunk(N, rows, None if client is None else _worker_count(client))
+            opts["engine"] = _study_engine(ck, None, N * rows, min(chunk_size, N))
             bounds.extend((a, min(a + chunk_size, N)) for a in range(0, N, chunk_size))
             tasks = [(mech, names, values[a:b], start, stop, step, opts) for a, b in bounds]
             if client is None:

@@ -151,8 +151,8 @@ def test_python_engine_and_small_auto_chunks_stay_numpy(runs, monkeypatch):
 
 
 def test_auto_compiles_a_study_by_its_own_size_not_by_what_the_process_swept(monkeypatch):
-    """``"auto"`` (the default) runs the continuation compiled from AUTO_CELLS designs × rows on, and in numpy
-    below it even after the process swept millions of rows (a small study does not pay numba's import and
+    """``"auto"`` (the default) runs the continuation compiled from AUTO_CELLS designs × rows on in chunks of
+    fewer than AUTO_CHUNK designs, and in numpy below it even after the process swept millions of rows (a small study does not pay numba's import and
     the kernel's first compile); ``LOOPSOLVE_ENGINE`` and ``engine=`` decide otherwise."""
     from loopsolve.kinematics.numba_engine import jit
 
@@ -161,6 +161,32 @@ def test_auto_compiles_a_study_by_its_own_size_not_by_what_the_process_swept(mon
     ck = ls.fourbar(60, 25, 70, 45).compile()
     assert lockstep.lockstep_engine(ck, None, lockstep.AUTO_CELLS - 1) == "python"
     assert lockstep.lockstep_engine(ck, None, lockstep.AUTO_CELLS) == "numba"
+    # in chunks of AUTO_CHUNK designs or more the numpy lockstep is as fast per design: no numba
+    assert lockstep.lockstep_engine(ck, None, lockstep.AUTO_CELLS, lockstep.AUTO_CHUNK - 1) == "numba"
+    assert lockstep.lockstep_engine(ck, None, 10 * lockstep.AUTO_CELLS, lockstep.AUTO_CHUNK) == "python"
+    assert lockstep.lockstep_engine(ck, "numba", 10 * lockstep.AUTO_CELLS, 10 * lockstep.AUTO_CHUNK) == "numba"
     assert lockstep.lockstep_engine(ck, "numba", 10) == "numba"
     monkeypatch.setenv("LOOPSOLVE_ENGINE", "python")
     assert lockstep.lockstep_engine(ck, None, 10 * lockstep.AUTO_CELLS) == "python"
+
+
+def test_a_study_decides_its_engine_once_by_its_cells_and_its_chunks(monkeypatch):
+    """``ls.study`` asks the rule once, with its designs × rows and the chunk size it will use (given, or the
+    default for this process), and hands the answer to every chunk."""
+    seen, chunks = [], []
+    rule = lockstep.lockstep_engine
+    monkeypatch.setattr(lockstep, "lockstep_engine", lambda ck, engine, cells, designs=None:
+                        seen.append((engine, cells, designs)) or rule(ck, engine, cells, designs))
+    real = lockstep.sweep_chunk
+
+    def spy(*a, **kw):
+        chunks.append(kw.get("engine"))
+        return real(*a, **kw)
+
+    from loopsolve.design import studies
+
+    monkeypatch.setattr(studies, "sweep_chunk", spy)
+    mech = ls.fourbar(60, 25, 70, 45)
+    ls.study(mech, {"r2": (20, 30)}, 0, 360, 90, lhs=6, chunk_size=3, progress=False)
+    assert seen[0] == (None, 6 * 5, 3), seen
+    assert len(chunks) == 2 and set(chunks) == {"python"}, chunks  # 30 cells: numpy, decided once for both
