@@ -134,6 +134,22 @@ def test_grown_atlas_equals_the_atlas_built_at_once(fourbar, tmp_path):
         assert np.array_equal(grown.arrays[k], once.arrays[k], equal_nan=True), k
 
 
+def test_an_atlas_is_traced_in_numpy_whatever_its_process_traced_before(fourbar, monkeypatch):
+    """Synthesis's ``auto`` engine turns compiled once its process has traced enough; an atlas chunk must not
+    (its values would then depend on which process built it: one process, a cluster's fresh workers or a
+    later growth). Here the process has "traced" 10¹² cells and the compiled module is off limits."""
+    from loopsolve.design.atlas.trace import trace_chunk
+    from loopsolve.design.synthesis import candidates
+    from loopsolve.kinematics.numba_engine import jit
+
+    monkeypatch.delenv("LOOPSOLVE_ENGINE", raising=False)
+    monkeypatch.setattr(candidates, "_FOLLOW_SEEN", [10**12])
+    monkeypatch.setattr(jit, "numba_module", lambda ck: pytest.fail("an atlas chunk asked for the compiled engine"))
+    V = np.array([[1.0, 5.0, 5.0, 2.0, 1.0], [2.0, 8.0, 6.0, 0.0, 3.0]])
+    out = trace_chunk(fourbar, "P", tuple(VARY), V, step_deg=STEP)
+    assert out["status"].shape == (2,)
+
+
 def test_an_interrupted_build_resumes(fourbar, tmp_path, monkeypatch):
     from loopsolve.design.atlas import build as atlas_mod
 
@@ -171,7 +187,10 @@ def cluster():
     client = distributed.Client(cl)
     yield client
     client.close()
-    cl.close()
+    try:
+        cl.close(timeout=60)
+    except TimeoutError:  # a nanny still restarting a killed worker on a loaded machine: Dask's, not the product's
+        pass
 
 
 @pytest.fixture(scope="module")

@@ -182,6 +182,10 @@ def trace_chunk(mech, point: str, names, V, *, step_deg: float = 3.0, curve_poin
 
     ck = mech.compile()
     b = Batch(ck, names)
+    # numpy whatever this process traced before: an atlas holds the same values whether one process, a Dask
+    # cluster's fresh workers or a later growth built its chunks (synthesis's ``auto`` engine depends on what
+    # its process has traced, and the two engines agree to round-off, not to the bit)
+    b.engine = "python"
     V = np.asarray(V, dtype=float).reshape(-1, len(names))
     D = V.shape[0]
     P = b.params(V)
